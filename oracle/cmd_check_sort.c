@@ -1,0 +1,376 @@
+/* rtoracle check-sort: validates a GPU's sorted buffer (and its checkpoint passes) against the input keys. */
+#include "cli.h"
+
+#include <getopt.h>
+#include <inttypes.h>
+#include <jansson.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static void check_help(FILE *to)
+{
+    fprintf(to,
+            "usage: rtoracle check-sort --input keys.npy --gpu gpu_sorted.npy [--gpu-values values.npy] [--stable]\n"
+            "                           [--expected OUTDIR] [--gpu-passes passes.npy] [--algo bitonic|radix]\n"
+            "                           [--radix-bits 4|8] [--tile T] [--json] [--no-artifacts]\n\n"
+            "Checks that the GPU's buffer is sorted, is a permutation of the input and (with values) that every\n"
+            "value names a source slot holding its key and, with --stable, that equal keys keep input order.\n"
+            "The dump may hold n keys or all n_padded slots (then the tail must be sentinels). --gpu may also be\n"
+            "a structured array with fields 'key' and 'value'. With --gpu-passes (shape passes x slots), names the\n"
+            "first checkpoint pass (k, j) and slot where the GPU diverges from the oracle's schedule.\n"
+            "--expected OUTDIR takes the input, algorithm, digit width and tile from a sort bundle (its input is\n"
+            "verified by sha256); a radix bundle implies --stable when the dump carries values.\n\n"
+            "Fault classes: size, lost-key, corrupt-key, duplicate-key, order, tail, value, stability, pass.\n"
+            "Exit status: 0 all checks pass, 1 a fault was found, 2 bad usage or input.\n"
+            "On a fault the JSON report is also written next to the GPU dump as <gpu>.check-sort.json\n"
+            "(--no-artifacts skips it).\n");
+}
+
+typedef struct loaded {
+    rto_npy input, gpu, values, passes;
+} loaded;
+
+static void loaded_free(loaded *l)
+{
+    rto_npy_free(&l->input);
+    rto_npy_free(&l->gpu);
+    rto_npy_free(&l->values);
+    rto_npy_free(&l->passes);
+}
+
+/* Splits a structured {key, value} GPU dump into separate key and value arrays. */
+static int split_pairs(rto_npy *gpu, rto_npy *values, const char *path)
+{
+    const rto_npy_desc *d = &gpu->desc;
+    const rto_npy_field *kf = NULL, *vf = NULL;
+    for (uint32_t i = 0; i < d->nfields; i++) {
+        if (!strcmp(d->fields[i].name, "key"))
+            kf = &d->fields[i];
+        if (!strcmp(d->fields[i].name, "value"))
+            vf = &d->fields[i];
+    }
+    if (d->ndim != 1 || !kf || !vf || kf->count != 1 || vf->count != 1 || vf->type != RTO_DTYPE_U32 ||
+        (kf->type != RTO_DTYPE_U32 && kf->type != RTO_DTYPE_U64))
+        return cli_fail("check-sort", "%s: a structured GPU dump must be 1-D with fields key (<u4 or <u8) and value "
+                        "(<u4)", path);
+    size_t n = (size_t)d->shape[0], rec = rto_npy_itemsize(d), ksz = rto_dtype_size(kf->type);
+    unsigned char *keys = malloc(n ? n * ksz : 1), *vals = malloc(n ? n * 4 : 1);
+    if (!keys || !vals) {
+        free(keys);
+        free(vals);
+        return cli_fail("check-sort", "out of memory");
+    }
+    for (size_t i = 0; i < n; i++) {
+        memcpy(keys + i * ksz, (unsigned char *)gpu->data + i * rec + kf->offset, ksz);
+        memcpy(vals + i * 4, (unsigned char *)gpu->data + i * rec + vf->offset, 4);
+    }
+    free(gpu->data);
+    gpu->data = keys;
+    gpu->nbytes = n * ksz;
+    gpu->desc = rto_npy_desc_keys(kf->type == RTO_DTYPE_U32 ? RTO_KEY_U32 : RTO_KEY_U64, n);
+    values->data = vals;
+    values->nbytes = n * 4;
+    values->desc = rto_npy_desc_array(RTO_DTYPE_U32, 1, n, 0, 0);
+    return EXIT_PASS;
+}
+
+static const char *check_state(const rto_sort_report *r, uint32_t bit)
+{
+    return !(r->checked & bit) ? "n/a" : (r->failed & bit) ? "FAIL" : "ok";
+}
+
+static const struct {
+    uint32_t bit;
+    const char *name;
+} check_names[] = {{RTO_CHECK_SORTED, "sorted"}, {RTO_CHECK_PERMUTATION, "permutation"}, {RTO_CHECK_TAIL, "tail"},
+                   {RTO_CHECK_VALUES, "values"}, {RTO_CHECK_STABLE, "stable"},           {RTO_CHECK_PASSES, "passes"}};
+
+static json_t *report_json(const rto_sort_report *r, const char *case_id, rto_key_format f, size_t n, size_t gpu_n)
+{
+    json_t *o = json_object(), *checks = json_object(), *diffs = json_array();
+    char buf[40];
+    int w = r->diffs_are_values ? 0 : (f == RTO_KEY_U32 ? 8 : 16);
+    json_object_set_new(o, "command", json_string("check-sort"));
+    json_object_set_new(o, "case", case_id ? json_string(case_id) : json_null());
+    json_object_set_new(o, "result", json_string(r->fault == RTO_FAULT_NONE ? "pass" : "fail"));
+    json_object_set_new(o, "fault", json_string(rto_fault_name(r->fault)));
+    json_object_set_new(o, "first_slot", r->first_slot == SIZE_MAX ? json_null() : json_integer((json_int_t)r->first_slot));
+    if (r->pass >= 0) {
+        json_t *p = json_object();
+        json_object_set_new(p, "index", json_integer(r->pass));
+        json_object_set_new(p, "k", json_integer(r->pass_k));
+        json_object_set_new(p, "j", json_integer(r->pass_j));
+        json_object_set_new(o, "pass", p);
+    } else {
+        json_object_set_new(o, "pass", json_null());
+    }
+    json_object_set_new(o, "n", json_integer((json_int_t)n));
+    json_object_set_new(o, "gpu_n", json_integer((json_int_t)gpu_n));
+    for (size_t i = 0; i < sizeof check_names / sizeof check_names[0]; i++) {
+        const char *st = check_state(r, check_names[i].bit);
+        json_object_set_new(checks, check_names[i].name, !strcmp(st, "n/a") ? json_null() : json_boolean(!strcmp(st, "ok")));
+    }
+    json_object_set_new(o, "checks", checks);
+    json_object_set_new(o, "diffs_compare", json_string(r->diffs_are_values ? "values" : "keys"));
+    for (size_t i = 0; i < r->ndiffs; i++) {
+        json_t *d = json_object();
+        json_object_set_new(d, "slot", json_integer((json_int_t)r->diffs[i].slot));
+        snprintf(buf, sizeof buf, "0x%0*" PRIx64, w, r->diffs[i].expected);
+        json_object_set_new(d, "expected", json_string(buf));
+        snprintf(buf, sizeof buf, "0x%0*" PRIx64, w, r->diffs[i].actual);
+        json_object_set_new(d, "actual", json_string(buf));
+        json_array_append_new(diffs, d);
+    }
+    json_object_set_new(o, "diffs", diffs);
+    json_object_set_new(o, "message", json_string(r->summary));
+    return o;
+}
+
+static void print_human(const rto_sort_report *r, const char *case_id, rto_key_format f, size_t n, size_t gpu_n)
+{
+    printf("check-sort %s: %zu keys (%s), GPU dump of %zu slots (n_padded %zu)\n", case_id ? case_id : "",
+           n, f == RTO_KEY_U32 ? "u32" : "u64", gpu_n, rto_next_pow2(n));
+    if (r->fault == RTO_FAULT_NONE)
+        printf("PASS %s\n", r->summary);
+    else
+        printf("FAIL %s\n", r->summary);
+    for (size_t i = 0; i < sizeof check_names / sizeof check_names[0]; i++)
+        printf("  %-12s %s\n", check_names[i].name, check_state(r, check_names[i].bit));
+    if (!r->ndiffs)
+        return;
+    int w = r->diffs_are_values ? 10 : (f == RTO_KEY_U32 ? 8 : 16);
+    printf("  first differing slots (%s):\n  %-10s %-*s %-*s %s\n", r->diffs_are_values ? "source indices" : "keys",
+           "slot", w + 2, "expected", w + 2, "actual", r->diffs_are_values ? "diff" : "xor");
+    for (size_t i = 0; i < r->ndiffs; i++) {
+        const rto_sort_diff *d = &r->diffs[i];
+        if (r->diffs_are_values)
+            printf("  %-10zu %-*" PRIu64 " %-*" PRIu64 " %+" PRId64 "\n", d->slot, w + 2, d->expected, w + 2,
+                   d->actual, (int64_t)(d->actual - d->expected));
+        else
+            printf("  %-10zu 0x%0*" PRIx64 " 0x%0*" PRIx64 " 0x%0*" PRIx64 "\n", d->slot, w, d->expected, w,
+                   d->actual, w, d->expected ^ d->actual);
+    }
+}
+
+/* Writes the JSON report next to the GPU dump: <gpu>.check-sort.json, through a temporary file. */
+static void write_artifact(const char *gpu_path, json_t *report)
+{
+    size_t len = strlen(gpu_path) + 40;
+    char *path = malloc(len), *tmp = malloc(len + 16);
+    if (path && tmp) {
+        snprintf(path, len, "%s.check-sort.json", gpu_path);
+        snprintf(tmp, len + 16, "%s.tmp.XXXXXX", path);
+        int fd = mkstemp(tmp);
+        if (fd >= 0) {
+            close(fd);
+            if (json_dump_file(report, tmp, JSON_INDENT(2)) == 0 && rename(tmp, path) == 0)
+                fprintf(stderr, "rtoracle check-sort: report written to %s\n", path);
+            else
+                remove(tmp);
+        }
+    }
+    free(path);
+    free(tmp);
+}
+
+static int load(const char *path, rto_npy *out, const char *what)
+{
+    rto_msg msg = {{0}};
+    if (rto_npy_read(path, out, &msg))
+        return cli_fail("check-sort", "%s %s: %s", what, path, msg.text);
+    return EXIT_PASS;
+}
+
+int cmd_check_sort(int argc, char **argv)
+{
+    static const struct option opts[] = {
+        {"input", required_argument, 0, 'i'},      {"gpu", required_argument, 0, 'g'},
+        {"gpu-values", required_argument, 0, 'v'}, {"stable", no_argument, 0, 's'},
+        {"expected", required_argument, 0, 'e'},   {"gpu-passes", required_argument, 0, 'p'},
+        {"algo", required_argument, 0, 'a'},       {"radix-bits", required_argument, 0, 'b'},
+        {"tile", required_argument, 0, 't'},       {"json", no_argument, 0, 'j'},
+        {"no-artifacts", no_argument, 0, 'n'},     {"help", no_argument, 0, 'h'},
+        {0, 0, 0, 0}};
+    const char *input = NULL, *gpu = NULL, *values = NULL, *expected = NULL, *passes = NULL;
+    bool json = false, artifacts = true, stable = false, algo_given = false, radix_bundle = false;
+    rto_sort_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.algo = RTO_SORT_BITONIC;
+    d.radix_bits = 8;
+    d.radix_tile = 256;
+    uint64_t v;
+    optind = 1;
+    opterr = 0;
+    for (int c; (c = getopt_long(argc, argv, "h", opts, NULL)) != -1;) {
+        switch (c) {
+        case 'i': input = optarg; break;
+        case 'g': gpu = optarg; break;
+        case 'v': values = optarg; break;
+        case 's': stable = true; break;
+        case 'e': expected = optarg; break;
+        case 'p': passes = optarg; break;
+        case 'a':
+            if (!cli_parse_algo(optarg, &d.algo))
+                return cli_fail("check-sort", "--algo '%s': expected bitonic or radix", optarg);
+            algo_given = true;
+            break;
+        case 'b':
+            if (!cli_parse_u64(optarg, 8, &v) || (v != 4 && v != 8))
+                return cli_fail("check-sort", "--radix-bits '%s': expected 4 or 8", optarg);
+            d.radix_bits = (uint32_t)v;
+            break;
+        case 't':
+            if (!cli_parse_u64(optarg, 1u << 24, &v) || v == 0)
+                return cli_fail("check-sort", "--tile '%s': expected 1 .. 16777216", optarg);
+            d.radix_tile = (uint32_t)v;
+            break;
+        case 'j': json = true; break;
+        case 'n': artifacts = false; break;
+        case 'h': check_help(stdout); return EXIT_PASS;
+        default:
+            check_help(stderr);
+            return cli_fail("check-sort", "unknown or incomplete option '%s'", argv[optind - 1]);
+        }
+    }
+    if (optind < argc)
+        return cli_fail("check-sort", "unexpected argument '%s'", argv[optind]);
+    if (!gpu || (!input && !expected))
+        return cli_fail("check-sort", "--gpu and one of --input / --expected are required (rtoracle check-sort --help)");
+
+    loaded l;
+    memset(&l, 0, sizeof l);
+    rto_msg msg = {{0}};
+    int rc = EXIT_PASS;
+    const char *case_id = NULL;
+    rto_bundle_reader *bundle = NULL;
+    if (expected) {
+        rto_npy bin = {0};
+        rto_status s = rto_bundle_open(expected, &bundle, &msg);
+        if (!s)
+            s = rto_bundle_read_role(bundle, "input-keys", &bin, &msg);
+        if (s) {
+            rc = cli_fail("check-sort", "--expected: %s", msg.text);
+            goto out;
+        }
+        if (input) {
+            if ((rc = load(input, &l.input, "--input")))
+                goto out;
+            int same = l.input.nbytes == bin.nbytes && l.input.desc.dtype == bin.desc.dtype &&
+                       (bin.nbytes == 0 || memcmp(l.input.data, bin.data, bin.nbytes) == 0);
+            rto_npy_free(&bin);
+            if (!same) {
+                rc = cli_fail("check-sort", "--input %s is not the input of bundle %s", input, expected);
+                goto out;
+            }
+        } else {
+            l.input = bin;
+        }
+        case_id = rto_bundle_get_str(bundle, "", "case");
+        const char *algo = rto_bundle_get_str(bundle, "params", "algo");
+        int64_t bits = 0, tile = 0;
+        if (!algo || !cli_parse_algo(algo, &d.algo)) {
+            rc = cli_fail("check-sort", "--expected %s: not a sort bundle (params.algo missing)", expected);
+            goto out;
+        }
+        if (algo_given)
+            fprintf(stderr, "rtoracle check-sort: --algo ignored, the bundle says %s\n", algo);
+        if (d.algo == RTO_SORT_RADIX) {
+            if (!rto_bundle_get_int(bundle, "params", "radix_bits", &bits) ||
+                !rto_bundle_get_int(bundle, "params", "tile", &tile) || (bits != 4 && bits != 8) || tile < 1 ||
+                tile > (1 << 24)) {
+                rc = cli_fail("check-sort", "--expected %s: radix bundle without valid radix_bits / tile", expected);
+                goto out;
+            }
+            d.radix_bits = (uint32_t)bits;
+            d.radix_tile = (uint32_t)tile;
+            radix_bundle = true;
+        }
+    } else if ((rc = load(input, &l.input, "--input"))) {
+        goto out;
+    }
+    if ((rc = load(gpu, &l.gpu, "--gpu")))
+        goto out;
+    if (l.gpu.desc.dtype == RTO_DTYPE_STRUCT) {
+        if (values) {
+            rc = cli_fail("check-sort", "--gpu-values given, but --gpu %s already carries values", gpu);
+            goto out;
+        }
+        if ((rc = split_pairs(&l.gpu, &l.values, gpu)))
+            goto out;
+    } else if (values && (rc = load(values, &l.values, "--gpu-values"))) {
+        goto out;
+    }
+    rto_key_format gf;
+    size_t gn;
+    if (rto_npy_as_keys(&l.input, &d.format, &d.n, &msg)) {
+        rc = cli_fail("check-sort", "input: %s", msg.text);
+        goto out;
+    }
+    if (rto_npy_as_keys(&l.gpu, &gf, &gn, &msg)) {
+        rc = cli_fail("check-sort", "--gpu %s: %s", gpu, msg.text);
+        goto out;
+    }
+    if (gf != d.format) {
+        rc = cli_fail("check-sort", "--gpu %s holds %s keys but the input holds %s keys", gpu,
+                      gf == RTO_KEY_U32 ? "uint32" : "uint64", d.format == RTO_KEY_U32 ? "uint32" : "uint64");
+        goto out;
+    }
+    d.input = l.input.data;
+    d.gpu_keys = l.gpu.data;
+    d.gpu_n = gn;
+    if (l.values.data) {
+        if (l.values.desc.dtype != RTO_DTYPE_U32 || l.values.desc.ndim != 1 || l.values.desc.shape[0] != gn) {
+            rc = cli_fail("check-sort", "GPU values must be a 1-D uint32 array of %zu entries (one per GPU slot)", gn);
+            goto out;
+        }
+        d.gpu_values = l.values.data;
+    }
+    /* An LSD radix sort is stable by construction: hold a GPU's key/value radix output to it. */
+    if (radix_bundle && d.gpu_values)
+        stable = true;
+    if (stable && !d.gpu_values) {
+        rc = cli_fail("check-sort", "stability needs the values the GPU carried: --gpu-values or a {key, value} dump");
+        goto out;
+    }
+    d.require_stable = stable;
+    if (passes) {
+        if ((rc = load(passes, &l.passes, "--gpu-passes")))
+            goto out;
+        rto_dtype want = d.format == RTO_KEY_U32 ? RTO_DTYPE_U32 : RTO_DTYPE_U64;
+        if (l.passes.desc.dtype != want || l.passes.desc.ndim != 2) {
+            rc = cli_fail("check-sort", "--gpu-passes %s: expected a 2-D %s array (passes x slots)", passes,
+                          want == RTO_DTYPE_U32 ? "uint32" : "uint64");
+            goto out;
+        }
+        d.gpu_passes = l.passes.data;
+        d.gpu_pass_count = (uint32_t)l.passes.desc.shape[0];
+        d.gpu_pass_len = (size_t)l.passes.desc.shape[1];
+        if (l.passes.desc.shape[0] > UINT32_MAX) {
+            rc = cli_fail("check-sort", "--gpu-passes %s: too many passes", passes);
+            goto out;
+        }
+    }
+
+    rto_sort_report r;
+    rto_status s = rto_sort_check(&d, &r, &msg);
+    if (s != RTO_OK && s != RTO_ERR_MISMATCH) {
+        rc = cli_status("check-sort", s, &msg);
+        goto out;
+    }
+    json_t *j = report_json(&r, case_id, d.format, d.n, gn);
+    if (json) {
+        json_dumpf(j, stdout, JSON_INDENT(2));
+        fputc('\n', stdout);
+    } else {
+        print_human(&r, case_id, d.format, d.n, gn);
+    }
+    if (s == RTO_ERR_MISMATCH && artifacts)
+        write_artifact(gpu, j);
+    json_decref(j);
+    rc = s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
+out:
+    loaded_free(&l);
+    rto_bundle_close(bundle);
+    return rc;
+}

@@ -1,0 +1,46 @@
+/* rtoracle: writes what every GPU buffer of a wavefront ray tracer should hold, and checks GPU dumps against it.
+ * Exit status: 0 pass, 1 mismatch found, 2 bad usage or input. */
+#include "cli.h"
+
+#include <string.h>
+
+static const struct {
+    const char *name;
+    int (*run)(int, char **);
+    const char *summary;
+} commands[] = {
+    {"keys", cmd_keys, "generate sort keys of a named distribution (.npy)"},
+    {"sort", cmd_sort, "sort keys with the bitonic or radix oracle into a bundle"},
+    {"check-sort", cmd_check_sort, "validate a GPU's sorted buffer (and checkpoints)"},
+    {"suite", cmd_suite, "write the distribution x size matrix of bundles a GPU harness runs"},
+};
+
+static void usage(FILE *to)
+{
+    fprintf(to, "usage: rtoracle COMMAND [options]   (rtoracle COMMAND --help for each)\n\ncommands:\n");
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        fprintf(to, "  %-12s %s\n", commands[i].name, commands[i].summary);
+    fprintf(to, "\nexit status: 0 pass, 1 mismatch found, 2 bad usage or input\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return EXIT_BAD_INPUT;
+    }
+    if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help")) {
+        usage(stdout);
+        return EXIT_PASS;
+    }
+    if (!strcmp(argv[1], "--version")) {
+        printf("rtoracle %s (bundle format %d)\n", RTO_VERSION_STRING, RTO_BUNDLE_FORMAT_VERSION);
+        return EXIT_PASS;
+    }
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (!strcmp(argv[1], commands[i].name))
+            return commands[i].run(argc - 1, argv + 1);
+    fprintf(stderr, "rtoracle: unknown command '%s'\n", argv[1]);
+    usage(stderr);
+    return EXIT_BAD_INPUT;
+}

@@ -1,0 +1,36 @@
+/* Private helpers shared by the library's stages. Not installed; never included by users. */
+#ifndef RTO_INTERNAL_H
+#define RTO_INTERNAL_H
+
+#include "rtoracle.h"
+
+#include <stdarg.h>
+#include <stdbool.h>
+
+#if defined(__GNUC__)
+#define RTO_PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define RTO_PRINTF(a, b)
+#endif
+
+/** Writes a formatted one-line reason into m (if non-NULL) and returns s. */
+rto_status rto_fail(rto_msg *m, rto_status s, const char *fmt, ...) RTO_PRINTF(3, 4);
+
+/** Key i of a u32 or u64 key array, widened to 64 bits. */
+static inline uint64_t rto_key_get(rto_key_format f, const void *keys, size_t i)
+{
+    return f == RTO_KEY_U32 ? ((const uint32_t *)keys)[i] : ((const uint64_t *)keys)[i];
+}
+
+static inline void rto_key_put(rto_key_format f, void *keys, size_t i, uint64_t v)
+{
+    if (f == RTO_KEY_U32)
+        ((uint32_t *)keys)[i] = (uint32_t)v;
+    else
+        ((uint64_t *)keys)[i] = v;
+}
+
+/** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
+void *rto_alloc(size_t count, size_t size);
+
+#endif

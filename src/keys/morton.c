@@ -1,0 +1,105 @@
+/* Morton keys for the TLAS (u32, 5 bits per axis) and BLAS (u64, 10 bits per axis), DESIGN.md §3. */
+#include "internal.h"
+
+#include <math.h>
+
+/* Spreads the low 10 bits of v so that bit b lands on bit 3b. */
+static uint32_t spread3(uint32_t v)
+{
+    v &= 0x3ffu;
+    v = (v | (v << 16)) & 0x030000ffu;
+    v = (v | (v << 8)) & 0x0300f00fu;
+    v = (v | (v << 4)) & 0x030c30c3u;
+    v = (v | (v << 2)) & 0x09249249u;
+    return v;
+}
+
+uint32_t rto_morton15(uint32_t qx, uint32_t qy, uint32_t qz)
+{
+    return (spread3(qx & 31u) << 2) | (spread3(qy & 31u) << 1) | spread3(qz & 31u);
+}
+
+uint32_t rto_morton30(uint32_t qx, uint32_t qy, uint32_t qz)
+{
+    return (spread3(qx) << 2) | (spread3(qy) << 1) | spread3(qz);
+}
+
+static float axis(const rto_vec3 *v, int a) { return a == 0 ? v->x : a == 1 ? v->y : v->z; }
+
+/* Bounds of all centroids; refuses non-finite centroids and spans that overflow binary32, where the quantisation
+ * below would divide inf by inf. */
+static rto_status centroid_bounds(const rto_vec3 *c, size_t n, float lo[3], float hi[3], rto_msg *msg)
+{
+    for (int a = 0; a < 3; a++) {
+        lo[a] = INFINITY;
+        hi[a] = -INFINITY;
+    }
+    for (size_t i = 0; i < n; i++) {
+        for (int a = 0; a < 3; a++) {
+            float v = axis(&c[i], a);
+            if (!isfinite(v))
+                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "centroid %zu has a non-finite coordinate (%g)", i,
+                                (double)v);
+            lo[a] = v < lo[a] ? v : lo[a];
+            hi[a] = v > hi[a] ? v : hi[a];
+        }
+    }
+    for (int a = 0; a < 3; a++)
+        if (n > 0 && !isfinite(hi[a] - lo[a]))
+            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "centroid bounds on axis %c span more than binary32 holds",
+                            "xyz"[a]);
+    return RTO_OK;
+}
+
+/* q = min(cells - 1, u32(floor(((c - lo) / (hi - lo)) * cells))) in binary32, and 0 where hi == lo. */
+static uint32_t quantise(float c, float lo, float hi, uint32_t cells)
+{
+    if (hi == lo)
+        return 0;
+    float t = ((c - lo) / (hi - lo)) * (float)cells;
+    uint32_t q = (uint32_t)floorf(t);
+    return q < cells - 1 ? q : cells - 1;
+}
+
+rto_status rto_tlas_keys(const rto_vec3 *centroids, size_t n, uint32_t *keys, rto_msg *msg)
+{
+    if (n > RTO_TLAS_MAX_INSTANCES)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu instances: a TLAS key indexes at most %u", n,
+                        RTO_TLAS_MAX_INSTANCES);
+    if (n && (!centroids || !keys))
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL centroids or keys");
+    float lo[3], hi[3];
+    rto_status s = centroid_bounds(centroids, n, lo, hi, msg);
+    if (s)
+        return s;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t q[3];
+        for (int a = 0; a < 3; a++)
+            q[a] = quantise(axis(&centroids[i], a), lo[a], hi[a], 32);
+        keys[i] = (rto_morton15(q[0], q[1], q[2]) << 16) | (uint32_t)i;
+    }
+    return RTO_OK;
+}
+
+rto_status rto_blas_keys(const rto_vec3 *centroids, size_t n, uint64_t *keys, rto_msg *msg)
+{
+    if ((uint64_t)n > UINT32_MAX)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu triangles: a BLAS key indexes fewer than 2^32", n);
+    if (n && (!centroids || !keys))
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL centroids or keys");
+    float lo[3], hi[3];
+    rto_status s = centroid_bounds(centroids, n, lo, hi, msg);
+    if (s)
+        return s;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t q[3];
+        for (int a = 0; a < 3; a++)
+            q[a] = quantise(axis(&centroids[i], a), lo[a], hi[a], 1024);
+        keys[i] = ((uint64_t)rto_morton30(q[0], q[1], q[2]) << 32) | (uint64_t)i;
+    }
+    return RTO_OK;
+}
+
+size_t rto_key_size(rto_key_format f) { return f == RTO_KEY_U32 ? 4 : 8; }
+
+uint64_t rto_key_sentinel(rto_key_format f) { return f == RTO_KEY_U32 ? RTO_SENTINEL_U32 : RTO_SENTINEL_U64; }

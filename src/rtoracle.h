@@ -1,0 +1,373 @@
+/* rtoracle: a CPU reference ("oracle") for GPU software ray tracers.
+ *
+ * Reference
+ * ---------
+ * Every stage of a wavefront GPU tracer is re-implemented here in deterministic scalar C, and its output is written
+ * as the expected value a GPU harness compares against (DESIGN.md §1):
+ *
+ *     keys      rto_keys_generate / rto_tlas_keys / rto_blas_keys        Morton keys and named distributions (§3)
+ *     sort      rto_bitonic_sort (+ checkpoints) / rto_radix_sort         the canonical network and LSD radix (§4)
+ *     check     rto_sort_check                                            sorted / permutation / stable / passes
+ *     files     rto_npy_read / rto_npy_write, rto_bundle_*                .npy arrays and manifest.json (§8)
+ *
+ * Conventions (STYLE.md): fallible calls return rto_status and, when given a non-NULL rto_msg, write a one-line
+ * reason into it; outputs are caller-allocated and sized by the documented bound; inputs first, outputs last;
+ * every *_free / *_destroy accepts NULL. Keys are passed as `const void *` with an rto_key_format saying whether
+ * they are uint32_t or uint64_t. The header is clean C11 and C++.
+ */
+#ifndef RTORACLE_H
+#define RTORACLE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define RTO_VERSION_STRING "0.1.0"
+/* Bundle layout version written into every manifest.json; readers refuse any other value (§8). */
+#define RTO_BUNDLE_FORMAT_VERSION 1
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Status                                                                                                           */
+
+typedef enum rto_status {
+    RTO_OK = 0,
+    RTO_ERR_INVALID_ARGUMENT = 1,
+    RTO_ERR_OUT_OF_MEMORY = 2,
+    RTO_ERR_BUFFER_TOO_SMALL = 3,
+    RTO_ERR_IO = 4,
+    RTO_ERR_PARSE = 5,
+    RTO_ERR_UNSUPPORTED = 6,
+    RTO_ERR_MISMATCH = 7
+} rto_status;
+
+/** Names a status ("ok", "invalid argument", ...). Never returns NULL. */
+const char *rto_status_string(rto_status s);
+
+/** The detail of a failure: one line, no trailing newline. Zero-initialise before use. */
+typedef struct rto_msg {
+    char text[512];
+} rto_msg;
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* PRNG (DESIGN.md §3): counter-based, reproducible in C, JS and WGSL                                               */
+
+/** The 32-bit finaliser h(x): x ^= x >> 16; x *= 0x7feb352d; x ^= x >> 15; x *= 0x846ca68b; x ^= x >> 16. */
+uint32_t rto_hash32(uint32_t x);
+/** rng(seed, i) = h(i ^ h(seed)). */
+uint32_t rto_rng(uint32_t seed, uint32_t i);
+/** unit(seed, i) = (rng(seed, i) >> 8) * 2^-24, in [0, 1). */
+float rto_unit(uint32_t seed, uint32_t i);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Morton keys (DESIGN.md §3)                                                                                        */
+
+typedef enum rto_key_format {
+    RTO_KEY_U32 = 0, /* TLAS keys and generic 32-bit keys; sentinel 0xFFFFFFFF */
+    RTO_KEY_U64 = 1  /* BLAS keys and generic 64-bit keys; sentinel 0xFFFFFFFFFFFFFFFF */
+} rto_key_format;
+
+#define RTO_SENTINEL_U32 UINT32_C(0xFFFFFFFF)
+#define RTO_SENTINEL_U64 UINT64_C(0xFFFFFFFFFFFFFFFF)
+/** Largest key array any call accepts (2^28 keys: 1 GiB of u32, 2 GiB of u64). */
+#define RTO_MAX_KEYS (UINT64_C(1) << 28)
+/** Most instances a TLAS key can index (16-bit index field). */
+#define RTO_TLAS_MAX_INSTANCES 65536u
+
+typedef struct rto_vec3 {
+    float x, y, z;
+} rto_vec3;
+
+/** Bytes per key of a format (4 or 8). */
+size_t rto_key_size(rto_key_format f);
+/** The padding sentinel of a format, widened to 64 bits. */
+uint64_t rto_key_sentinel(rto_key_format f);
+
+/** Interleaves three 5-bit coordinates, x in the highest position of each triple (bits 14, 11, ... for x). */
+uint32_t rto_morton15(uint32_t qx, uint32_t qy, uint32_t qz);
+/** Interleaves three 10-bit coordinates, x highest in each triple. */
+uint32_t rto_morton30(uint32_t qx, uint32_t qy, uint32_t qz);
+
+/**
+ * TLAS keys from instance centroids: (morton15 << 16) | index, quantised over the centroids' bounds in binary32.
+ * keys must hold n entries; n <= RTO_TLAS_MAX_INSTANCES; centroids must be finite.
+ */
+rto_status rto_tlas_keys(const rto_vec3 *centroids, size_t n, uint32_t *keys, rto_msg *msg);
+/** BLAS keys from triangle centroids: (morton30 << 32) | index, 10 bits per axis. n < 2^32; finite centroids. */
+rto_status rto_blas_keys(const rto_vec3 *centroids, size_t n, uint64_t *keys, rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Distributions and size classes (DESIGN.md §3)                                                                    */
+
+typedef enum rto_dist_kind {
+    RTO_DIST_CENTROID = 0, /* generates centroids; keys are Morton keys of those centroids */
+    RTO_DIST_RAW = 1       /* generates keys directly */
+} rto_dist_kind;
+
+typedef struct rto_dist_info {
+    const char *name;    /* "uniform", "entropy-3", "digit-2-one-bucket", ... */
+    rto_dist_kind kind;
+    int u64_only;        /* 1 for digit-D-one-bucket with D >= 4 */
+    const char *summary; /* one line for --help */
+} rto_dist_info;
+
+/** Number of named distributions; rto_dist_at(i) for i < count lists them in a fixed order. */
+size_t rto_dist_count(void);
+const rto_dist_info *rto_dist_at(size_t i);
+/** Looks a distribution up by name; NULL if unknown. */
+const rto_dist_info *rto_dist_find(const char *name);
+
+/** Centroids of a centroid distribution (kind RTO_DIST_CENTROID). out holds n entries. */
+rto_status rto_centroids_generate(const char *dist, uint32_t seed, size_t n, rto_vec3 *out, rto_msg *msg);
+/**
+ * n keys of distribution dist in format f: Morton keys (TLAS u32 / BLAS u64) of the generated centroids for a
+ * centroid distribution, raw keys otherwise. keys holds n * rto_key_size(f) bytes.
+ */
+rto_status rto_keys_generate(const char *dist, rto_key_format f, uint32_t seed, size_t n, void *keys, rto_msg *msg);
+
+/** Named size classes: "tiny", "tile", "pow2", "large", "all" (the union, ascending, unique). */
+#define RTO_SIZE_CLASS_MAX 128
+/** Writes the sizes of a class into sizes (capacity RTO_SIZE_CLASS_MAX) and their count into count. */
+rto_status rto_size_class(const char *name, size_t *sizes, size_t *count, rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Sorting (DESIGN.md §4)                                                                                            */
+
+/** N_PADDED: next power of two >= n (0 for 0, 1 for 1). */
+size_t rto_next_pow2(size_t n);
+/** Passes of the canonical network over n_padded slots: L(L+1)/2 with L = log2(n_padded); 0 for n_padded <= 1. */
+uint32_t rto_bitonic_pass_count(size_t n_padded);
+/** The (k, j) of pass p of the canonical schedule (independent of n). */
+void rto_bitonic_pass_kj(uint32_t pass, uint32_t *k, uint32_t *j);
+
+/**
+ * Runs the canonical bitonic network (DESIGN.md §4) on the n keys padded with the sentinel to n_padded slots.
+ *   sorted       n_padded keys (the whole padded buffer a GPU dump holds).
+ *   perm         NULL or n_padded uint32: the source index carried through the network with each key; padding
+ *                element p carries n + p, so perm is a permutation of 0 .. n_padded-1.
+ *   checkpoints  NULL or rto_bitonic_pass_count(n_padded) * n_padded keys: the buffer after every pass.
+ */
+rto_status rto_bitonic_sort(rto_key_format f, const void *keys, size_t n, void *sorted, uint32_t *perm,
+                            void *checkpoints, rto_msg *msg);
+
+/** Passes of an LSD radix sort: key bits / digit bits. */
+uint32_t rto_radix_pass_count(rto_key_format f, uint32_t bits);
+/** Tiles of T keys covering n keys (ceil(n / T)). */
+size_t rto_radix_tile_count(size_t n, uint32_t tile);
+
+/**
+ * Per-pass intermediates of the LSD radix reference. Each pointer may be NULL; the sizes are, with P passes,
+ * R = 2^bits digits and M tiles:
+ *   hist    P * M * R   digit histogram of each tile, in input order of that pass
+ *   prefix  P * R       exclusive prefix over all tiles' histograms (first slot of each digit)
+ *   base    P * M * R   each tile's scatter base per digit: prefix[d] + sum of hist[t'][d] for t' < t
+ *   scatter P * n keys  the array after the stable scatter of each pass
+ *   perm    P * n       source index carried with each key after each pass
+ */
+typedef struct rto_radix_trace {
+    uint32_t *hist;
+    uint32_t *prefix;
+    uint32_t *base;
+    void *scatter;
+    uint32_t *perm;
+} rto_radix_trace;
+
+/**
+ * Stable LSD radix sort with digit width bits (4 or 8) and tile size tile (>= 1): sorted (n keys), perm (n source
+ * indices, may be NULL) and, when trace is non-NULL, the per-pass intermediates above.
+ */
+rto_status rto_radix_sort(rto_key_format f, const void *keys, size_t n, uint32_t bits, uint32_t tile, void *sorted,
+                          uint32_t *perm, const rto_radix_trace *trace, rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Sort validation (DESIGN.md §4, §9)                                                                                */
+
+typedef enum rto_sort_algo { RTO_SORT_BITONIC = 0, RTO_SORT_RADIX = 1 } rto_sort_algo;
+
+/** Fault classes, in diagnosis priority order. Names are stable strings (rto_fault_name). */
+typedef enum rto_fault {
+    RTO_FAULT_NONE = 0,      /* "none" */
+    RTO_FAULT_SIZE = 1,      /* "size": the dump holds neither n nor n_padded keys, or a wrong pass count */
+    RTO_FAULT_LOST = 2,      /* "lost-key": a key vanished and a sentinel took its place */
+    RTO_FAULT_CORRUPT = 3,   /* "corrupt-key": a slot holds a value that is not in the input */
+    RTO_FAULT_DUPLICATE = 4, /* "duplicate-key": a key appears more often than in the input */
+    RTO_FAULT_ORDER = 5,     /* "order": a permutation of the input, but not sorted */
+    RTO_FAULT_TAIL = 6,      /* "tail": a padded dump with a non-sentinel after slot n */
+    RTO_FAULT_VALUE = 7,     /* "value": a value does not name a source index holding that key */
+    RTO_FAULT_STABILITY = 8, /* "stability": equal keys whose values are out of input order */
+    RTO_FAULT_PASS = 9       /* "pass": a checkpoint pass diverges from the oracle's */
+} rto_fault;
+
+const char *rto_fault_name(rto_fault f);
+
+enum {
+    RTO_CHECK_SORTED = 1u << 0,
+    RTO_CHECK_PERMUTATION = 1u << 1,
+    RTO_CHECK_TAIL = 1u << 2,
+    RTO_CHECK_VALUES = 1u << 3,
+    RTO_CHECK_STABLE = 1u << 4,
+    RTO_CHECK_PASSES = 1u << 5
+};
+
+#define RTO_SORT_MAX_DIFFS 16
+
+typedef struct rto_sort_diff {
+    size_t slot;
+    uint64_t expected;
+    uint64_t actual;
+} rto_sort_diff;
+
+typedef struct rto_sort_check_desc {
+    rto_key_format format;
+    const void *input; /* the n unsorted input keys */
+    size_t n;
+    const void *gpu_keys;       /* the GPU's sorted buffer */
+    size_t gpu_n;               /* n or rto_next_pow2(n) */
+    const uint32_t *gpu_values; /* NULL, or gpu_n source indices carried with the keys (padding p carries n + p) */
+    int require_stable;         /* values of equal keys must ascend */
+    /* Checkpoints: NULL, or gpu_pass_count arrays of gpu_pass_len keys (bitonic: n_padded slots per pass; radix:
+     * n keys per pass). The oracle side is recomputed from input with algo / radix_bits / radix_tile. */
+    const void *gpu_passes;
+    uint32_t gpu_pass_count;
+    size_t gpu_pass_len;
+    rto_sort_algo algo;
+    uint32_t radix_bits;
+    uint32_t radix_tile;
+} rto_sort_check_desc;
+
+typedef struct rto_sort_report {
+    rto_fault fault;     /* the primary fault, RTO_FAULT_NONE when everything passed */
+    uint32_t checked;    /* RTO_CHECK_* bits that were run */
+    uint32_t failed;     /* RTO_CHECK_* bits that failed */
+    size_t first_slot;   /* first bad slot of the primary fault (SIZE_MAX when none) */
+    int64_t pass;        /* first divergent checkpoint pass, -1 when none */
+    uint32_t pass_k;     /* bitonic (k, j) of that pass; for radix, k = digit shift and j = 0 */
+    uint32_t pass_j;
+    size_t ndiffs;       /* rows of diffs: the first differing slots of the primary fault */
+    int diffs_are_values; /* diffs compare values (stability, value faults), not keys */
+    rto_sort_diff diffs[RTO_SORT_MAX_DIFFS];
+    char summary[512]; /* one line: what failed, where, and why */
+} rto_sort_report;
+
+/**
+ * Validates a GPU sort. Returns RTO_OK when all checks pass, RTO_ERR_MISMATCH when a fault was found (report says
+ * which), other statuses for unusable input (msg says why). Independent of rto_bitonic_sort for the final array:
+ * the expected order comes from the C library's qsort.
+ */
+rto_status rto_sort_check(const rto_sort_check_desc *desc, rto_sort_report *report, rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* .npy files (NumPy format 1.0 / 2.0 / 3.0, little-endian, C order)                                                  */
+
+typedef enum rto_dtype {
+    RTO_DTYPE_NONE = 0,
+    RTO_DTYPE_U8 = 1,  /* |u1 */
+    RTO_DTYPE_U32 = 2, /* <u4 */
+    RTO_DTYPE_U64 = 3, /* <u8 */
+    RTO_DTYPE_I32 = 4, /* <i4 */
+    RTO_DTYPE_F32 = 5, /* <f4 */
+    RTO_DTYPE_STRUCT = 6
+} rto_dtype;
+
+#define RTO_NPY_MAX_DIMS 4
+#define RTO_NPY_MAX_FIELDS 16
+#define RTO_NPY_NAME_MAX 32
+
+typedef struct rto_npy_field {
+    char name[RTO_NPY_NAME_MAX];
+    rto_dtype type;  /* a scalar dtype */
+    uint32_t count;  /* elements: 1 for a scalar field, 3 for ('min', '<f4', (3,)) */
+    uint32_t offset; /* bytes from the start of the record (packed, in declaration order) */
+} rto_npy_field;
+
+/** An array's type and shape. For RTO_DTYPE_STRUCT, fields describes the packed record. */
+typedef struct rto_npy_desc {
+    rto_dtype dtype;
+    uint32_t ndim;
+    uint64_t shape[RTO_NPY_MAX_DIMS];
+    uint32_t nfields;
+    rto_npy_field fields[RTO_NPY_MAX_FIELDS];
+} rto_npy_desc;
+
+/** A loaded array: desc plus data (owned; free with rto_npy_free). */
+typedef struct rto_npy {
+    rto_npy_desc desc;
+    void *data;
+    size_t nbytes;
+} rto_npy;
+
+/** Bytes of one scalar dtype (0 for NONE / STRUCT). */
+size_t rto_dtype_size(rto_dtype t);
+/** Bytes of one element of desc (the record size for a struct). */
+size_t rto_npy_itemsize(const rto_npy_desc *desc);
+/** Elements in desc (product of the shape; 1 for ndim 0). Returns 0 on overflow with *ok = 0. */
+uint64_t rto_npy_count(const rto_npy_desc *desc, int *ok);
+/** The descr string of desc as NumPy writes it ("<u4", "[('key', '<u4'), ('value', '<u4')]"). */
+rto_status rto_npy_descr(const rto_npy_desc *desc, char *buf, size_t cap);
+
+/**
+ * Parses a whole .npy file held in memory (bounds-checked; safe for untrusted input). Refuses bad magic, an
+ * unknown version, a malformed header, big-endian or unknown dtypes, fortran_order, truncated data and trailing
+ * bytes. out->data is a fresh copy.
+ */
+rto_status rto_npy_parse(const void *buf, size_t len, rto_npy *out, rto_msg *msg);
+/** Reads and parses path. */
+rto_status rto_npy_read(const char *path, rto_npy *out, rto_msg *msg);
+/** Serialises desc + data (rto_npy_count * itemsize bytes) as format 1.0 (2.0 if the header needs it). */
+rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void *data, rto_msg *msg);
+void rto_npy_free(rto_npy *npy);
+
+/** A 1-D array of n keys of format f. */
+rto_npy_desc rto_npy_desc_keys(rto_key_format f, uint64_t n);
+/** A desc of a scalar dtype with up to four dimensions (unused trailing dims are 0 and ignored). */
+rto_npy_desc rto_npy_desc_array(rto_dtype t, uint32_t ndim, uint64_t d0, uint64_t d1, uint64_t d2);
+/** Interprets a loaded array as 1-D keys: u32 or u64, shape (n,). */
+rto_status rto_npy_as_keys(const rto_npy *npy, rto_key_format *f, size_t *n, rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Bundles: a directory of .npy files plus manifest.json, written atomically (DESIGN.md §8)                           */
+
+typedef struct rto_bundle rto_bundle;
+
+/**
+ * Starts a bundle that will become outdir: files go to a fresh temporary sibling directory. outdir must not exist,
+ * be empty, or be a previous bundle (holding manifest.json), which rto_bundle_commit then replaces atomically.
+ * kind is the manifest's "kind" ("sort", "keys", "suite").
+ */
+rto_status rto_bundle_begin(const char *outdir, const char *kind, rto_bundle **out, rto_msg *msg);
+/** Writes name (a plain file name) into the bundle and records role, dtype, shape, layout and sha256. */
+rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role, const char *layout,
+                              const rto_npy_desc *desc, const void *data, rto_msg *msg);
+/** Adds an existing finished bundle directory (a suite case) under name, listed in the manifest's "cases". */
+rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case_id, rto_msg *msg);
+/** The temporary directory being filled (for nested bundles). */
+const char *rto_bundle_tmpdir(const rto_bundle *b);
+/** Manifest metadata: section is "" (top level) or an object name such as "input", "params", "stats". */
+rto_status rto_bundle_set_str(rto_bundle *b, const char *section, const char *key, const char *value);
+rto_status rto_bundle_set_int(rto_bundle *b, const char *section, const char *key, int64_t value);
+/** Writes manifest.json and renames the directory into place. Frees b on success and failure. */
+rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg);
+/** Removes the temporary directory and frees b. NULL is fine. */
+void rto_bundle_abort(rto_bundle *b);
+
+/** A bundle opened for reading: manifest parsed, version checked. */
+typedef struct rto_bundle_reader rto_bundle_reader;
+rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *msg);
+void rto_bundle_close(rto_bundle_reader *r);
+/** A string field of the manifest; NULL if absent or not a string. The pointer lives as long as r. */
+const char *rto_bundle_get_str(rto_bundle_reader *r, const char *section, const char *key);
+/** An integer field of the manifest: returns 1 and sets *value, or 0 if absent or not an integer. */
+int rto_bundle_get_int(rto_bundle_reader *r, const char *section, const char *key, int64_t *value);
+/** Loads the file with the given role, after checking its sha256 against the manifest. RTO_ERR_IO if absent. */
+rto_status rto_bundle_read_role(rto_bundle_reader *r, const char *role, rto_npy *out, rto_msg *msg);
+
+/** SHA-256 of a file as 64 lowercase hex digits plus NUL. */
+rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* RTORACLE_H */

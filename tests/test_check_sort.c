@@ -1,0 +1,354 @@
+/* Mutation tests for the sort validator: a correct output (built here from qsort, not by the oracle) passes; each
+ * injected fault is caught, classified as the right fault class, and located at the slot (and pass) where it was
+ * injected. Every case runs for u32 and u64 keys and for dumps of n and of n_padded slots. */
+#include "testutil.h"
+
+typedef struct fixture {
+    rto_key_format f;
+    size_t n, np, gn, ksz;
+    void *input;
+    uint64_t *expect;  /* qsort of the input */
+    void *gpu;         /* gn slots: expect, then sentinels */
+    uint32_t *values;  /* stable source indices */
+    uint64_t sentinel;
+} fixture;
+
+static int cmp_pair(const void *a, const void *b)
+{
+    const uint64_t *x = a, *y = b;
+    if (x[0] != y[0])
+        return (x[0] > y[0]) - (x[0] < y[0]);
+    return (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+static void fixture_make(fixture *fx, const char *dist, rto_key_format f, size_t n, int padded, uint32_t seed)
+{
+    memset(fx, 0, sizeof *fx);
+    fx->f = f;
+    fx->n = n;
+    fx->np = rto_next_pow2(n);
+    fx->gn = padded ? fx->np : n;
+    fx->ksz = f == RTO_KEY_U32 ? 4 : 8;
+    fx->sentinel = f == RTO_KEY_U32 ? UINT32_MAX : UINT64_MAX;
+    fx->input = tu_keys(dist, f, seed, n);
+    fx->expect = tu_qsorted(f, fx->input, n);
+    fx->gpu = malloc((fx->gn + 1) * fx->ksz);
+    fx->values = malloc((fx->gn + 1) * 4);
+    uint64_t *pairs = malloc((fx->gn + 1) * 16);
+    for (size_t i = 0; i < fx->gn; i++) {
+        pairs[2 * i] = i < n ? tu_get(f, fx->input, i) : fx->sentinel;
+        pairs[2 * i + 1] = i;
+    }
+    qsort(pairs, fx->gn, 16, cmp_pair);
+    for (size_t i = 0; i < fx->gn; i++) {
+        tu_put(f, fx->gpu, i, pairs[2 * i]);
+        fx->values[i] = (uint32_t)pairs[2 * i + 1];
+    }
+    free(pairs);
+}
+
+static void fixture_free(fixture *fx)
+{
+    free(fx->input);
+    free(fx->expect);
+    free(fx->gpu);
+    free(fx->values);
+}
+
+static rto_status run_check(const fixture *fx, int with_values, int stable, rto_sort_report *r)
+{
+    rto_sort_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.format = fx->f;
+    d.input = fx->input;
+    d.n = fx->n;
+    d.gpu_keys = fx->gpu;
+    d.gpu_n = fx->gn;
+    d.gpu_values = with_values ? fx->values : NULL;
+    d.require_stable = stable;
+    rto_msg msg = {{0}};
+    rto_status s = rto_sort_check(&d, r, &msg);
+    if (s != RTO_OK && s != RTO_ERR_MISMATCH)
+        fail_msg("rto_sort_check: %s", msg.text);
+    return s;
+}
+
+static void expect_fault(const fixture *fx, int with_values, int stable, rto_fault fault, size_t slot, const char *what)
+{
+    rto_sort_report r;
+    rto_status s = run_check(fx, with_values, stable, &r);
+    if (s != RTO_ERR_MISMATCH || r.fault != fault || r.first_slot != slot)
+        fail_msg("%s (n=%zu gn=%zu %s): got status %d fault %s slot %zu, want %s at slot %zu: %s", what, fx->n, fx->gn,
+                 fx->f == RTO_KEY_U32 ? "u32" : "u64", (int)s, rto_fault_name(r.fault), r.first_slot,
+                 rto_fault_name(fault), slot, r.summary);
+    /* the one-line summary starts with the fault's name and names the slot */
+    char slot_text[32];
+    snprintf(slot_text, sizeof slot_text, "%zu", slot);
+    assert_int_equal(strncmp(r.summary, rto_fault_name(fault), strlen(rto_fault_name(fault))), 0);
+    assert_non_null(strstr(r.summary, slot_text));
+    assert_true(r.ndiffs > 0);
+}
+
+/* First slot at or after n / 2 whose key differs from the next one; SIZE_MAX if none. */
+static size_t distinct_slot(const fixture *fx)
+{
+    for (size_t i = fx->n / 2; i + 1 < fx->n; i++)
+        if (fx->expect[i] != fx->expect[i + 1])
+            return i;
+    return SIZE_MAX;
+}
+
+static const char *const dists[] = {"random", "few-unique", "clustered", "sentinel-heavy", "one-bucket", "tile-overflow"};
+static const size_t sizes[] = {2, 3, 5, 17, 256, 1000, 4097};
+
+#define FOR_CASES                                                                                                      \
+    for (size_t di = 0; di < sizeof dists / sizeof dists[0]; di++)                                                     \
+        for (size_t zi = 0; zi < sizeof sizes / sizeof sizes[0]; zi++)                                                 \
+            for (int fi = 0; fi < 2; fi++)                                                                             \
+                for (int padded = 0; padded < 2; padded++)
+
+static void test_correct_output_passes(void **state)
+{
+    (void)state;
+    FOR_CASES
+    {
+        fixture fx;
+        fixture_make(&fx, dists[di], fi ? RTO_KEY_U64 : RTO_KEY_U32, sizes[zi], padded, (uint32_t)(di * 7 + zi));
+        rto_sort_report r;
+        assert_int_equal(run_check(&fx, 1, 1, &r), RTO_OK);
+        assert_int_equal(r.fault, RTO_FAULT_NONE);
+        assert_int_equal(r.failed, 0);
+        assert_true(r.checked & RTO_CHECK_STABLE);
+        fixture_free(&fx);
+    }
+}
+
+static void test_swap_adjacent_is_order(void **state)
+{
+    (void)state;
+    size_t hits = 0;
+    FOR_CASES
+    {
+        fixture fx;
+        fixture_make(&fx, dists[di], fi ? RTO_KEY_U64 : RTO_KEY_U32, sizes[zi], padded, (uint32_t)zi);
+        size_t i = distinct_slot(&fx);
+        if (i != SIZE_MAX) {
+            uint64_t a = tu_get(fx.f, fx.gpu, i);
+            tu_put(fx.f, fx.gpu, i, tu_get(fx.f, fx.gpu, i + 1));
+            tu_put(fx.f, fx.gpu, i + 1, a);
+            expect_fault(&fx, 0, 0, RTO_FAULT_ORDER, i, "swap adjacent");
+            hits++;
+        }
+        fixture_free(&fx);
+    }
+    assert_true(hits > 100);
+}
+
+static void test_duplicate_over_neighbour(void **state)
+{
+    (void)state;
+    size_t hits = 0;
+    FOR_CASES
+    {
+        fixture fx;
+        fixture_make(&fx, dists[di], fi ? RTO_KEY_U64 : RTO_KEY_U32, sizes[zi], padded, (uint32_t)zi);
+        size_t i = distinct_slot(&fx);
+        if (i != SIZE_MAX) {
+            tu_put(fx.f, fx.gpu, i + 1, tu_get(fx.f, fx.gpu, i));
+            expect_fault(&fx, 0, 0, RTO_FAULT_DUPLICATE, i + 1, "duplicate over neighbour");
+            hits++;
+        }
+        fixture_free(&fx);
+    }
+    assert_true(hits > 100);
+}
+
+static void test_drop_and_append_sentinel(void **state)
+{
+    (void)state;
+    size_t hits = 0;
+    FOR_CASES
+    {
+        fixture fx;
+        fixture_make(&fx, dists[di], fi ? RTO_KEY_U64 : RTO_KEY_U32, sizes[zi], padded, (uint32_t)zi);
+        size_t i = distinct_slot(&fx);
+        if (i != SIZE_MAX) {
+            unsigned char *g = fx.gpu;
+            memmove(g + i * fx.ksz, g + (i + 1) * fx.ksz, (fx.gn - i - 1) * fx.ksz);
+            tu_put(fx.f, fx.gpu, fx.gn - 1, fx.sentinel);
+            expect_fault(&fx, 0, 0, RTO_FAULT_LOST, i, "drop and append sentinel");
+            hits++;
+        }
+        fixture_free(&fx);
+    }
+    assert_true(hits > 100);
+}
+
+static int in_input(const fixture *fx, uint64_t v)
+{
+    for (size_t i = 0; i < fx->n; i++)
+        if (fx->expect[i] == v)
+            return 1;
+    return 0;
+}
+
+static void test_flip_one_bit(void **state)
+{
+    (void)state;
+    size_t hits = 0;
+    FOR_CASES
+    {
+        fixture fx;
+        fixture_make(&fx, dists[di], fi ? RTO_KEY_U64 : RTO_KEY_U32, sizes[zi], padded, (uint32_t)zi);
+        size_t i = fx.n / 2;
+        for (int bit = 0; bit < (fi ? 64 : 32); bit++) {
+            uint64_t v = tu_get(fx.f, fx.gpu, i) ^ ((uint64_t)1 << bit);
+            if (v == fx.sentinel || in_input(&fx, v))
+                continue;
+            tu_put(fx.f, fx.gpu, i, v);
+            expect_fault(&fx, 0, 0, RTO_FAULT_CORRUPT, i, "flip one bit");
+            hits++;
+            break;
+        }
+        fixture_free(&fx);
+    }
+    assert_true(hits > 150);
+}
+
+static void test_reorder_equal_keys(void **state)
+{
+    (void)state;
+    size_t hits = 0;
+    FOR_CASES
+    {
+        fixture fx;
+        fixture_make(&fx, dists[di], fi ? RTO_KEY_U64 : RTO_KEY_U32, sizes[zi], padded, (uint32_t)zi);
+        for (size_t i = fx.n / 2; i + 1 < fx.n; i++) {
+            if (fx.expect[i] != fx.expect[i + 1])
+                continue;
+            uint32_t t = fx.values[i];
+            fx.values[i] = fx.values[i + 1];
+            fx.values[i + 1] = t;
+            expect_fault(&fx, 1, 1, RTO_FAULT_STABILITY, i, "reorder equal keys");
+            /* without a stability promise (bitonic is not stable) the same output is valid */
+            rto_sort_report r;
+            assert_int_equal(run_check(&fx, 1, 0, &r), RTO_OK);
+            hits++;
+            break;
+        }
+        fixture_free(&fx);
+    }
+    assert_true(hits > 50);
+}
+
+static void test_value_faults(void **state)
+{
+    (void)state;
+    fixture fx;
+    fixture_make(&fx, "random", RTO_KEY_U32, 1000, 0, 4);
+    fx.values[10] = fx.values[11]; /* slot 10 now names the source of slot 11's (different) key */
+    expect_fault(&fx, 1, 0, RTO_FAULT_VALUE, 10, "value naming another key");
+    fixture_free(&fx);
+    fixture_make(&fx, "all-equal", RTO_KEY_U32, 1000, 0, 4);
+    fx.values[10] = fx.values[11]; /* equal keys: the first bad slot is the second use of the index */
+    expect_fault(&fx, 1, 0, RTO_FAULT_VALUE, 11, "duplicate value");
+    fixture_free(&fx);
+    fixture_make(&fx, "random", RTO_KEY_U64, 1000, 1, 4);
+    fx.values[7] = 5000; /* out of range */
+    expect_fault(&fx, 1, 0, RTO_FAULT_VALUE, 7, "value out of range");
+    fixture_free(&fx);
+}
+
+static void test_size_and_tail(void **state)
+{
+    (void)state;
+    fixture fx;
+    fixture_make(&fx, "random", RTO_KEY_U32, 1000, 1, 9);
+    tu_put(fx.f, fx.gpu, 1000, 5); /* a padded slot that is not the sentinel */
+    expect_fault(&fx, 0, 0, RTO_FAULT_TAIL, 1000, "tail");
+    fx.gn = 1001;
+    rto_sort_report r;
+    assert_int_equal(run_check(&fx, 0, 0, &r), RTO_ERR_MISMATCH);
+    assert_int_equal(r.fault, RTO_FAULT_SIZE);
+    assert_non_null(strstr(r.summary, "1001"));
+    fixture_free(&fx);
+}
+
+/* A GPU whose checkpoint pass p is wrong at slot s (final output still right) is named at pass p, slot s. */
+static void test_corrupt_checkpoint_pass(void **state)
+{
+    (void)state;
+    const size_t ns[] = {2, 5, 100, 1024, 4097};
+    for (size_t z = 0; z < 5; z++)
+        for (int fi = 0; fi < 2; fi++)
+            for (int algo = 0; algo < 2; algo++) {
+                rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+                size_t n = ns[z], np = rto_next_pow2(n), ksz = fi ? 8 : 4;
+                void *keys = tu_keys("random", f, (uint32_t)z, n);
+                uint32_t P = algo ? rto_radix_pass_count(f, 4) : rto_bitonic_pass_count(np);
+                size_t len = algo ? n : np;
+                unsigned char *ck = malloc(P * len * ksz);
+                void *out = malloc(np * ksz);
+                uint32_t *perm = malloc(np * 4);
+                if (algo) {
+                    rto_radix_trace tr = {NULL, NULL, NULL, ck, NULL};
+                    assert_int_equal(rto_radix_sort(f, keys, n, 4, 64, out, perm, &tr, NULL), RTO_OK);
+                } else {
+                    assert_int_equal(rto_bitonic_sort(f, keys, n, out, perm, ck, NULL), RTO_OK);
+                }
+                fixture fx;
+                fixture_make(&fx, "random", f, n, 0, (uint32_t)z);
+                rto_sort_check_desc d;
+                memset(&d, 0, sizeof d);
+                d.format = f;
+                d.input = keys;
+                d.n = n;
+                d.gpu_keys = fx.gpu;
+                d.gpu_n = n;
+                d.gpu_passes = ck;
+                d.gpu_pass_count = P;
+                d.gpu_pass_len = len;
+                d.algo = algo ? RTO_SORT_RADIX : RTO_SORT_BITONIC;
+                d.radix_bits = 4;
+                d.radix_tile = 64;
+                rto_sort_report r;
+                assert_int_equal(rto_sort_check(&d, &r, NULL), RTO_OK); /* control */
+                uint32_t p = P / 2;
+                size_t s = len / 2;
+                tu_put(f, ck + p * len * ksz, s, tu_get(f, ck + p * len * ksz, s) ^ 0x10);
+                assert_int_equal(rto_sort_check(&d, &r, NULL), RTO_ERR_MISMATCH);
+                assert_int_equal(r.fault, RTO_FAULT_PASS);
+                assert_int_equal(r.pass, p);
+                assert_int_equal(r.first_slot, s);
+                if (!algo) {
+                    uint32_t k, j;
+                    rto_bitonic_pass_kj(p, &k, &j);
+                    assert_int_equal(r.pass_k, k);
+                    assert_int_equal(r.pass_j, j);
+                } else {
+                    assert_int_equal(r.pass_k, p * 4);
+                }
+                assert_int_equal(strncmp(r.summary, "pass", 4), 0);
+                /* a wrong number of passes is a size fault, not a crash */
+                d.gpu_pass_count = P - 1;
+                assert_int_equal(rto_sort_check(&d, &r, NULL), RTO_ERR_MISMATCH);
+                assert_int_equal(r.fault, RTO_FAULT_SIZE);
+                free(keys);
+                free(ck);
+                free(out);
+                free(perm);
+                fixture_free(&fx);
+            }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_correct_output_passes),   cmocka_unit_test(test_swap_adjacent_is_order),
+        cmocka_unit_test(test_duplicate_over_neighbour), cmocka_unit_test(test_drop_and_append_sentinel),
+        cmocka_unit_test(test_flip_one_bit),            cmocka_unit_test(test_reorder_equal_keys),
+        cmocka_unit_test(test_value_faults),            cmocka_unit_test(test_size_and_tail),
+        cmocka_unit_test(test_corrupt_checkpoint_pass),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,222 @@
+/* The bitonic network and the radix reference against independent references: qsort for the final order, a
+ * (key, index) qsort for stability, and a literal transcription of DESIGN.md §4's pseudo-code for every pass. */
+#include "testutil.h"
+
+/* DESIGN.md §4 verbatim: every i, l = i ^ j, act when l > i. Used to check the oracle's checkpoints. */
+static void literal_network(uint64_t *a, size_t n, uint64_t *passes)
+{
+    size_t p = 0;
+    for (size_t k = 2; k <= n; k <<= 1)
+        for (size_t j = k >> 1; j > 0; j >>= 1, p++) {
+            for (size_t i = 0; i < n; i++) {
+                size_t l = i ^ j;
+                if (l > i) {
+                    int asc = (i & k) == 0;
+                    if ((asc && a[i] > a[l]) || (!asc && a[i] < a[l])) {
+                        uint64_t t = a[i];
+                        a[i] = a[l];
+                        a[l] = t;
+                    }
+                }
+            }
+            memcpy(passes + p * n, a, n * sizeof *a);
+        }
+}
+
+static void test_pass_schedule(void **state)
+{
+    (void)state;
+    assert_int_equal(rto_bitonic_pass_count(16384), 105); /* the seeds' figure */
+    assert_int_equal(rto_bitonic_pass_count(0), 0);
+    assert_int_equal(rto_bitonic_pass_count(1), 0);
+    assert_int_equal(rto_bitonic_pass_count(2), 1);
+    assert_int_equal(rto_next_pow2(0), 0);
+    assert_int_equal(rto_next_pow2(1), 1);
+    assert_int_equal(rto_next_pow2(4097), 8192);
+    uint32_t p = 0, k, j;
+    for (uint32_t kk = 2; kk <= (1u << 20); kk <<= 1)
+        for (uint32_t jj = kk >> 1; jj > 0; jj >>= 1, p++) {
+            rto_bitonic_pass_kj(p, &k, &j);
+            assert_int_equal(k, kk);
+            assert_int_equal(j, jj);
+        }
+}
+
+/* Every distribution x size class x format: bitonic and radix equal qsort, and perm maps back to the input. */
+static void test_sorts_equal_qsort_everywhere(void **state)
+{
+    (void)state;
+    size_t sizes[RTO_SIZE_CLASS_MAX], nsizes = 0;
+    assert_int_equal(rto_size_class("all", sizes, &nsizes, NULL), RTO_OK);
+    size_t cases = 0;
+    for (int fi = 0; fi < 2; fi++) {
+        rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+        size_t ksz = fi ? 8 : 4;
+        uint64_t sentinel = fi ? UINT64_MAX : UINT32_MAX;
+        for (size_t d = 0; d < rto_dist_count(); d++) {
+            const rto_dist_info *di = rto_dist_at(d);
+            for (size_t z = 0; z < nsizes; z++) {
+                size_t n = sizes[z], np = rto_next_pow2(n);
+                if (!tu_dist_applies(di, f, n))
+                    continue;
+                uint32_t seed = (uint32_t)(1000 + d * 131 + z);
+                void *keys = tu_keys(di->name, f, seed, n);
+                uint64_t *e = tu_qsorted(f, keys, n);
+                void *out = malloc((np ? np : 1) * ksz);
+                uint32_t *perm = malloc((np ? np : 1) * 4);
+                unsigned char *seen = calloc(np ? np : 1, 1);
+                assert_int_equal(rto_bitonic_sort(f, keys, n, out, perm, NULL, NULL), RTO_OK);
+                for (size_t i = 0; i < np; i++) {
+                    uint64_t want = i < n ? e[i] : sentinel;
+                    if (tu_get(f, out, i) != want)
+                        fail_msg("bitonic %s n=%zu %s seed=%u: slot %zu", di->name, n, fi ? "u64" : "u32", seed, i);
+                    assert_true(perm[i] < np && !seen[perm[i]]);
+                    seen[perm[i]] = 1;
+                    uint64_t src = perm[i] < n ? tu_get(f, keys, perm[i]) : sentinel;
+                    assert_true(src == tu_get(f, out, i));
+                }
+                assert_int_equal(rto_radix_sort(f, keys, n, 8, 256, out, perm, NULL, NULL), RTO_OK);
+                for (size_t i = 0; i < n; i++) {
+                    if (tu_get(f, out, i) != e[i])
+                        fail_msg("radix %s n=%zu seed=%u: slot %zu", di->name, n, seed, i);
+                    assert_true(tu_get(f, keys, perm[i]) == e[i]);
+                    if (i && e[i] == e[i - 1])
+                        assert_true(perm[i - 1] < perm[i]); /* stable */
+                }
+                free(keys);
+                free(e);
+                free(out);
+                free(perm);
+                free(seen);
+                cases++;
+            }
+        }
+    }
+    print_message("bitonic and radix matched qsort on %zu distribution x size x format cases\n", cases);
+    assert_true(cases > 2000);
+}
+
+/* Checkpoints equal the literal schedule's array after each pass, for small n of every shape. */
+static void test_checkpoints_follow_the_schedule(void **state)
+{
+    (void)state;
+    const char *dists[] = {"random", "few-unique", "sentinel-heavy", "clustered", "reversed"};
+    for (size_t d = 0; d < 5; d++)
+        for (size_t n = 0; n <= 130; n += (n < 20 ? 1 : 11)) {
+            for (int fi = 0; fi < 2; fi++) {
+                rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+                size_t np = rto_next_pow2(n), ksz = fi ? 8 : 4;
+                uint32_t P = rto_bitonic_pass_count(np);
+                void *keys = tu_keys(dists[d], f, (uint32_t)n, n);
+                uint64_t *a = malloc((np ? np : 1) * 8), *ref = malloc((P ? P : 1) * (np ? np : 1) * 8);
+                for (size_t i = 0; i < np; i++)
+                    a[i] = i < n ? tu_get(f, keys, i) : (fi ? UINT64_MAX : UINT32_MAX);
+                literal_network(a, np, ref);
+                void *ck = malloc((P ? P : 1) * (np ? np : 1) * ksz), *out = malloc((np ? np : 1) * ksz);
+                assert_int_equal(rto_bitonic_sort(f, keys, n, out, NULL, ck, NULL), RTO_OK);
+                for (size_t i = 0; i < (size_t)P * np; i++)
+                    if (tu_get(f, ck, i) != ref[i])
+                        fail_msg("%s n=%zu: pass %zu slot %zu", dists[d], n, i / np, i % np);
+                free(keys);
+                free(a);
+                free(ref);
+                free(ck);
+                free(out);
+            }
+        }
+}
+
+/* Radix intermediates against quantities computed here from the scattered arrays alone. */
+static void test_radix_intermediates(void **state)
+{
+    (void)state;
+    const uint32_t tiles_sz[] = {1, 7, 256, 1000};
+    const char *dists[] = {"random", "tile-overflow", "digit-1-one-bucket", "all-equal", "entropy-9"};
+    for (size_t d = 0; d < 5; d++)
+        for (int fi = 0; fi < 2; fi++)
+            for (uint32_t bits = 4; bits <= 8; bits += 4)
+                for (size_t t = 0; t < 4; t++) {
+                    rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+                    const size_t n = 3001, ksz = fi ? 8 : 4;
+                    const uint32_t T = tiles_sz[t], R = 1u << bits, P = rto_radix_pass_count(f, bits);
+                    const size_t M = rto_radix_tile_count(n, T);
+                    assert_int_equal(P, (fi ? 64 : 32) / bits);
+                    void *keys = tu_keys(dists[d], f, 3, n), *out = malloc(n * ksz);
+                    rto_radix_trace tr = {malloc(P * M * R * 4), malloc(P * R * 4), malloc(P * M * R * 4),
+                                          malloc(P * n * ksz), malloc(P * n * 4)};
+                    uint32_t *perm = malloc(n * 4);
+                    assert_int_equal(rto_radix_sort(f, keys, n, bits, T, out, perm, &tr, NULL), RTO_OK);
+                    uint32_t *ref_hist = malloc(M * R * 4), *prevpos = malloc(n * 4);
+                    for (uint32_t p = 0; p < P; p++) {
+                        const void *in = p ? (const unsigned char *)tr.scatter + (p - 1) * n * ksz : keys;
+                        const void *sc = (const unsigned char *)tr.scatter + p * n * ksz;
+                        const uint32_t shift = p * bits;
+                        /* position of each source index in the array this pass reads */
+                        for (size_t i = 0; i < n; i++)
+                            prevpos[p ? tr.perm[(p - 1) * n + i] : i] = (uint32_t)i;
+                        memset(ref_hist, 0, M * R * 4);
+                        for (size_t i = 0; i < n; i++)
+                            ref_hist[(i / T) * R + ((tu_get(f, in, i) >> shift) & (R - 1))]++;
+                        uint32_t run = 0;
+                        for (uint32_t dg = 0; dg < R; dg++) {
+                            assert_int_equal(tr.prefix[p * R + dg], run);
+                            uint32_t before = 0;
+                            for (size_t tile = 0; tile < M; tile++) {
+                                assert_int_equal(tr.hist[(p * M + tile) * R + dg], ref_hist[tile * R + dg]);
+                                assert_int_equal(tr.base[(p * M + tile) * R + dg], run + before);
+                                before += ref_hist[tile * R + dg];
+                            }
+                            run += before;
+                        }
+                        assert_int_equal(run, n);
+                        /* the scatter is the stable partition of the previous array by this digit */
+                        for (size_t i = 0; i < n; i++) {
+                            assert_true(tu_get(f, keys, tr.perm[p * n + i]) == tu_get(f, sc, i));
+                            if (i == 0)
+                                continue;
+                            uint64_t da = (tu_get(f, sc, i - 1) >> shift) & (R - 1);
+                            uint64_t db = (tu_get(f, sc, i) >> shift) & (R - 1);
+                            assert_true(da <= db);
+                            if (da == db)
+                                assert_true(prevpos[tr.perm[p * n + i - 1]] < prevpos[tr.perm[p * n + i]]);
+                        }
+                    }
+                    free(ref_hist);
+                    free(prevpos);
+                    assert_memory_equal((const unsigned char *)tr.scatter + (P - 1) * n * ksz, out, n * ksz);
+                    free(keys);
+                    free(out);
+                    free(perm);
+                    free(tr.hist);
+                    free(tr.prefix);
+                    free(tr.base);
+                    free(tr.scatter);
+                    free(tr.perm);
+                }
+}
+
+static void test_sort_refuses_bad_arguments(void **state)
+{
+    (void)state;
+    uint32_t k[4] = {3, 2, 1, 0}, o[4];
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_radix_sort(RTO_KEY_U32, k, 4, 5, 256, o, NULL, NULL, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "4 or 8"));
+    assert_int_equal(rto_radix_sort(RTO_KEY_U32, k, 4, 8, 0, o, NULL, NULL, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_int_equal(rto_bitonic_sort(RTO_KEY_U32, NULL, 4, o, NULL, NULL, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_int_equal(rto_bitonic_sort(RTO_KEY_U32, k, (size_t)RTO_MAX_KEYS + 1, o, NULL, NULL, &msg),
+                     RTO_ERR_INVALID_ARGUMENT);
+    assert_int_equal(rto_bitonic_sort((rto_key_format)9, k, 4, o, NULL, NULL, &msg), RTO_ERR_INVALID_ARGUMENT);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_pass_schedule),
+        cmocka_unit_test(test_sorts_equal_qsort_everywhere),
+        cmocka_unit_test(test_checkpoints_follow_the_schedule),
+        cmocka_unit_test(test_radix_intermediates),
+        cmocka_unit_test(test_sort_refuses_bad_arguments),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
