@@ -478,6 +478,9 @@ static rto_status scalar_from_token(parser *ps, const token *t, rto_dtype *type)
 static rto_status parse_field(parser *ps, rto_npy_desc *d, uint64_t *offset)
 {
     uint32_t index = d->nfields;
+    if (peek(ps) == '[')
+        return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "fields written as lists rather than tuples are not supported "
+                        "(offset %zu)", ps->pos);
     rto_status s = expect(ps, '(', "'(' to start a field");
     if (s != RTO_OK)
         return s;

@@ -54,9 +54,11 @@ int main(int argc, char **argv)
             memcpy(rec + i * (ksz + 4), (unsigned char *)a.data + i * ksz, ksz);
             memcpy(rec + i * (ksz + 4) + ksz, (unsigned char *)v.data + i * 4, 4);
         }
-        if (rto_npy_write(argv[4], &d, rec, &msg))
-            return die(msg.text);
-        return 0;
+        rto_status s = rto_npy_write(argv[4], &d, rec, &msg);
+        free(rec);
+        rto_npy_free(&a);
+        rto_npy_free(&v);
+        return s ? die(msg.text) : 0;
     }
     size_t len = (size_t)a.desc.shape[0], stride, ksz;
     if (a.desc.dtype == RTO_DTYPE_STRUCT) {

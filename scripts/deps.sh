@@ -1,0 +1,40 @@
+# Sourced by main.sh and test.sh: installs the Debian packages the build needs, only those missing, quietly.
+# Works as root on a fresh Debian 12; as another user it uses sudo when present.
+
+RTO_DEBS=(
+    build-essential pkg-config meson ninja-build   # toolchain
+    libjansson-dev libssl-dev                      # manifest.json (jansson), sha256 (libcrypto)
+    libcmocka-dev                                  # unit tests
+)
+
+rto_install_deps() {
+    local missing=()
+    for p in "${RTO_DEBS[@]}"; do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+    done
+    [ ${#missing[@]} -eq 0 ] && return 0
+    local sudo=""
+    if [ "$(id -u)" != 0 ]; then
+        command -v sudo >/dev/null || { echo "rtoracle: missing packages ${missing[*]}; run as root" >&2; return 1; }
+        sudo="sudo"
+    fi
+    echo "rtoracle: installing ${missing[*]}" >&2
+    export DEBIAN_FRONTEND=noninteractive
+    # Refresh the package lists only when an install from the cached lists fails (a fresh image has none).
+    $sudo apt-get install -y -q --no-install-recommends "${missing[@]}" >/tmp/rtoracle-apt.log 2>&1 || {
+        $sudo apt-get update -q >>/tmp/rtoracle-apt.log 2>&1 &&
+            $sudo apt-get install -y -q --no-install-recommends "${missing[@]}" >>/tmp/rtoracle-apt.log 2>&1
+    } || { echo "rtoracle: apt-get failed, see /tmp/rtoracle-apt.log" >&2; tail -20 /tmp/rtoracle-apt.log >&2; return 1; }
+}
+
+# meson setup (once) and compile of one build directory: rto_build DIR [meson options...]
+rto_build() {
+    local dir=$1
+    shift
+    if [ ! -f "$dir/build.ninja" ]; then
+        meson setup "$dir" "$@" >"$dir.setup.log" 2>&1 || { cat "$dir.setup.log" >&2; return 1; }
+        rm -f "$dir.setup.log"
+    fi
+    ninja -C "$dir" >"$dir.ninja.log" 2>&1 || { cat "$dir.ninja.log" >&2; return 1; }
+    rm -f "$dir.ninja.log"
+}

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# The whole test suite: unit and command-line tests on an optimised build, again under AddressSanitizer +
+# UndefinedBehaviorSanitizer, and a determinism check that builds at -O0 (sanitized), -O2 and -O3 write
+# byte-identical bundles.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+. scripts/deps.sh
+rto_install_deps
+
+echo "== build (debugoptimized, -Werror)"
+rto_build build --werror
+meson test -C build --print-errorlogs --num-processes 2
+
+echo "== build-asan (address + undefined sanitizers)"
+rto_build build-asan --werror --buildtype=debug -Db_sanitize=address,undefined -Db_lundef=false \
+    -Dc_args=-fno-sanitize-recover=all
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+    meson test -C build-asan --print-errorlogs --num-processes 2
+
+echo "== determinism across optimisation levels"
+rto_build build-release --werror --buildtype=release
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+args=(suite sort --sizes tiny,tile,16384 --dists all --checkpoint-max 4096)
+for b in build build-asan build-release; do
+    "$b/oracle/rtoracle" "${args[@]}" -o "$tmp/$b" >/dev/null
+done
+diff -r "$tmp/build" "$tmp/build-asan" >/dev/null && diff -r "$tmp/build" "$tmp/build-release" >/dev/null || {
+    echo "FAIL: bundles differ between optimisation levels" >&2
+    exit 1
+}
+echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") cases byte-identical at -O0/asan, -O2, -O3"
+echo "== all tests passed"
