@@ -129,8 +129,8 @@ static json_t *report_json(const rto_sort_report *r, const char *case_id, rto_ke
 
 static void print_human(const rto_sort_report *r, const char *case_id, rto_key_format f, size_t n, size_t gpu_n)
 {
-    printf("check-sort %s: %zu keys (%s), GPU dump of %zu slots (n_padded %zu)\n", case_id ? case_id : "",
-           n, f == RTO_KEY_U32 ? "u32" : "u64", gpu_n, rto_next_pow2(n));
+    printf("check-sort%s%s: %zu keys (%s), GPU dump of %zu slots (n_padded %zu)\n", case_id ? " " : "",
+           case_id ? case_id : "", n, f == RTO_KEY_U32 ? "u32" : "u64", gpu_n, rto_next_pow2(n));
     if (r->fault == RTO_FAULT_NONE)
         printf("PASS %s\n", r->summary);
     else

@@ -69,10 +69,8 @@ static rto_status write_bitonic(rto_bundle *b, rto_key_format f, const void *key
         s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
     if (!s)
         s = rto_bitonic_sort(f, keys, n, sorted, perm, ck, msg);
-    if (!s) {
-        rto_bundle_set_int(b, "stats", "compare_exchange_passes", passes);
+    if (!s)
         s = add_result(b, f, n, sorted, perm, msg);
-    }
     if (!s && checkpoints) {
         rto_npy_desc cd = rto_npy_desc_array(f == RTO_KEY_U32 ? RTO_DTYPE_U32 : RTO_DTYPE_U64, 2, passes, np, 0);
         s = rto_bundle_add_npy(b, "passes.npy", "bitonic-passes", NULL, &cd, ck, msg);

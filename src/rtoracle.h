@@ -259,6 +259,231 @@ typedef struct rto_sort_report {
 rto_status rto_sort_check(const rto_sort_check_desc *desc, rto_sort_report *report, rto_msg *msg);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
+/* Scenes (DESIGN.md §5): meshes in object space, instances, materials, textures, cameras                          */
+
+/** Row-major 3x4 affine transform: p' = M[r][0]*x + M[r][1]*y + M[r][2]*z + M[r][3] (§5 instance record). */
+typedef struct rto_mat34 {
+    float m[3][4];
+} rto_mat34;
+
+typedef struct rto_aabb {
+    rto_vec3 min, max;
+} rto_aabb;
+
+/** A triangle mesh in object space: one BLAS. Arrays are owned by the scene. */
+typedef struct rto_mesh {
+    char name[64];
+    uint32_t vertex_count;
+    float *positions; /* 3 * vertex_count */
+    float *normals;   /* 3 * vertex_count, or NULL */
+    float *uvs;       /* 2 * vertex_count, or NULL */
+    uint32_t triangle_count;
+    uint32_t *indices; /* 3 * triangle_count, each < vertex_count */
+    int32_t material;  /* index into materials, -1 for none */
+} rto_mesh;
+
+#define RTO_INSTANCE_CUSTOM_INDEX_MASK 0x00FFFFFFu
+
+/** One instance of a BLAS (§5): both transforms computed in binary64 and rounded once to binary32. */
+typedef struct rto_instance {
+    rto_mat34 obj_to_world;
+    rto_mat34 world_to_obj;
+    uint32_t blas;         /* mesh index */
+    uint32_t custom_index; /* 24 bits */
+    uint32_t mask;         /* 8 bits */
+    uint32_t sbt_offset;
+    uint32_t flags;
+} rto_instance;
+
+typedef struct rto_material {
+    float base_color[4];
+    int32_t base_color_texture; /* index into textures, -1 for none */
+    float emissive[3];
+} rto_material;
+
+/** A decoded texture: 8-bit RGBA rows, top row first, as stored in the image file (no colour conversion). */
+typedef struct rto_texture {
+    char name[64];
+    uint32_t width, height;
+    uint8_t *rgba; /* 4 * width * height */
+} rto_texture;
+
+/** A pinhole camera: the Stage-2 look-at camera (seed 002 §2.2), or a glTF perspective camera's node pose. */
+typedef struct rto_camera {
+    char name[64];
+    rto_vec3 position;
+    rto_vec3 target;
+    rto_vec3 up;
+    float fov_y;  /* radians */
+    float aspect; /* width / height; 0 = take it from the image size */
+    float znear, zfar;
+} rto_camera;
+
+#define RTO_SCENE_MAX_WARNINGS 16
+
+typedef struct rto_scene {
+    char source[256]; /* the path or procedural spec it came from */
+    rto_mesh *meshes;
+    uint32_t mesh_count;
+    rto_instance *instances;
+    uint32_t instance_count;
+    rto_material *materials;
+    uint32_t material_count;
+    rto_texture *textures;
+    uint32_t texture_count;
+    rto_camera *cameras;
+    uint32_t camera_count;
+    uint32_t warning_count; /* warnings issued (may exceed RTO_SCENE_MAX_WARNINGS; the first ones are kept) */
+    char warnings[RTO_SCENE_MAX_WARNINGS][256];
+} rto_scene;
+
+/** The Stage-2 default camera: position (0, 2, 5), target origin, up +y, fovY 60 degrees. */
+rto_camera rto_camera_default(void);
+
+/**
+ * Loads a scene: a .gltf / .glb path, or a procedural spec: "triangle", "rtstress:N" (N x N x N cube instances,
+ * 1 <= N <= 40), "instances:DIST:N" (N small boxes whose centroids follow centroid distribution DIST, N <= 65536).
+ * Malformed, unsupported or non-finite input is refused with RTO_ERR_PARSE / RTO_ERR_UNSUPPORTED / RTO_ERR_INVALID_ARGUMENT
+ * and a one-line reason. Non-triangle primitives are skipped with a warning.
+ */
+rto_status rto_scene_load(const char *spec, rto_scene **out, rto_msg *msg);
+void rto_scene_destroy(rto_scene *scene);
+
+/** Sets both transforms of an instance from a binary64 row-major 3x4: world_to_obj is inverted in binary64, then
+ * both are rounded once. Fails (RTO_ERR_INVALID_ARGUMENT) for a singular or non-finite matrix. */
+rto_status rto_instance_set_transform(rto_instance *inst, const double obj_to_world[3][4], rto_msg *msg);
+
+/** Transforms a point by M in binary32 with the dot order ((m0*x + m1*y) + m2*z) + m3. */
+rto_vec3 rto_mat34_point(const rto_mat34 *m, rto_vec3 p);
+/** Object-space bounds of a mesh (exact: min/max of its referenced vertices). Empty mesh: +inf / -inf. */
+rto_aabb rto_mesh_aabb(const rto_mesh *mesh);
+/** World bounds of an instance: its mesh's object AABB's 8 corners through obj_to_world (rto_mat34_point). */
+rto_aabb rto_instance_aabb(const rto_scene *scene, uint32_t instance);
+/** Union of all instance world bounds. */
+rto_aabb rto_scene_aabb(const rto_scene *scene);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Acceleration structures (DESIGN.md §5): the TLAS sweep tree and Karras radix trees, in their GPU layouts         */
+
+#define RTO_TLAS_INTERNAL UINT32_C(0xFFFFFFFF) /* item of an internal node with a real leaf below */
+#define RTO_TLAS_EMPTY UINT32_C(0xFFFFFFFE)    /* item of a sentinel leaf or an internal node with none */
+#define RTO_BVH_LEAF_BIT UINT32_C(0x80000000)  /* set in left/right: the low bits are a sorted leaf index */
+#define RTO_BVH_NO_PARENT UINT32_C(0xFFFFFFFF) /* parent of the root */
+
+/** struct TlasNode { min: vec3<f32>, item: u32, max: vec3<f32>, pad: u32 } (32 bytes). */
+typedef struct rto_tlas_node {
+    float min[3];
+    uint32_t item;
+    float max[3];
+    uint32_t pad;
+} rto_tlas_node;
+
+/** struct BlasNode { lmin, left, lmax, right, rmin, parent, rmax, pad } (64 bytes): one internal Karras node with
+ * both child boxes. Used for BLAS trees and for the Karras TLAS. */
+typedef struct rto_bvh_node {
+    float lmin[3];
+    uint32_t left;
+    float lmax[3];
+    uint32_t right;
+    float rmin[3];
+    uint32_t parent;
+    float rmax[3];
+    uint32_t pad;
+} rto_bvh_node;
+
+/** The box a key is built from: centroid (min + max) * 0.5 in binary32. */
+rto_vec3 rto_aabb_centroid(const rto_aabb *box);
+
+/** Nodes of a sweep tree over n leaves: 2 * n_padded - 1, and 1 (one EMPTY root) for n = 0. */
+size_t rto_tlas_sweep_node_count(size_t n);
+
+/**
+ * Builds the TLAS sweep tree (§5) over n instance boxes: TLAS keys of the box centroids, the canonical bitonic sort,
+ * then the heap-ordered tree bottom-up by AABB union.
+ *   keys        n TLAS keys in instance order
+ *   sorted      n_padded sorted keys (sentinel tail)
+ *   nodes       rto_tlas_sweep_node_count(n) nodes
+ */
+rto_status rto_tlas_build_sweep(const rto_aabb *boxes, size_t n, uint32_t *keys, uint32_t *sorted,
+                                rto_tlas_node *nodes, rto_msg *msg);
+
+/** Primitive index of a sorted key: the low 16 bits of a TLAS key, the low 32 bits of a BLAS key. */
+uint32_t rto_key_prim(rto_key_format f, uint64_t key);
+
+/**
+ * Karras 2012 radix tree over n sorted, distinct keys (§5): n - 1 internal nodes (none for n <= 1) whose child
+ * boxes come from prim_boxes indexed by rto_key_prim of each leaf's key. Internal node 0 is the root.
+ */
+rto_status rto_karras_build(rto_key_format f, const void *sorted_keys, size_t n, const rto_aabb *prim_boxes,
+                            rto_bvh_node *nodes, rto_msg *msg);
+
+/** BLAS keys of a mesh: (morton30 << 32) | triangle, from each triangle's box centroid. keys: triangle_count. */
+rto_status rto_mesh_keys(const rto_mesh *mesh, uint64_t *keys, rto_msg *msg);
+/** Bounds of triangle t of a mesh (exact min / max of its three vertices). */
+rto_aabb rto_mesh_triangle_aabb(const rto_mesh *mesh, uint32_t t);
+
+/** Tree statistics: depth of the deepest leaf (root at 0) and the SAH cost sum(SA(node)) / SA(root) over
+ * internal nodes and leaves (traversal and intersection cost 1). */
+typedef struct rto_bvh_stats {
+    uint32_t depth;
+    double sah;
+    uint32_t leaves;
+} rto_bvh_stats;
+
+/** Validation and comparison faults for trees. Names are stable strings (rto_bvh_fault_name). */
+typedef enum rto_bvh_fault {
+    RTO_BVH_OK = 0,           /* "none" */
+    RTO_BVH_SIZE = 1,         /* "size": wrong node count */
+    RTO_BVH_CYCLE = 2,        /* "cycle": a child link leads back to an ancestor */
+    RTO_BVH_SHARED = 3,       /* "shared-node": an internal node reachable from two parents */
+    RTO_BVH_BAD_LINK = 4,     /* "bad-link": a child index out of range */
+    RTO_BVH_DROPPED_LEAF = 5, /* "dropped-leaf": a primitive is in no leaf */
+    RTO_BVH_ITEM = 6,         /* "item": a leaf holds the wrong primitive (another one appears twice) */
+    RTO_BVH_SWAPPED = 7,      /* "swapped-children": a node's two children exchanged */
+    RTO_BVH_TOPOLOGY = 8,     /* "topology": links differ from the expected tree otherwise */
+    RTO_BVH_PARENT = 9,       /* "parent": a parent link disagrees with the child links */
+    RTO_BVH_EMPTY = 10,       /* "empty": EMPTY / INTERNAL items or empty boxes wrong */
+    RTO_BVH_BOX = 11          /* "box": a box outside its tolerance or not the exact union of its children */
+} rto_bvh_fault;
+
+const char *rto_bvh_fault_name(rto_bvh_fault f);
+
+typedef struct rto_bvh_report {
+    rto_bvh_fault fault;
+    int64_t node;     /* first bad node (-1: none / whole tree) */
+    int64_t leaf;     /* the leaf or primitive concerned (-1: none) */
+    uint32_t faults;  /* bit (1 << fault) for every fault class seen */
+    size_t nodes_checked;
+    char summary[512];
+} rto_bvh_report;
+
+/** Box tolerance of §9, in ulps per bound: leaves from transformed boxes (TLAS) 4, everything else exact. */
+#define RTO_TLAS_LEAF_ULPS 4u
+
+/**
+ * Checks a sweep TLAS (gpu, node_count nodes) over n instance boxes. With expected (the oracle's nodes), compares
+ * exactly (items, EMPTY handling) and boxes within tolerance; without, checks validity against the boxes alone:
+ * each instance in exactly one leaf, items and EMPTY boxes consistent, every internal box the exact union of its
+ * children, leaf boxes within RTO_TLAS_LEAF_ULPS of the instance box.
+ * Returns RTO_OK, RTO_ERR_MISMATCH (report says what), or another status for unusable input.
+ */
+rto_status rto_tlas_check(const rto_tlas_node *gpu, size_t node_count, const rto_tlas_node *expected,
+                          const rto_aabb *boxes, size_t n, rto_bvh_report *report, rto_msg *msg);
+
+/**
+ * Checks a Karras-layout tree (gpu, node_count nodes) over n primitives whose sorted leaf j holds primitive
+ * leaf_prims[j]. Structure first (links in range, no cycle or shared node, parents, every leaf exactly once), then,
+ * with expected, exact topology; child boxes against prim_boxes (leaf_ulps tolerance) and exact unions.
+ */
+rto_status rto_karras_check(const rto_bvh_node *gpu, size_t node_count, const rto_bvh_node *expected,
+                            const uint32_t *leaf_prims, const rto_aabb *prim_boxes, size_t n, uint32_t leaf_ulps,
+                            rto_bvh_report *report, rto_msg *msg);
+
+/** Depth, leaves and SAH cost of a sweep TLAS / a Karras tree (n primitives). */
+rto_bvh_stats rto_tlas_stats(const rto_tlas_node *nodes, size_t n);
+rto_bvh_stats rto_karras_stats(const rto_bvh_node *nodes, size_t n, const rto_aabb *root_box);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
 /* .npy files (NumPy format 1.0 / 2.0 / 3.0, little-endian, C order)                                                  */
 
 typedef enum rto_dtype {

@@ -30,6 +30,11 @@ static inline void rto_key_put(rto_key_format f, void *keys, size_t i, uint64_t 
         ((uint64_t *)keys)[i] = v;
 }
 
+/* min / max with a fixed choice between +0 and -0 (the second operand when equal), so that unions are the same bytes
+ * whether the compiler inlines minss or calls fminf. */
+static inline float rto_minf(float a, float b) { return a < b ? a : b; }
+static inline float rto_maxf(float a, float b) { return a > b ? a : b; }
+
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
 void *rto_alloc(size_t count, size_t size);
 

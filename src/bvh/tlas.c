@@ -1,0 +1,122 @@
+/* The TLAS sweep tree of DESIGN.md §5: the seeds' implicit heap over N_PADDED sorted leaves, built bottom-up by
+ * AABB union. Children of node i are 2i+1 and 2i+2; leaf j (sorted position j) is node N_PADDED - 1 + j. EMPTY boxes
+ * are (+inf, -inf), the identity of the union, so an internal node's box is the plain union of both children. */
+#include "internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+rto_vec3 rto_aabb_centroid(const rto_aabb *b)
+{
+    rto_vec3 c = {(b->min.x + b->max.x) * 0.5f, (b->min.y + b->max.y) * 0.5f, (b->min.z + b->max.z) * 0.5f};
+    return c;
+}
+
+size_t rto_tlas_sweep_node_count(size_t n)
+{
+    size_t np = rto_next_pow2(n);
+    return np ? 2 * np - 1 : 1;
+}
+
+static void set_empty(rto_tlas_node *t)
+{
+    memset(t, 0, sizeof *t);
+    t->min[0] = t->min[1] = t->min[2] = INFINITY;
+    t->max[0] = t->max[1] = t->max[2] = -INFINITY;
+    t->item = RTO_TLAS_EMPTY;
+}
+
+rto_status rto_tlas_build_sweep(const rto_aabb *boxes, size_t n, uint32_t *keys, uint32_t *sorted,
+                                rto_tlas_node *nodes, rto_msg *msg)
+{
+    if (n > RTO_TLAS_MAX_INSTANCES)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu instances: the sweep TLAS holds at most %u", n,
+                        RTO_TLAS_MAX_INSTANCES);
+    if ((n && (!boxes || !keys || !sorted)) || !nodes)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL boxes, keys or nodes");
+    rto_vec3 *c = rto_alloc(n, sizeof *c);
+    if (!c)
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    for (size_t i = 0; i < n; i++)
+        c[i] = rto_aabb_centroid(&boxes[i]);
+    rto_status s = rto_tlas_keys(c, n, keys, msg);
+    free(c);
+    if (!s)
+        s = rto_bitonic_sort(RTO_KEY_U32, keys, n, sorted, NULL, NULL, msg);
+    if (s)
+        return s;
+    const size_t np = rto_next_pow2(n), count = rto_tlas_sweep_node_count(n);
+    if (np == 0) {
+        set_empty(&nodes[0]);
+        return RTO_OK;
+    }
+    for (size_t j = 0; j < np; j++) {
+        rto_tlas_node *t = &nodes[np - 1 + j];
+        if (j >= n) {
+            set_empty(t);
+            continue;
+        }
+        uint32_t inst = rto_key_prim(RTO_KEY_U32, sorted[j]);
+        memset(t, 0, sizeof *t);
+        t->min[0] = boxes[inst].min.x;
+        t->min[1] = boxes[inst].min.y;
+        t->min[2] = boxes[inst].min.z;
+        t->max[0] = boxes[inst].max.x;
+        t->max[1] = boxes[inst].max.y;
+        t->max[2] = boxes[inst].max.z;
+        t->item = inst;
+    }
+    for (size_t i = np - 1; i-- > 0;) {
+        const rto_tlas_node *l = &nodes[2 * i + 1], *r = &nodes[2 * i + 2];
+        rto_tlas_node *t = &nodes[i];
+        memset(t, 0, sizeof *t);
+        for (int a = 0; a < 3; a++) {
+            t->min[a] = rto_minf(l->min[a], r->min[a]);
+            t->max[a] = rto_maxf(l->max[a], r->max[a]);
+        }
+        t->item = (l->item == RTO_TLAS_EMPTY && r->item == RTO_TLAS_EMPTY) ? RTO_TLAS_EMPTY : RTO_TLAS_INTERNAL;
+    }
+    (void)count;
+    return RTO_OK;
+}
+
+uint32_t rto_key_prim(rto_key_format f, uint64_t key)
+{
+    return f == RTO_KEY_U32 ? (uint32_t)(key & 0xFFFFu) : (uint32_t)key;
+}
+
+/* Surface area of a box, in binary64; 0 for an empty box. */
+static double area(const float *mn, const float *mx)
+{
+    double d[3];
+    for (int a = 0; a < 3; a++) {
+        d[a] = (double)mx[a] - (double)mn[a];
+        if (!(d[a] >= 0))
+            return 0;
+    }
+    return 2 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0]);
+}
+
+rto_bvh_stats rto_tlas_stats(const rto_tlas_node *nodes, size_t n)
+{
+    rto_bvh_stats st = {0, 0, 0};
+    size_t np = rto_next_pow2(n);
+    if (np == 0)
+        return st;
+    double root = area(nodes[0].min, nodes[0].max), sum = 0;
+    for (size_t i = 0; i < 2 * np - 1; i++) {
+        if (nodes[i].item == RTO_TLAS_EMPTY)
+            continue;
+        sum += area(nodes[i].min, nodes[i].max);
+        if (i >= np - 1) {
+            st.leaves++;
+            uint32_t d = 0;
+            for (size_t k = i; k > 0; k = (k - 1) / 2)
+                d++;
+            st.depth = d > st.depth ? d : st.depth;
+        }
+    }
+    st.sah = root > 0 ? sum / root : 0;
+    return st;
+}

@@ -1,0 +1,365 @@
+/* TLAS sweep tree and Karras trees against independent references (a top-down radix split computed bit by bit,
+ * brute-force unions), and mutation tests for the tree validators. */
+#include "testutil.h"
+
+#include <math.h>
+
+/* Boxes of half-size h around the centroids of a centroid distribution. */
+static rto_aabb *make_boxes(const char *dist, size_t n, float h, uint32_t seed)
+{
+    rto_vec3 *c = malloc((n ? n : 1) * sizeof *c);
+    rto_aabb *b = malloc((n ? n : 1) * sizeof *b);
+    assert_int_equal(rto_centroids_generate(dist, seed, n, c, NULL), RTO_OK);
+    for (size_t i = 0; i < n; i++) {
+        float s = h * (1.0f + rto_unit(seed + 1, (uint32_t)i)); /* varied sizes */
+        b[i].min = (rto_vec3){c[i].x - s, c[i].y - s, c[i].z - s};
+        b[i].max = (rto_vec3){c[i].x + s, c[i].y + s, c[i].z + s};
+    }
+    free(c);
+    return b;
+}
+
+typedef struct sweep {
+    size_t n, np, count;
+    uint32_t *keys, *sorted;
+    rto_tlas_node *nodes;
+    rto_aabb *boxes;
+} sweep;
+
+static void sweep_make(sweep *s, const char *dist, size_t n)
+{
+    s->n = n;
+    s->np = rto_next_pow2(n);
+    s->count = rto_tlas_sweep_node_count(n);
+    s->boxes = make_boxes(dist, n, 1e-4f, 3);
+    s->keys = malloc((n ? n : 1) * 4);
+    s->sorted = malloc((s->np ? s->np : 1) * 4);
+    s->nodes = malloc(s->count * sizeof *s->nodes);
+    rto_msg msg = {{0}};
+    if (rto_tlas_build_sweep(s->boxes, n, s->keys, s->sorted, s->nodes, &msg))
+        fail_msg("sweep %s n=%zu: %s", dist, n, msg.text);
+}
+
+static void sweep_free(sweep *s)
+{
+    free(s->keys);
+    free(s->sorted);
+    free(s->nodes);
+    free(s->boxes);
+}
+
+static const size_t sizes[] = {0, 1, 2, 3, 4095, 4096, 4097, 65536};
+
+/* Sweep invariants written out here, independent of rto_tlas_check. */
+static void test_sweep_tree_invariants(void **state)
+{
+    (void)state;
+    for (size_t d = 0; d < rto_dist_count(); d++) {
+        const rto_dist_info *di = rto_dist_at(d);
+        if (di->kind != RTO_DIST_CENTROID)
+            continue;
+        for (size_t z = 0; z < sizeof sizes / sizeof sizes[0]; z++) {
+            sweep s;
+            sweep_make(&s, di->name, sizes[z]);
+            uint64_t *e = tu_qsorted(RTO_KEY_U32, s.keys, s.n);
+            unsigned char *seen = calloc(s.n + 1, 1);
+            assert_int_equal(s.count, s.n ? 2 * s.np - 1 : 1);
+            for (size_t j = 0; j < s.np; j++) {
+                const rto_tlas_node *t = &s.nodes[s.np - 1 + j];
+                if (j < s.n) {
+                    assert_int_equal(t->item, e[j] & 0xFFFF); /* leaf j is sorted position j */
+                    assert_false(seen[t->item]);
+                    seen[t->item] = 1;
+                    assert_true(t->min[0] == s.boxes[t->item].min.x && t->max[2] == s.boxes[t->item].max.z);
+                } else {
+                    assert_int_equal(t->item, RTO_TLAS_EMPTY);
+                    assert_true(isinf(t->min[0]) && t->min[0] > 0 && isinf(t->max[1]) && t->max[1] < 0);
+                }
+            }
+            for (size_t i = 0; s.np && i < s.np - 1; i++) {
+                const rto_tlas_node *t = &s.nodes[i];
+                /* brute force: the union over the leaves below node i */
+                size_t lo = i, hi = i;
+                while (lo < s.np - 1) {
+                    lo = 2 * lo + 1;
+                    hi = 2 * hi + 2;
+                }
+                float mn = INFINITY, mx = -INFINITY;
+                int any = 0;
+                for (size_t l = lo; l <= hi; l++) {
+                    mn = fminf(mn, s.nodes[l].min[1]);
+                    mx = fmaxf(mx, s.nodes[l].max[1]);
+                    any |= s.nodes[l].item != RTO_TLAS_EMPTY;
+                }
+                assert_true(t->min[1] == mn && t->max[1] == mx);
+                assert_int_equal(t->item, any ? RTO_TLAS_INTERNAL : RTO_TLAS_EMPTY);
+            }
+            rto_bvh_report r;
+            assert_int_equal(rto_tlas_check(s.nodes, s.count, NULL, s.boxes, s.n, &r, NULL), RTO_OK);
+            assert_int_equal(rto_tlas_check(s.nodes, s.count, s.nodes, s.boxes, s.n, &r, NULL), RTO_OK);
+            free(e);
+            free(seen);
+            sweep_free(&s);
+        }
+    }
+}
+
+/* Top-down reference for the binary radix tree: split [lo, hi] at the highest bit where keys lo and hi differ
+ * (the (key, index) pair when keys repeat). Internal node numbering follows Karras: the range [lo, hi] belongs to
+ * node lo or hi, whichever is its split-side end; the root is 0. */
+static int highest_diff(uint64_t a, uint64_t b, uint32_t ia, uint32_t ib, int width)
+{
+    for (int bit = width - 1; bit >= 0; bit--)
+        if (((a >> bit) & 1) != ((b >> bit) & 1))
+            return bit + 32; /* key bits rank above index bits */
+    for (int bit = 31; bit >= 0; bit--)
+        if (((ia >> bit) & 1u) != ((ib >> bit) & 1u))
+            return bit;
+    return -1;
+}
+
+static int bit_of(uint64_t key, uint32_t idx, int pos) { return pos >= 32 ? (int)((key >> (pos - 32)) & 1) : (int)((idx >> pos) & 1u); }
+
+static void reference_tree(rto_key_format f, const void *keys, uint32_t lo, uint32_t hi, uint32_t node,
+                           rto_bvh_node *out)
+{
+    int width = f == RTO_KEY_U32 ? 32 : 64;
+    int pos = highest_diff(tu_get(f, keys, lo), tu_get(f, keys, hi), lo, hi, width);
+    uint32_t gamma = lo;
+    while (gamma + 1 <= hi && bit_of(tu_get(f, keys, gamma + 1), gamma + 1, pos) == 0)
+        gamma++;
+    out[node].left = gamma == lo ? (RTO_BVH_LEAF_BIT | gamma) : gamma;
+    out[node].right = gamma + 1 == hi ? (RTO_BVH_LEAF_BIT | (gamma + 1)) : gamma + 1;
+    if (gamma != lo)
+        reference_tree(f, keys, lo, gamma, gamma, out);
+    if (gamma + 1 != hi)
+        reference_tree(f, keys, gamma + 1, hi, gamma + 1, out);
+}
+
+static void check_karras(rto_key_format f, const void *sorted, size_t n, const rto_aabb *boxes, const char *what)
+{
+    rto_bvh_node *nodes = malloc((n ? n : 1) * sizeof *nodes), *ref = calloc(n ? n : 1, sizeof *ref);
+    rto_msg msg = {{0}};
+    if (rto_karras_build(f, sorted, n, boxes, nodes, &msg))
+        fail_msg("%s: %s", what, msg.text);
+    if (n >= 2) {
+        reference_tree(f, sorted, 0, (uint32_t)n - 1, 0, ref);
+        for (size_t i = 0; i + 1 < n; i++)
+            if (nodes[i].left != ref[i].left || nodes[i].right != ref[i].right)
+                fail_msg("%s n=%zu: node %zu children %08x %08x, reference %08x %08x", what, n, i, nodes[i].left,
+                         nodes[i].right, ref[i].left, ref[i].right);
+    }
+    uint32_t *prims = malloc((n ? n : 1) * 4);
+    for (size_t j = 0; j < n; j++)
+        prims[j] = rto_key_prim(f, tu_get(f, sorted, j));
+    rto_bvh_report r;
+    if (rto_karras_check(nodes, n >= 2 ? n - 1 : 0, nodes, prims, boxes, n, 0, &r, &msg) != RTO_OK)
+        fail_msg("%s n=%zu: self-check: %s", what, n, r.summary);
+    free(nodes);
+    free(ref);
+    free(prims);
+}
+
+static void test_karras_matches_top_down_reference(void **state)
+{
+    (void)state;
+    const size_t ns[] = {0, 1, 2, 3, 4, 5, 17, 100, 4095, 4096, 4097};
+    for (size_t d = 0; d < rto_dist_count(); d++) {
+        const rto_dist_info *di = rto_dist_at(d);
+        if (di->kind != RTO_DIST_CENTROID)
+            continue;
+        for (size_t z = 0; z < sizeof ns / sizeof ns[0]; z++) {
+            size_t n = ns[z];
+            rto_aabb *boxes = make_boxes(di->name, n, 1e-4f, 9);
+            /* BLAS keys (u64) and TLAS keys (u32) of the same boxes, sorted by the oracle's network */
+            for (int fi = 0; fi < 2; fi++) {
+                rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+                rto_vec3 *c = malloc((n ? n : 1) * sizeof *c);
+                for (size_t i = 0; i < n; i++)
+                    c[i] = rto_aabb_centroid(&boxes[i]);
+                void *keys = malloc((n ? n : 1) * 8), *sorted = malloc((rto_next_pow2(n) + 1) * 8);
+                if (fi)
+                    assert_int_equal(rto_blas_keys(c, n, keys, NULL), RTO_OK);
+                else
+                    assert_int_equal(rto_tlas_keys(c, n, keys, NULL), RTO_OK);
+                assert_int_equal(rto_bitonic_sort(f, keys, n, sorted, NULL, NULL, NULL), RTO_OK);
+                check_karras(f, sorted, n, boxes, di->name);
+                free(c);
+                free(keys);
+                free(sorted);
+            }
+            free(boxes);
+        }
+    }
+    /* duplicate keys exercise the index fallback of δ */
+    uint64_t dup[64];
+    rto_aabb boxes[64];
+    for (int i = 0; i < 64; i++) {
+        dup[i] = (uint64_t)(i / 16) << 40; /* four runs of equal keys; prim = low 32 bits = 0 */
+        boxes[i].min = (rto_vec3){0, 0, 0};
+        boxes[i].max = (rto_vec3){1, 1, 1};
+    }
+    check_karras(RTO_KEY_U64, dup, 64, boxes, "duplicates");
+}
+
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* Mutations: each caught and named                                                                                    */
+
+static void expect_bvh(rto_status s, const rto_bvh_report *r, rto_bvh_fault f, int64_t node, const char *what)
+{
+    if (s != RTO_ERR_MISMATCH || r->fault != f || (node >= 0 && r->node != node))
+        fail_msg("%s: got %s at node %lld (%s), want %s at node %lld", what, rto_bvh_fault_name(r->fault),
+                 (long long)r->node, r->summary, rto_bvh_fault_name(f), (long long)node);
+    assert_int_equal(strncmp(r->summary, rto_bvh_fault_name(f), strlen(rto_bvh_fault_name(f))), 0);
+}
+
+static void test_sweep_mutations(void **state)
+{
+    (void)state;
+    sweep s;
+    sweep_make(&s, "uniform", 3000);
+    rto_tlas_node *g = malloc(s.count * sizeof *g);
+    rto_bvh_report r;
+    const size_t leaf0 = s.np - 1;
+    for (int expected = 0; expected < 2; expected++) {
+        const rto_tlas_node *exp = expected ? s.nodes : NULL;
+        /* wrong leaf item */
+        memcpy(g, s.nodes, s.count * sizeof *g);
+        g[leaf0 + 10].item = g[leaf0 + 11].item;
+        expect_bvh(rto_tlas_check(g, s.count, exp, s.boxes, s.n, &r, NULL), &r, RTO_BVH_ITEM,
+                   expected ? (int64_t)(leaf0 + 10) : -1, "sweep wrong item");
+        /* dropped leaf */
+        memcpy(g, s.nodes, s.count * sizeof *g);
+        g[leaf0 + 20].item = RTO_TLAS_EMPTY;
+        expect_bvh(rto_tlas_check(g, s.count, exp, s.boxes, s.n, &r, NULL), &r, RTO_BVH_DROPPED_LEAF,
+                   expected ? (int64_t)(leaf0 + 20) : -1, "sweep dropped leaf");
+        /* an internal box shrunk by one ulp */
+        memcpy(g, s.nodes, s.count * sizeof *g);
+        g[5].max[1] = nextafterf(g[5].max[1], -INFINITY);
+        expect_bvh(rto_tlas_check(g, s.count, exp, s.boxes, s.n, &r, NULL), &r, RTO_BVH_BOX, 5, "sweep box 1 ulp");
+        /* a leaf box 5 ulp off: beyond the 4-ulp leaf tolerance */
+        memcpy(g, s.nodes, s.count * sizeof *g);
+        for (int k = 0; k < 5; k++)
+            g[leaf0 + 7].min[0] = nextafterf(g[leaf0 + 7].min[0], INFINITY);
+        expect_bvh(rto_tlas_check(g, s.count, exp, s.boxes, s.n, &r, NULL), &r, RTO_BVH_BOX,
+                   expected ? (int64_t)(leaf0 + 7) : -1, "sweep leaf box 5 ulp");
+        /* EMPTY item on a real internal node */
+        memcpy(g, s.nodes, s.count * sizeof *g);
+        g[1].item = RTO_TLAS_EMPTY;
+        expect_bvh(rto_tlas_check(g, s.count, exp, s.boxes, s.n, &r, NULL), &r, RTO_BVH_EMPTY, 1, "sweep empty");
+    }
+    /* swapped children: the subtrees under node 2 exchanged level by level */
+    memcpy(g, s.nodes, s.count * sizeof *g);
+    for (size_t a = 5, b = 6, w = 1; a < s.count; a = 2 * a + 1, b = 2 * b + 1, w *= 2)
+        for (size_t k = 0; k < w; k++) {
+            rto_tlas_node t = g[a + k];
+            g[a + k] = g[b + k];
+            g[b + k] = t;
+        }
+    expect_bvh(rto_tlas_check(g, s.count, s.nodes, s.boxes, s.n, &r, NULL), &r, RTO_BVH_SWAPPED, 2, "sweep swapped");
+    /* a structure-only check accepts the swap: still a valid tree over the same instances */
+    assert_int_equal(rto_tlas_check(g, s.count, NULL, s.boxes, s.n, &r, NULL), RTO_OK);
+    /* size */
+    expect_bvh(rto_tlas_check(s.nodes, s.count - 1, NULL, s.boxes, s.n, &r, NULL), &r, RTO_BVH_SIZE, -1, "sweep size");
+    free(g);
+    sweep_free(&s);
+}
+
+static void test_karras_mutations(void **state)
+{
+    (void)state;
+    const size_t n = 2000;
+    rto_aabb *boxes = make_boxes("clustered", n, 1e-4f, 4);
+    rto_vec3 *c = malloc(n * sizeof *c);
+    for (size_t i = 0; i < n; i++)
+        c[i] = rto_aabb_centroid(&boxes[i]);
+    uint64_t *keys = malloc(n * 8), *sorted = malloc(rto_next_pow2(n) * 8);
+    assert_int_equal(rto_blas_keys(c, n, keys, NULL), RTO_OK);
+    assert_int_equal(rto_bitonic_sort(RTO_KEY_U64, keys, n, sorted, NULL, NULL, NULL), RTO_OK);
+    rto_bvh_node *t = malloc((n - 1) * sizeof *t), *g = malloc((n - 1) * sizeof *g);
+    assert_int_equal(rto_karras_build(RTO_KEY_U64, sorted, n, boxes, t, NULL), RTO_OK);
+    uint32_t *prims = malloc(n * 4);
+    for (size_t j = 0; j < n; j++)
+        prims[j] = rto_key_prim(RTO_KEY_U64, sorted[j]);
+    rto_bvh_report r;
+    /* nodes with a leaf child and an internal child, for the leaf mutations */
+    size_t mixed = SIZE_MAX, twoleaf = SIZE_MAX;
+    for (size_t i = 1; i < n - 1; i++) {
+        int ll = (t[i].left & RTO_BVH_LEAF_BIT) != 0, rl = (t[i].right & RTO_BVH_LEAF_BIT) != 0;
+        if (ll && !rl && mixed == SIZE_MAX)
+            mixed = i;
+        if (ll && rl && twoleaf == SIZE_MAX)
+            twoleaf = i;
+    }
+    assert_true(mixed != SIZE_MAX && twoleaf != SIZE_MAX);
+#define RESET() memcpy(g, t, (n - 1) * sizeof *g)
+#define CHECK(exp) rto_karras_check(g, n - 1, (exp), prims, boxes, n, 0, &r, NULL)
+    assert_int_equal((RESET(), CHECK(t)), RTO_OK);
+    for (int expected = 0; expected < 2; expected++) {
+        const rto_bvh_node *exp = expected ? t : NULL;
+        RESET(); /* wrong leaf item: the right leaf of a two-leaf node points at its left leaf */
+        g[twoleaf].right = g[twoleaf].left;
+        expect_bvh(CHECK(exp), &r, RTO_BVH_ITEM, (int64_t)twoleaf, "karras wrong item");
+        RESET(); /* box shrunk by one ulp */
+        g[mixed].rmin[2] = nextafterf(g[mixed].rmin[2], INFINITY);
+        expect_bvh(CHECK(exp), &r, RTO_BVH_BOX, (int64_t)mixed, "karras box 1 ulp");
+        RESET(); /* dropped leaf: the parent of a mixed node links straight to its internal child */
+        {
+            uint32_t p = t[mixed].parent, keep = t[mixed].right;
+            int side = t[p].left == mixed ? 0 : 1;
+            if (side)
+                g[p].right = keep;
+            else
+                g[p].left = keep;
+            g[keep].parent = p;
+            expect_bvh(CHECK(exp), &r, RTO_BVH_DROPPED_LEAF, expected ? (int64_t)mixed : -1, "karras dropped leaf");
+            assert_int_equal(r.leaf, prims[t[mixed].left & ~RTO_BVH_LEAF_BIT]);
+        }
+        RESET(); /* cycle: a node links back to the root */
+        g[mixed].right = 0;
+        expect_bvh(CHECK(exp), &r, RTO_BVH_CYCLE, (int64_t)mixed, "karras cycle");
+        RESET(); /* out-of-range link */
+        g[mixed].right = (uint32_t)n + 5;
+        expect_bvh(CHECK(exp), &r, RTO_BVH_BAD_LINK, (int64_t)mixed, "karras bad link");
+        RESET(); /* parent link */
+        g[t[mixed].right].parent = 0;
+        expect_bvh(CHECK(exp), &r, RTO_BVH_PARENT, -1, "karras parent");
+    }
+    RESET(); /* swapped children: links and boxes exchanged */
+    {
+        rto_bvh_node *x = &g[mixed];
+        uint32_t l = x->left;
+        x->left = x->right;
+        x->right = l;
+        for (int a = 0; a < 3; a++) {
+            float v = x->lmin[a];
+            x->lmin[a] = x->rmin[a];
+            x->rmin[a] = v;
+            v = x->lmax[a];
+            x->lmax[a] = x->rmax[a];
+            x->rmax[a] = v;
+        }
+    }
+    expect_bvh(CHECK(t), &r, RTO_BVH_SWAPPED, (int64_t)mixed, "karras swapped");
+    assert_int_equal(CHECK(NULL), RTO_OK); /* still a valid tree without the oracle's order */
+#undef RESET
+#undef CHECK
+    free(boxes);
+    free(c);
+    free(keys);
+    free(sorted);
+    free(t);
+    free(g);
+    free(prims);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sweep_tree_invariants),
+        cmocka_unit_test(test_karras_matches_top_down_reference),
+        cmocka_unit_test(test_sweep_mutations),
+        cmocka_unit_test(test_karras_mutations),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
