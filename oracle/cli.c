@@ -2,9 +2,11 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <jansson.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 int cli_fail(const char *cmd, const char *fmt, ...)
 {
@@ -59,4 +61,24 @@ bool cli_parse_algo(const char *text, rto_sort_algo *a)
     else
         return false;
     return true;
+}
+
+void cli_write_report(const char *gpu_path, const char *command, const json_t *report)
+{
+    size_t len = strlen(gpu_path) + strlen(command) + 16;
+    char *path = malloc(len), *tmp = malloc(len + 16);
+    if (path && tmp) {
+        snprintf(path, len, "%s.%s.json", gpu_path, command);
+        snprintf(tmp, len + 16, "%s.tmp.XXXXXX", path);
+        int fd = mkstemp(tmp);
+        if (fd >= 0) {
+            close(fd);
+            if (json_dump_file(report, tmp, JSON_INDENT(2)) == 0 && rename(tmp, path) == 0)
+                fprintf(stderr, "rtoracle %s: report written to %s\n", command, path);
+            else
+                remove(tmp);
+        }
+    }
+    free(path);
+    free(tmp);
 }

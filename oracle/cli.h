@@ -4,6 +4,7 @@
 
 #include "internal.h"
 
+#include <jansson.h>
 #include <stdbool.h>
 #include <stdio.h>
 
@@ -19,6 +20,8 @@ int cli_fail(const char *cmd, const char *fmt, ...)
 /** Maps a library status to an exit status, printing msg for failures. */
 int cli_status(const char *cmd, rto_status s, const rto_msg *msg);
 
+/** Writes a failure report next to the GPU dump as <gpu>.<command>.json, through a temporary file. */
+void cli_write_report(const char *gpu_path, const char *command, const json_t *report);
 /** Strict unsigned parse (decimal or 0x hex) with an upper bound; false on junk, sign or overflow. */
 bool cli_parse_u64(const char *text, uint64_t max, uint64_t *out);
 bool cli_parse_format(const char *text, rto_key_format *f);
@@ -44,9 +47,19 @@ typedef struct key_origin {
 rto_status sort_bundle_write(const char *outdir, rto_key_format f, const void *keys, size_t n, const sort_params *p,
                              const key_origin *origin, rto_msg *msg);
 
+/** GPU struct layouts of DESIGN.md §5 as .npy structured dtypes. */
+typedef enum layout_kind { LAYOUT_TLAS_NODE, LAYOUT_BVH_NODE, LAYOUT_AABB, LAYOUT_INSTANCE } layout_kind;
+rto_npy_desc layout_desc(layout_kind k, uint64_t n);
+const char *layout_name(layout_kind k);
+size_t layout_size(layout_kind k);
+/** Accepts a GPU dump of records of layout k (structured, (count, words) or flat words); sets count. */
+rto_status layout_accept(layout_kind k, const rto_npy *npy, size_t *count, rto_msg *msg);
+
 int cmd_keys(int argc, char **argv);
 int cmd_sort(int argc, char **argv);
 int cmd_check_sort(int argc, char **argv);
 int cmd_suite(int argc, char **argv);
+int cmd_build(int argc, char **argv);
+int cmd_check_bvh(int argc, char **argv);
 
 #endif

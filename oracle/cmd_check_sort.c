@@ -6,7 +6,6 @@
 #include <jansson.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 static void check_help(FILE *to)
 {
@@ -151,27 +150,6 @@ static void print_human(const rto_sort_report *r, const char *case_id, rto_key_f
             printf("  %-10zu 0x%0*" PRIx64 " 0x%0*" PRIx64 " 0x%0*" PRIx64 "\n", d->slot, w, d->expected, w,
                    d->actual, w, d->expected ^ d->actual);
     }
-}
-
-/* Writes the JSON report next to the GPU dump: <gpu>.check-sort.json, through a temporary file. */
-static void write_artifact(const char *gpu_path, json_t *report)
-{
-    size_t len = strlen(gpu_path) + 40;
-    char *path = malloc(len), *tmp = malloc(len + 16);
-    if (path && tmp) {
-        snprintf(path, len, "%s.check-sort.json", gpu_path);
-        snprintf(tmp, len + 16, "%s.tmp.XXXXXX", path);
-        int fd = mkstemp(tmp);
-        if (fd >= 0) {
-            close(fd);
-            if (json_dump_file(report, tmp, JSON_INDENT(2)) == 0 && rename(tmp, path) == 0)
-                fprintf(stderr, "rtoracle check-sort: report written to %s\n", path);
-            else
-                remove(tmp);
-        }
-    }
-    free(path);
-    free(tmp);
 }
 
 static int load(const char *path, rto_npy *out, const char *what)
@@ -366,7 +344,7 @@ int cmd_check_sort(int argc, char **argv)
         print_human(&r, case_id, d.format, d.n, gn);
     }
     if (s == RTO_ERR_MISMATCH && artifacts)
-        write_artifact(gpu, j);
+        cli_write_report(gpu, "check-sort", j);
     json_decref(j);
     rc = s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
 out:

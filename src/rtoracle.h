@@ -572,6 +572,8 @@ const char *rto_bundle_tmpdir(const rto_bundle *b);
 /** Manifest metadata: section is "" (top level) or an object name such as "input", "params", "stats". */
 rto_status rto_bundle_set_str(rto_bundle *b, const char *section, const char *key, const char *value);
 rto_status rto_bundle_set_int(rto_bundle *b, const char *section, const char *key, int64_t value);
+/** A real number, written with the shortest representation that round-trips (jansson's %.17g). */
+rto_status rto_bundle_set_real(rto_bundle *b, const char *section, const char *key, double value);
 /** Writes manifest.json and renames the directory into place. Frees b on success and failure. */
 rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg);
 /** Removes the temporary directory and frees b. NULL is fine. */
@@ -587,6 +589,8 @@ const char *rto_bundle_get_str(rto_bundle_reader *r, const char *section, const 
 int rto_bundle_get_int(rto_bundle_reader *r, const char *section, const char *key, int64_t *value);
 /** Loads the file with the given role, after checking its sha256 against the manifest. RTO_ERR_IO if absent. */
 rto_status rto_bundle_read_role(rto_bundle_reader *r, const char *role, rto_npy *out, rto_msg *msg);
+/** Loads the file with the given name (e.g. "blas_3_nodes.npy"), after checking its sha256. */
+rto_status rto_bundle_read_name(rto_bundle_reader *r, const char *name, rto_npy *out, rto_msg *msg);
 
 /** SHA-256 of a file as 64 lowercase hex digits plus NUL. */
 rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg);

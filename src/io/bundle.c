@@ -10,6 +10,7 @@
 #include <fcntl.h>
 #include <ftw.h>
 #include <jansson.h>
+#include <math.h>
 #include <openssl/evp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -188,6 +189,14 @@ rto_status rto_bundle_set_int(rto_bundle *b, const char *section, const char *ke
     return RTO_OK;
 }
 
+rto_status rto_bundle_set_real(rto_bundle *b, const char *section, const char *key, double value)
+{
+    json_t *o = b ? section_of(b->root, section, 1) : NULL;
+    if (!o || !key || !isfinite(value) || json_object_set_new(o, key, json_real(value)))
+        return RTO_ERR_INVALID_ARGUMENT;
+    return RTO_OK;
+}
+
 rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role, const char *layout,
                               const rto_npy_desc *desc, const void *data, rto_msg *msg)
 {
@@ -356,21 +365,21 @@ int rto_bundle_get_int(rto_bundle_reader *r, const char *section, const char *ke
     return 1;
 }
 
-rto_status rto_bundle_read_role(rto_bundle_reader *r, const char *role, rto_npy *out, rto_msg *msg)
+/* Loads the file of the first manifest entry whose field `key` equals `value`, after checking its sha256. */
+static rto_status read_entry(rto_bundle_reader *r, const char *key, const char *value, rto_npy *out, rto_msg *msg)
 {
     json_t *files = r ? json_object_get(r->root, "files") : NULL;
     size_t i;
     json_t *e;
     json_array_foreach(files, i, e)
     {
-        const char *rl = json_string_value(json_object_get(e, "role"));
+        const char *v = json_string_value(json_object_get(e, key));
         const char *name = json_string_value(json_object_get(e, "name"));
         const char *sha = json_string_value(json_object_get(e, "sha256"));
-        if (!rl || strcmp(rl, role) != 0)
+        if (!v || strcmp(v, value) != 0)
             continue;
         if (!plain_name(name) || !sha)
-            return rto_fail(msg, RTO_ERR_PARSE, "%s: manifest entry for role '%s' lacks a plain name or sha256",
-                            r->dir, role);
+            return rto_fail(msg, RTO_ERR_PARSE, "%s: manifest entry '%s' lacks a plain name or sha256", r->dir, value);
         char *path = join(r->dir, name);
         char hex[65];
         rto_status s = path ? rto_sha256_file(path, hex, msg) : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
@@ -382,5 +391,15 @@ rto_status rto_bundle_read_role(rto_bundle_reader *r, const char *role, rto_npy 
         free(path);
         return s;
     }
-    return rto_fail(msg, RTO_ERR_IO, "%s: the bundle has no file with role '%s'", r ? r->dir : "(null)", role);
+    return rto_fail(msg, RTO_ERR_IO, "%s: the bundle has no file with %s '%s'", r ? r->dir : "(null)", key, value);
+}
+
+rto_status rto_bundle_read_role(rto_bundle_reader *r, const char *role, rto_npy *out, rto_msg *msg)
+{
+    return read_entry(r, "role", role, out, msg);
+}
+
+rto_status rto_bundle_read_name(rto_bundle_reader *r, const char *name, rto_npy *out, rto_msg *msg)
+{
+    return read_entry(r, "name", name, out, msg);
 }

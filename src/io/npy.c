@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 /* Array bytes are copied between file and memory verbatim and every supported descr is '<' (or byte-sized), so the
  * host must be little-endian. Header lengths are decoded byte by byte and do not depend on this. */
@@ -867,13 +868,36 @@ rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void 
     if (plen == 0)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "header for '%s' is too long", path);
 
-    FILE *fp = fopen(path, "wb");
-    if (!fp)
-        return rto_fail(msg, RTO_ERR_IO, "cannot create '%s': %s", path, strerror(errno));
-    /* A half-written file must not survive to be mistaken for output, but a device such as /dev/full must not be
-     * unlinked either: only regular files are removed on failure. */
+    /* A regular file (or a new one) is written to a temporary sibling and renamed over the path, so a reader never
+     * sees half a file and a failed write leaves the previous file intact. Anything else (/dev/null, a FIFO) is
+     * written in place and never unlinked. */
     struct stat st;
-    bool regular = fstat(fileno(fp), &st) == 0 && S_ISREG(st.st_mode);
+    bool in_place = stat(path, &st) == 0 && !S_ISREG(st.st_mode);
+    size_t plen_path = strlen(path);
+    char *tmp = in_place ? NULL : malloc(plen_path + 16);
+    FILE *fp = NULL;
+    if (in_place) {
+        fp = fopen(path, "wb");
+    } else if (tmp) {
+        snprintf(tmp, plen_path + 16, "%s.tmp.XXXXXX", path);
+        int fd = mkstemp(tmp);
+        if (fd >= 0) {
+            mode_t um = umask(0);
+            umask(um);
+            fchmod(fd, 0666 & ~um);
+            fp = fdopen(fd, "wb");
+            if (!fp) {
+                close(fd);
+                remove(tmp);
+            }
+        }
+    }
+    if (!fp) {
+        rto_status err = rto_fail(msg, tmp || in_place ? RTO_ERR_IO : RTO_ERR_OUT_OF_MEMORY,
+                                  "cannot create '%s': %s", path, strerror(errno));
+        free(tmp);
+        return err;
+    }
     errno = 0;
     bool failed = fwrite(pre, 1, plen, fp) != plen || (nbytes && fwrite(data, 1, nbytes, fp) != nbytes) ||
                   fflush(fp) != 0;
@@ -882,11 +906,15 @@ rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void 
         failed = true;
         e = errno;
     }
-    if (failed) {
-        if (regular)
-            remove(path);
-        return rto_fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(e ? e : EIO));
+    if (!failed && tmp && rename(tmp, path) != 0) {
+        failed = true;
+        e = errno;
     }
+    if (failed && tmp)
+        remove(tmp);
+    free(tmp);
+    if (failed)
+        return rto_fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(e ? e : EIO));
     return RTO_OK;
 }
 
