@@ -13,6 +13,9 @@ static const struct {
     {"sort", cmd_sort, "sort keys with the bitonic or radix oracle into a bundle"},
     {"check-sort", cmd_check_sort, "validate a GPU's sorted buffer (and checkpoints)"},
     {"suite", cmd_suite, "write the distribution x size matrix of bundles a GPU harness runs"},
+    {"build", cmd_build, "build a scene's TLAS and BLAS trees in their GPU layouts into a bundle"},
+    {"check-bvh", cmd_check_bvh, "validate a GPU-built TLAS or BLAS node array"},
+    {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
 };
 
 static void usage(FILE *to)

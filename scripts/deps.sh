@@ -5,6 +5,10 @@ RTO_DEBS=(
     build-essential pkg-config meson ninja-build   # toolchain
     libjansson-dev libssl-dev                      # manifest.json (jansson), sha256 (libcrypto)
     libcmocka-dev                                  # unit tests
+    g++ libtinygltf-dev nlohmann-json3-dev         # glTF scenes: tinygltf (header-only use) and its JSON parser
+    libopenimageio-dev                             # glTF textures (decoded in the librto_image.so module)
+    libembree-dev                                  # benchmarks: Embree on the same geometry
+    assimp-testmodels                              # glTF 2.0 test files, broken ones included (tests only)
 )
 
 rto_install_deps() {

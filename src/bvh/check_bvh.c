@@ -327,9 +327,12 @@ rto_status rto_karras_check(const rto_bvh_node *gpu, size_t count, const rto_bvh
                 for (int side = 0; side < 2; side++)
                     if (child_of(&exp[i], side) == (RTO_BVH_LEAF_BIT | (uint32_t)first_missing))
                         node = (int64_t)i;
+            char where[64] = "";
+            if (node >= 0)
+                snprintf(where, sizeof where, "; the oracle links it from node %lld", (long long)node);
             note(r, RTO_BVH_DROPPED_LEAF, node, (int64_t)leaf_prims[first_missing],
                  "sorted leaf %zu (primitive %" PRIu32 ") is reached from no node (%zu leaf/leaves missing)%s",
-                 first_missing, leaf_prims[first_missing], missing, node < 0 ? "" : "; the oracle links it here");
+                 first_missing, leaf_prims[first_missing], missing, where);
         }
         if (exp) {
             for (size_t i = 0; i < count && r->fault == RTO_BVH_OK; i++) {

@@ -1,0 +1,22 @@
+/* The glTF 2.0 loader: a C entry point over the C++17 shim in gltf.cpp (tinygltf for parsing, OpenImageIO for
+ * textures). Nothing C++ crosses this header. */
+#ifndef RTO_GLTF_H
+#define RTO_GLTF_H
+
+#include "rtoracle.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/**
+ * Fills an empty (zeroed) scene from a .gltf or .glb file. Every C++ exception is caught and returned as a status
+ * with a one-line message. On failure the scene may hold partial arrays; the caller destroys it.
+ */
+rto_status rto__gltf_load(const char *path, rto_scene *scene, rto_msg *msg);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
