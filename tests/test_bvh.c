@@ -353,6 +353,112 @@ static void test_karras_mutations(void **state)
     free(prims);
 }
 
+
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* Trees of real scenes: every fixture, rtstress:1..40, instances:DIST:N                                               */
+
+/* Builds the sweep TLAS, the Karras TLAS and every BLAS of a scene and checks them: each instance / triangle in
+ * exactly one leaf (counted here) and the validators' structure checks. */
+static void check_scene_trees(const char *spec)
+{
+    rto_scene *sc = NULL;
+    rto_msg msg = {{0}};
+    if (rto_scene_load(spec, &sc, &msg))
+        fail_msg("%s: %s", spec, msg.text);
+    const size_t n = sc->instance_count, np = rto_next_pow2(n);
+    rto_aabb *boxes = malloc((n ? n : 1) * sizeof *boxes);
+    uint32_t *keys = malloc((n ? n : 1) * 4), *sorted = malloc((np ? np : 1) * 4), *prims = malloc((n ? n : 1) * 4);
+    rto_tlas_node *sw = malloc(rto_tlas_sweep_node_count(n) * sizeof *sw);
+    rto_bvh_node *kt = malloc((n ? n : 1) * sizeof *kt);
+    unsigned char *seen = calloc(n ? n : 1, 1);
+    for (size_t i = 0; i < n; i++)
+        boxes[i] = rto_instance_aabb(sc, (uint32_t)i);
+    assert_int_equal(rto_tlas_build_sweep(boxes, n, keys, sorted, sw, &msg), RTO_OK);
+    for (size_t j = 0; j < np; j++) {
+        uint32_t it = sw[np - 1 + j].item;
+        if (j < n) {
+            assert_true(it < n && !seen[it]);
+            seen[it] = 1;
+        } else {
+            assert_int_equal(it, RTO_TLAS_EMPTY);
+        }
+    }
+    rto_bvh_report r;
+    if (rto_tlas_check(sw, rto_tlas_sweep_node_count(n), NULL, boxes, n, &r, &msg) != RTO_OK)
+        fail_msg("%s sweep: %s", spec, r.summary);
+    for (size_t j = 0; j < n; j++)
+        prims[j] = rto_key_prim(RTO_KEY_U32, sorted[j]);
+    assert_int_equal(rto_karras_build(RTO_KEY_U32, sorted, n, boxes, kt, &msg), RTO_OK);
+    if (rto_karras_check(kt, n >= 2 ? n - 1 : 0, NULL, prims, boxes, n, 0, &r, &msg) != RTO_OK)
+        fail_msg("%s karras TLAS: %s", spec, r.summary);
+    for (uint32_t m = 0; m < sc->mesh_count; m++) {
+        const rto_mesh *mesh = &sc->meshes[m];
+        size_t t = mesh->triangle_count, tp = rto_next_pow2(t);
+        uint64_t *bk = malloc((t ? t : 1) * 8), *bs = malloc((tp ? tp : 1) * 8);
+        uint32_t *order = malloc((t ? t : 1) * 4);
+        rto_aabb *tb = malloc((t ? t : 1) * sizeof *tb);
+        rto_bvh_node *bn = malloc((t ? t : 1) * sizeof *bn);
+        for (size_t i = 0; i < t; i++)
+            tb[i] = rto_mesh_triangle_aabb(mesh, (uint32_t)i);
+        assert_int_equal(rto_mesh_keys(mesh, bk, &msg), RTO_OK);
+        assert_int_equal(rto_bitonic_sort(RTO_KEY_U64, bk, t, bs, NULL, NULL, &msg), RTO_OK);
+        for (size_t j = 0; j < t; j++)
+            order[j] = rto_key_prim(RTO_KEY_U64, bs[j]);
+        assert_int_equal(rto_karras_build(RTO_KEY_U64, bs, t, tb, bn, &msg), RTO_OK);
+        if (rto_karras_check(bn, t >= 2 ? t - 1 : 0, NULL, order, tb, t, 0, &r, &msg) != RTO_OK)
+            fail_msg("%s BLAS %u: %s", spec, m, r.summary);
+        free(bk);
+        free(bs);
+        free(order);
+        free(tb);
+        free(bn);
+    }
+    free(boxes);
+    free(keys);
+    free(sorted);
+    free(prims);
+    free(sw);
+    free(kt);
+    free(seen);
+    rto_scene_destroy(sc);
+}
+
+static void test_procedural_scene_trees(void **state)
+{
+    (void)state;
+    char spec[64];
+    for (int n = 1; n <= 40; n++) {
+        snprintf(spec, sizeof spec, "rtstress:%d", n);
+        check_scene_trees(spec);
+    }
+    for (size_t d = 0; d < rto_dist_count(); d++) {
+        const rto_dist_info *di = rto_dist_at(d);
+        if (di->kind != RTO_DIST_CENTROID)
+            continue;
+        for (size_t z = 0; z < sizeof sizes / sizeof sizes[0]; z++) {
+            snprintf(spec, sizeof spec, "instances:%s:%zu", di->name, sizes[z]);
+            check_scene_trees(spec);
+        }
+    }
+    check_scene_trees("triangle");
+}
+
+static void test_fixture_trees(void **state)
+{
+    (void)state;
+    const char *fix = getenv("RTO_FIXTURES");
+    if (!fix)
+        fail_msg("RTO_FIXTURES is not set (meson sets it to ../shared/fixtures)");
+    const char *files[] = {"Box/glTF/Box.gltf", "SimpleMeshes/glTF/SimpleMeshes.gltf", "Duck/glTF/Duck.gltf",
+                           "CornellBox-nvpro-glTF/cornellBox.gltf", "StanfordBunny/bunny.gltf",
+                           "Suzanne/glTF/Suzanne.gltf", "WaterBottle/glTF/WaterBottle.gltf"};
+    char path[1024];
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        snprintf(path, sizeof path, "%s/%s", fix, files[i]);
+        check_scene_trees(path);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -360,6 +466,8 @@ int main(void)
         cmocka_unit_test(test_karras_matches_top_down_reference),
         cmocka_unit_test(test_sweep_mutations),
         cmocka_unit_test(test_karras_mutations),
+        cmocka_unit_test(test_procedural_scene_trees),
+        cmocka_unit_test(test_fixture_trees),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
