@@ -10,4 +10,14 @@ out=out/goldens
 mkdir -p "$out"
 # The sort matrix a GPU harness runs: every distribution x size class x format x algorithm (about 700 MB).
 build/oracle/rtoracle suite sort -o "$out/sort" "$@"
+# Acceleration-structure bundles of every bundled fixture scene and the procedural scenes.
+fix=../shared/fixtures
+mkdir -p "$out/build"
+while IFS= read -r f; do
+    name=$(basename "${f%.*}")
+    build/oracle/rtoracle build "$f" -o "$out/build/$name" 2>/dev/null
+done < <(find "$fix" \( -name '*.gltf' -o -name '*.glb' \) | sort)
+for spec in triangle rtstress:16 instances:clustered:4097; do
+    build/oracle/rtoracle build "$spec" -o "$out/build/${spec//:/-}"
+done
 echo "rtoracle: built build/oracle/rtoracle; golden bundles in $out/"

@@ -22,12 +22,16 @@ rto_build build-release --werror --buildtype=release
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 args=(suite sort --sizes tiny,tile,16384 --dists all --checkpoint-max 4096)
+fix=../shared/fixtures
 for b in build build-asan build-release; do
     "$b/oracle/rtoracle" "${args[@]}" -o "$tmp/$b" >/dev/null
+    "$b/oracle/rtoracle" build "$fix/CornellBox-nvpro-glTF/cornellBox.gltf" -o "$tmp/$b/cornell" 2>/dev/null
+    "$b/oracle/rtoracle" build "$fix/StanfordBunny/bunny.gltf" --tlas karras -o "$tmp/$b/bunny" 2>/dev/null
+    "$b/oracle/rtoracle" build rtstress:12 -o "$tmp/$b/rtstress" 2>/dev/null
 done
 diff -r "$tmp/build" "$tmp/build-asan" >/dev/null && diff -r "$tmp/build" "$tmp/build-release" >/dev/null || {
     echo "FAIL: bundles differ between optimisation levels" >&2
     exit 1
 }
-echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") cases byte-identical at -O0/asan, -O2, -O3"
+echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases and 3 build bundles byte-identical at -O0/asan, -O2, -O3"
 echo "== all tests passed"
