@@ -4,33 +4,13 @@
  * the oracle, and at two build qualities: LOW (its Morton builder, the closest relative of an LBVH) and MEDIUM (its
  * default binned-SAH builder). Usage: bench_bvh [bunny.gltf] [2CylinderEngine.glb]. */
 #include "rtoracle.h"
+#include "bench_util.h"
 
 #include <embree3/rtcore.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-#define RUNS 7
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *t)
-{
-    qsort(t, RUNS, sizeof *t, cmp_double);
-    return t[RUNS / 2];
-}
 
 static void die(const char *what, const rto_msg *msg)
 {

@@ -2,27 +2,13 @@
  * qsort on the same keys in the same process, as a ratio (median of RUNS runs). Absolute times drift on a shared
  * machine; the ratio is the figure to compare. Embree has no sort, so qsort is the yardstick here. */
 #include "rtoracle.h"
+#include "bench_util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
 #include <time.h>
-
-#define RUNS 7
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
 
 static int cmp_u32(const void *a, const void *b)
 {
@@ -85,8 +71,7 @@ static double median_seconds(work w, const job *j)
         run(w, j);
         t[r] = now() - t0;
     }
-    qsort(t, RUNS, sizeof t[0], cmp_double);
-    return t[RUNS / 2];
+    return median(t);
 }
 
 int main(void)

@@ -5,23 +5,7 @@ set -u
 RTO=$1
 MUT=$2
 FIX=$3
-T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
-run() {
-    local want=$1
-    shift
-    "$@" >"$T/out" 2>"$T/err"
-    local rc=$?
-    if [ "$rc" != "$want" ]; then
-        fail "exit $rc (want $want): $*"
-        sed 's/^/    | /' "$T/out" "$T/err" | head -20
-        return 1
-    fi
-    return 0
-}
-has() { grep -q -- "$1" "$T/$2" || { fail "expected '$1' in $2"; sed 's/^/    | /' "$T/$2" | head -20; }; }
+. "$(dirname "$0")/cli_lib.sh"
 
 for c in build check-bvh; do run 0 "$RTO" $c --help && has usage out; done
 
@@ -82,8 +66,4 @@ diff -r "$T/bunny" "$T/bunny2" >/dev/null || fail "two builds of the bunny diffe
 run 0 "$RTO" build rtstress:5 -o "$T/rs2"
 diff -r "$T/rs" "$T/rs2" >/dev/null || fail "two builds of rtstress:5 differ"
 
-if [ "$failures" != 0 ]; then
-    echo "$failures failure(s)"
-    exit 1
-fi
-echo "all build / check-bvh checks passed"
+finish "all build / check-bvh checks passed"

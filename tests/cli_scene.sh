@@ -5,25 +5,7 @@ set -u
 RTO=$1
 FIX=${RTO_FIXTURES:-../shared/fixtures}
 ASSIMP=${RTO_ASSIMP_MODELS:-/usr/share/assimp/models/glTF2}
-T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
-failures=0
-
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
-# run WANT_RC CMD... : runs CMD, keeps stdout/stderr in $T/out, $T/err, checks the exit status.
-run() {
-    local want=$1
-    shift
-    "$@" >"$T/out" 2>"$T/err"
-    local rc=$?
-    if [ "$rc" != "$want" ]; then
-        fail "exit $rc (want $want): $*"
-        sed 's/^/    | /' "$T/out" "$T/err" | head -20
-        return 1
-    fi
-    return 0
-}
-has() { grep -q -- "$1" "$T/$2" || { fail "expected '$1' in $2 of the last command"; sed 's/^/    | /' "$T/$2" | head -20; }; }
+. "$(dirname "$0")/cli_lib.sh"
 # A refusal: exit 2, nothing on stdout, exactly one line on stderr naming the command.
 refused() {
     run 2 "$@" || return
@@ -101,8 +83,4 @@ libm=$(find /lib /usr/lib -name 'libm.so.6' 2>/dev/null | head -1)
 "$RTO" info "$FIX/CornellBox-nvpro-glTF/cornellBox.gltf" --json >"$T/b.json"
 cmp -s "$T/a.json" "$T/b.json" || fail "info --json differs between runs"
 
-if [ "$failures" -gt 0 ]; then
-    echo "$failures failure(s)"
-    exit 1
-fi
-echo "cli.scene: all passed"
+finish "cli.scene: all passed"

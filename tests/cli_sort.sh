@@ -4,25 +4,7 @@
 set -u
 RTO=$1
 MUT=$2
-T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
-failures=0
-
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
-# run WANT_RC CMD... : runs CMD, keeps stdout/stderr in $T/out, $T/err, checks the exit status.
-run() {
-    local want=$1
-    shift
-    "$@" >"$T/out" 2>"$T/err"
-    local rc=$?
-    if [ "$rc" != "$want" ]; then
-        fail "exit $rc (want $want): $*"
-        sed 's/^/    | /' "$T/out" "$T/err" | head -20
-        return 1
-    fi
-    return 0
-}
-has() { grep -q -- "$1" "$T/$2" || { fail "expected '$1' in $2 of the last command"; sed 's/^/    | /' "$T/$2" | head -20; }; }
+. "$(dirname "$0")/cli_lib.sh"
 
 # --help of every command, usage errors
 for c in keys sort check-sort suite; do
@@ -137,8 +119,4 @@ n_cases=$(grep -c '"case": "sort:' "$T/s1/manifest.json")
 [ -f "$T/s1/bitonic-u32-clustered-n257/passes.npy" ] || fail "suite case without checkpoints"
 run 0 "$RTO" check-sort --expected "$T/s1/radix-u64-few-unique-n4097" --gpu "$T/s1/radix-u64-few-unique-n4097/sorted.npy"
 
-if [ "$failures" != 0 ]; then
-    echo "$failures failure(s)"
-    exit 1
-fi
-echo "all command-line checks passed"
+finish "all command-line checks passed"

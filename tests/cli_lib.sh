@@ -1,0 +1,29 @@
+# Shared by the command-line tests (sourced): a scratch directory $T, and run / has / fail / finish helpers.
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+failures=0
+
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+# run WANT_RC CMD... : runs CMD, keeps stdout/stderr in $T/out, $T/err, checks the exit status.
+run() {
+    local want=$1
+    shift
+    "$@" >"$T/out" 2>"$T/err"
+    local rc=$?
+    if [ "$rc" != "$want" ]; then
+        fail "exit $rc (want $want): $*"
+        sed 's/^/    | /' "$T/out" "$T/err" | head -20
+        return 1
+    fi
+    return 0
+}
+# has TEXT out|err : the last command's stdout / stderr contains TEXT.
+has() { grep -q -- "$1" "$T/$2" || { fail "expected '$1' in $2 of the last command"; sed 's/^/    | /' "$T/$2" | head -20; }; }
+# finish MESSAGE : exits 1 if anything failed, else prints MESSAGE.
+finish() {
+    if [ "$failures" != 0 ]; then
+        echo "$failures failure(s)"
+        exit 1
+    fi
+    echo "$1"
+}
