@@ -159,17 +159,6 @@ rto_status rto_mesh_keys(const rto_mesh *mesh, uint64_t *keys, rto_msg *msg)
     return s;
 }
 
-static double area3(const float *mn, const float *mx)
-{
-    double d[3];
-    for (int a = 0; a < 3; a++) {
-        d[a] = (double)mx[a] - (double)mn[a];
-        if (!(d[a] >= 0))
-            return 0;
-    }
-    return 2 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0]);
-}
-
 rto_bvh_stats rto_karras_stats(const rto_bvh_node *nodes, size_t n, const rto_aabb *root_box)
 {
     rto_bvh_stats st = {0, 0, (uint32_t)n};
@@ -177,13 +166,13 @@ rto_bvh_stats rto_karras_stats(const rto_bvh_node *nodes, size_t n, const rto_aa
         return st;
     float rmn[3] = {root_box->min.x, root_box->min.y, root_box->min.z};
     float rmx[3] = {root_box->max.x, root_box->max.y, root_box->max.z};
-    double root = area3(rmn, rmx), sum = root;
+    double root = rto_box_area(rmn, rmx), sum = root;
     /* Every child box is counted once: internal children as internal nodes, leaf children as leaves. */
     uint32_t *depth = calloc(n, sizeof *depth);
     if (!depth)
         return st;
     for (size_t i = 0; i + 1 < n; i++) {
-        sum += area3(nodes[i].lmin, nodes[i].lmax) + area3(nodes[i].rmin, nodes[i].rmax);
+        sum += rto_box_area(nodes[i].lmin, nodes[i].lmax) + rto_box_area(nodes[i].rmin, nodes[i].rmax);
     }
     /* Node depths in creation order are not topological, so walk from the root. */
     uint32_t *stack = rto_alloc(n, sizeof *stack);

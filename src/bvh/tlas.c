@@ -86,29 +86,17 @@ uint32_t rto_key_prim(rto_key_format f, uint64_t key)
     return f == RTO_KEY_U32 ? (uint32_t)(key & 0xFFFFu) : (uint32_t)key;
 }
 
-/* Surface area of a box, in binary64; 0 for an empty box. */
-static double area(const float *mn, const float *mx)
-{
-    double d[3];
-    for (int a = 0; a < 3; a++) {
-        d[a] = (double)mx[a] - (double)mn[a];
-        if (!(d[a] >= 0))
-            return 0;
-    }
-    return 2 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0]);
-}
-
 rto_bvh_stats rto_tlas_stats(const rto_tlas_node *nodes, size_t n)
 {
     rto_bvh_stats st = {0, 0, 0};
     size_t np = rto_next_pow2(n);
     if (np == 0)
         return st;
-    double root = area(nodes[0].min, nodes[0].max), sum = 0;
+    double root = rto_box_area(nodes[0].min, nodes[0].max), sum = 0;
     for (size_t i = 0; i < 2 * np - 1; i++) {
         if (nodes[i].item == RTO_TLAS_EMPTY)
             continue;
-        sum += area(nodes[i].min, nodes[i].max);
+        sum += rto_box_area(nodes[i].min, nodes[i].max);
         if (i >= np - 1) {
             st.leaves++;
             uint32_t d = 0;

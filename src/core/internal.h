@@ -35,6 +35,18 @@ static inline void rto_key_put(rto_key_format f, void *keys, size_t i, uint64_t 
 static inline float rto_minf(float a, float b) { return a < b ? a : b; }
 static inline float rto_maxf(float a, float b) { return a > b ? a : b; }
 
+/** Surface area of a box given as min / max triples, in binary64; 0 for an empty box (SAH statistics). */
+static inline double rto_box_area(const float *mn, const float *mx)
+{
+    double d[3];
+    for (int a = 0; a < 3; a++) {
+        d[a] = (double)mx[a] - (double)mn[a];
+        if (!(d[a] >= 0))
+            return 0;
+    }
+    return 2 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0]);
+}
+
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
 void *rto_alloc(size_t count, size_t size);
 
