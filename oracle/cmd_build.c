@@ -85,16 +85,7 @@ static rto_status build_tlas(rto_bundle *b, const rto_scene *sc, int karras, rto
             s = self_check(rto_tlas_check(nodes, count, NULL, boxes, n, &r, msg), &r, "the sweep TLAS", msg);
         st = rto_tlas_stats(nodes, n);
     } else if (!s) {
-        rto_vec3 *c = rto_alloc(n, sizeof *c);
-        if (!c)
-            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-        for (size_t i = 0; !s && i < n; i++)
-            c[i] = rto_aabb_centroid(&boxes[i]);
-        if (!s)
-            s = rto_tlas_keys(c, n, keys, msg);
-        free(c);
-        if (!s)
-            s = rto_bitonic_sort(RTO_KEY_U32, keys, n, sorted, NULL, NULL, msg);
+        s = rto_tlas_sorted_keys(boxes, n, keys, sorted, msg);
         if (!s)
             s = rto_karras_build(RTO_KEY_U32, sorted, n, boxes, nodes, msg);
         for (size_t j = 0; !s && j < n; j++)

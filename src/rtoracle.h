@@ -397,6 +397,9 @@ rto_vec3 rto_aabb_centroid(const rto_aabb *box);
 /** Nodes of a sweep tree over n leaves: 2 * n_padded - 1, and 1 (one EMPTY root) for n = 0. */
 size_t rto_tlas_sweep_node_count(size_t n);
 
+/** TLAS keys of the n box centroids (keys, instance order) and their canonical bitonic sort (sorted, n_padded). */
+rto_status rto_tlas_sorted_keys(const rto_aabb *boxes, size_t n, uint32_t *keys, uint32_t *sorted, rto_msg *msg);
+
 /**
  * Builds the TLAS sweep tree (§5) over n instance boxes: TLAS keys of the box centroids, the canonical bitonic sort,
  * then the heap-ordered tree bottom-up by AABB union.

@@ -27,6 +27,20 @@ static void set_empty(rto_tlas_node *t)
     t->item = RTO_TLAS_EMPTY;
 }
 
+rto_status rto_tlas_sorted_keys(const rto_aabb *boxes, size_t n, uint32_t *keys, uint32_t *sorted, rto_msg *msg)
+{
+    if (n && (!boxes || !keys || !sorted))
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL boxes or keys");
+    rto_vec3 *c = rto_alloc(n, sizeof *c);
+    if (!c)
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    for (size_t i = 0; i < n; i++)
+        c[i] = rto_aabb_centroid(&boxes[i]);
+    rto_status s = rto_tlas_keys(c, n, keys, msg);
+    free(c);
+    return s ? s : rto_bitonic_sort(RTO_KEY_U32, keys, n, sorted, NULL, NULL, msg);
+}
+
 rto_status rto_tlas_build_sweep(const rto_aabb *boxes, size_t n, uint32_t *keys, uint32_t *sorted,
                                 rto_tlas_node *nodes, rto_msg *msg)
 {
@@ -35,18 +49,10 @@ rto_status rto_tlas_build_sweep(const rto_aabb *boxes, size_t n, uint32_t *keys,
                         RTO_TLAS_MAX_INSTANCES);
     if ((n && (!boxes || !keys || !sorted)) || !nodes)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL boxes, keys or nodes");
-    rto_vec3 *c = rto_alloc(n, sizeof *c);
-    if (!c)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-    for (size_t i = 0; i < n; i++)
-        c[i] = rto_aabb_centroid(&boxes[i]);
-    rto_status s = rto_tlas_keys(c, n, keys, msg);
-    free(c);
-    if (!s)
-        s = rto_bitonic_sort(RTO_KEY_U32, keys, n, sorted, NULL, NULL, msg);
+    rto_status s = rto_tlas_sorted_keys(boxes, n, keys, sorted, msg);
     if (s)
         return s;
-    const size_t np = rto_next_pow2(n), count = rto_tlas_sweep_node_count(n);
+    const size_t np = rto_next_pow2(n);
     if (np == 0) {
         set_empty(&nodes[0]);
         return RTO_OK;
@@ -77,7 +83,6 @@ rto_status rto_tlas_build_sweep(const rto_aabb *boxes, size_t n, uint32_t *keys,
         }
         t->item = (l->item == RTO_TLAS_EMPTY && r->item == RTO_TLAS_EMPTY) ? RTO_TLAS_EMPTY : RTO_TLAS_INTERNAL;
     }
-    (void)count;
     return RTO_OK;
 }
 
