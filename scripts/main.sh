@@ -11,7 +11,7 @@ mkdir -p "$out"
 # The sort matrix a GPU harness runs: every distribution x size class x format x algorithm (about 700 MB).
 build/oracle/rtoracle suite sort -o "$out/sort" "$@"
 # Acceleration-structure bundles of every bundled fixture scene and the procedural scenes.
-fix=../shared/fixtures
+fix=fixtures
 mkdir -p "$out/build"
 while IFS= read -r f; do
     name=$(basename "${f%.*}")

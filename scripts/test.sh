@@ -22,7 +22,7 @@ rto_build build-release --werror --buildtype=release
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 args=(suite sort --sizes tiny,tile,16384 --dists all --checkpoint-max 4096)
-fix=../shared/fixtures
+fix=fixtures
 for b in build build-asan build-release; do
     "$b/oracle/rtoracle" "${args[@]}" -o "$tmp/$b" >/dev/null
     "$b/oracle/rtoracle" build "$fix/CornellBox-nvpro-glTF/cornellBox.gltf" -o "$tmp/$b/cornell" 2>/dev/null

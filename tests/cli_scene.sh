@@ -3,7 +3,7 @@
 # exactly one stderr line and exit 2, procedural specs and bad specs, --help and usage errors, byte-identical reruns.
 set -u
 RTO=$1
-FIX=${RTO_FIXTURES:-../shared/fixtures}
+FIX=${RTO_FIXTURES:-fixtures}
 ASSIMP=${RTO_ASSIMP_MODELS:-/usr/share/assimp/models/glTF2}
 . "$(dirname "$0")/cli_lib.sh"
 # A refusal: exit 2, nothing on stdout, exactly one line on stderr naming the command.

@@ -448,7 +448,7 @@ static void test_fixture_trees(void **state)
     (void)state;
     const char *fix = getenv("RTO_FIXTURES");
     if (!fix)
-        fail_msg("RTO_FIXTURES is not set (meson sets it to ../shared/fixtures)");
+        fail_msg("RTO_FIXTURES is not set (meson sets it to fixtures/)");
     const char *files[] = {"Box/glTF/Box.gltf", "SimpleMeshes/glTF/SimpleMeshes.gltf", "Duck/glTF/Duck.gltf",
                            "CornellBox-nvpro-glTF/cornellBox.gltf", "StanfordBunny/bunny.gltf",
                            "Suzanne/glTF/Suzanne.gltf", "WaterBottle/glTF/WaterBottle.gltf"};

@@ -17,7 +17,7 @@
 static const char *fixtures_dir(void)
 {
     const char *d = getenv("RTO_FIXTURES");
-    return d && *d ? d : "../shared/fixtures";
+    return d && *d ? d : "fixtures";
 }
 
 static const char *assimp_dir(void)
