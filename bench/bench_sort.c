@@ -52,7 +52,7 @@ static void run(work w, const job *j)
         d.n = j->n;
         d.gpu_keys = j->sorted;
         d.gpu_n = j->n;
-        rto_sort_report r;
+        rto_report r;
         s = rto_sort_check(&d, &r, NULL);
         break;
     }

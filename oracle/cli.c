@@ -73,7 +73,7 @@ void cli_write_report(const char *gpu_path, const char *command, const json_t *r
         int fd = mkstemp(tmp);
         if (fd >= 0) {
             close(fd);
-            if (json_dump_file(report, tmp, JSON_INDENT(2)) == 0 && rename(tmp, path) == 0)
+            if (json_dump_file(report, tmp, JSON_INDENT(2) | JSON_REAL_PRECISION(9)) == 0 && rename(tmp, path) == 0)
                 fprintf(stderr, "rtoracle %s: report written to %s\n", command, path);
             else
                 remove(tmp);
@@ -81,4 +81,78 @@ void cli_write_report(const char *gpu_path, const char *command, const json_t *r
     }
     free(path);
     free(tmp);
+}
+
+/* Renders a report with one of the library's writers into a fresh buffer sized by a first call. */
+static char *render(const rto_report *r, int json)
+{
+    size_t len = 0;
+    rto_status s = json ? rto_report_json(r, NULL, 0, &len, NULL) : rto_report_text(r, NULL, 0, &len);
+    char *text = s == RTO_ERR_BUFFER_TOO_SMALL ? malloc(len + 1) : NULL;
+    if (text && (json ? rto_report_json(r, text, len + 1, &len, NULL) : rto_report_text(r, text, len + 1, &len))) {
+        free(text);
+        text = NULL;
+    }
+    return text;
+}
+
+int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, const char *gpu_path)
+{
+    const int passed = rto_report_passed(r);
+    char *out = render(r, json), *jtext = json ? out : render(r, 1);
+    if (out) {
+        fputs(out, stdout);
+        if (json)
+            fputc('\n', stdout);
+    } else {
+        /* Nothing can be rendered only when memory runs out: still say what was found. */
+        printf("%s: %s %s\n", cmd, passed ? "PASS" : "FAIL", r->summary);
+    }
+    if (!passed && artifacts && jtext) {
+        json_t *j = json_loads(jtext, 0, NULL);
+        if (j)
+            cli_write_report(gpu_path, cmd, j);
+        json_decref(j);
+    }
+    if (jtext != out)
+        free(jtext);
+    free(out);
+    return passed ? EXIT_PASS : EXIT_MISMATCH;
+}
+
+bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want)
+{
+    if (have->dtype != want->dtype || have->ndim != want->ndim)
+        return false;
+    for (uint32_t i = 0; i < want->ndim && i < RTO_NPY_MAX_DIMS; i++)
+        if (have->shape[i] != want->shape[i])
+            return false;
+    if (want->dtype != RTO_DTYPE_STRUCT)
+        return true;
+    if (have->nfields != want->nfields)
+        return false;
+    for (uint32_t i = 0; i < want->nfields && i < RTO_NPY_MAX_FIELDS; i++) {
+        const rto_npy_field *a = &have->fields[i], *b = &want->fields[i];
+        if (a->type != b->type || a->count != b->count || a->offset != b->offset || strcmp(a->name, b->name))
+            return false;
+    }
+    return true;
+}
+
+const char *cli_npy_what(const rto_npy_desc *d, const char *layout, char *buf, size_t cap)
+{
+    char descr[256];
+    int used;
+    if (d->dtype == RTO_DTYPE_STRUCT && layout) /* a struct's full descr would fill the line */
+        used = snprintf(buf, cap, "%s records, shape (", layout);
+    else if (d->dtype == RTO_DTYPE_STRUCT)
+        used = snprintf(buf, cap, "%zu-byte records, shape (", rto_npy_itemsize(d));
+    else
+        used = snprintf(buf, cap, "dtype %s, shape (", rto_npy_descr(d, descr, sizeof descr) ? "?" : descr);
+    for (uint32_t i = 0; used >= 0 && (size_t)used < cap && i < d->ndim && i < RTO_NPY_MAX_DIMS; i++)
+        used += snprintf(buf + used, cap - (size_t)used, "%s%llu%s", i ? " " : "", (unsigned long long)d->shape[i],
+                         d->ndim == 1 || i + 1 < d->ndim ? "," : "");
+    if (used >= 0 && (size_t)used < cap)
+        snprintf(buf + used, cap - (size_t)used, ")");
+    return buf;
 }

@@ -22,6 +22,16 @@ int cli_status(const char *cmd, rto_status s, const rto_msg *msg);
 
 /** Writes a failure report next to the GPU dump as <gpu>.<command>.json, through a temporary file. */
 void cli_write_report(const char *gpu_path, const char *command, const json_t *report);
+/**
+ * Prints a validator's report to stdout (text, or JSON with json) and, when it records a fault and artifacts is
+ * set, writes its JSON next to the GPU dump (cli_write_report). Returns EXIT_PASS or EXIT_MISMATCH.
+ */
+int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, const char *gpu_path);
+/** Whether a loaded array has exactly the dtype (struct fields included) and shape of want. */
+bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want);
+/** "dtype <u4, shape (1,)": what an array holds, for messages; a structured dtype is named by layout ("Aabb
+ * records, shape (3,)") or, with layout NULL, by its record size. Returns buf. */
+const char *cli_npy_what(const rto_npy_desc *d, const char *layout, char *buf, size_t cap);
 /** Strict unsigned parse (decimal or 0x hex) with an upper bound; false on junk, sign or overflow. */
 bool cli_parse_u64(const char *text, uint64_t max, uint64_t *out);
 bool cli_parse_format(const char *text, rto_key_format *f);

@@ -55,10 +55,22 @@ static rto_status add_instances(rto_bundle *b, const rto_scene *sc, rto_msg *msg
     return s;
 }
 
-static rto_status self_check(rto_status s, const rto_bvh_report *r, const char *what, rto_msg *msg)
+/* Every tree passes the validator (structure, exact leaf boxes, exact unions) before it is written. */
+static rto_status self_check(int sweep, const void *nodes, size_t count, const rto_aabb *boxes, size_t n,
+                             const uint32_t *prims, const char *what, rto_msg *msg)
 {
+    rto_bvh_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.nodes = nodes;
+    d.node_count = count;
+    d.prim_boxes = boxes;
+    d.prim_count = n;
+    d.leaf_prims = prims;
+    d.leaf_count = n;
+    rto_report r;
+    rto_status s = sweep ? rto_tlas_check(&d, &r, msg) : rto_karras_check(&d, &r, msg);
     if (s == RTO_ERR_MISMATCH)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "internal self-check of %s failed: %s", what, r->summary);
+        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "internal self-check of %s failed: %s", what, r.summary);
     return s;
 }
 
@@ -77,12 +89,11 @@ static rto_status build_tlas(rto_bundle *b, const rto_scene *sc, int karras, rto
         s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     for (size_t i = 0; !s && i < n; i++)
         boxes[i] = rto_instance_aabb(sc, (uint32_t)i);
-    rto_bvh_report r;
     rto_bvh_stats st = {0, 0, 0};
     if (!s && !karras) {
         s = rto_tlas_build_sweep(boxes, n, keys, sorted, nodes, msg);
         if (!s)
-            s = self_check(rto_tlas_check(nodes, count, NULL, boxes, n, &r, msg), &r, "the sweep TLAS", msg);
+            s = self_check(1, nodes, count, boxes, n, NULL, "the sweep TLAS", msg);
         st = rto_tlas_stats(nodes, n);
     } else if (!s) {
         s = rto_tlas_sorted_keys(boxes, n, keys, sorted, msg);
@@ -91,8 +102,7 @@ static rto_status build_tlas(rto_bundle *b, const rto_scene *sc, int karras, rto
         for (size_t j = 0; !s && j < n; j++)
             prims[j] = rto_key_prim(RTO_KEY_U32, sorted[j]);
         if (!s)
-            s = self_check(rto_karras_check(nodes, count, NULL, prims, boxes, n, 0, &r, msg), &r, "the Karras TLAS",
-                           msg);
+            s = self_check(0, nodes, count, boxes, n, prims, "the Karras TLAS", msg);
         rto_aabb root = rto_scene_aabb(sc);
         st = rto_karras_stats(nodes, n, &root);
     }
@@ -148,11 +158,10 @@ static rto_status build_blas(rto_bundle *b, const rto_scene *sc, uint32_t m, uin
         order[j] = rto_key_prim(RTO_KEY_U64, sorted[j]);
     if (!s)
         s = rto_karras_build(RTO_KEY_U64, sorted, n, boxes, nodes, msg);
-    rto_bvh_report r;
     char what[96], name[96], section[32];
     snprintf(what, sizeof what, "the BLAS of mesh %u", m);
     if (!s)
-        s = self_check(rto_karras_check(nodes, count, NULL, order, boxes, n, 0, &r, msg), &r, what, msg);
+        s = self_check(0, nodes, count, boxes, n, order, what, msg);
     if (!s) {
         rto_npy_desc kd = rto_npy_desc_keys(RTO_KEY_U64, n), od = rto_npy_desc_array(RTO_DTYPE_U32, 1, n, 0, 0);
         rto_npy_desc nd = layout_desc(LAYOUT_BVH_NODE, count);

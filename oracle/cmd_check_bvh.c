@@ -1,8 +1,13 @@
-/* rtoracle check-bvh: validates a GPU-built TLAS or BLAS node array against a build bundle — exactly (topology and
- * items) with DESIGN.md §9 box tolerances, or, with --structure-only, for validity against the scene alone. */
+/* rtoracle check-bvh: validates a GPU-built TLAS or BLAS node array against a build bundle — exactly (items and
+ * links equal to the oracle's) or, with --structure-only, for validity against the primitives alone; boxes by the
+ * rules of DESIGN.md §9 either way. Every array read from the bundle is first checked like a GPU dump: dtype, shape
+ * and value ranges as the manifest and the other arrays imply, so a hand-edited bundle is refused, never trusted. */
 #include "cli.h"
 
 #include <getopt.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -14,21 +19,363 @@ static void check_bvh_help(FILE *to)
             "Compares a GPU-built node array with the bundle written by `rtoracle build`: the TLAS by default, the\n"
             "BLAS of mesh M with --blas M. The dump may be the structured TlasNode / BlasNode records, a (count,\n"
             "words) array or the raw buffer as flat uint32/float32 words.\n"
-            "Exact mode: items, links and parents must equal the oracle's; internal boxes must be the exact union\n"
-            "of their children; leaf boxes within 4 ulp for TLAS instances (transformed boxes) and exact for\n"
-            "triangles. --structure-only accepts a tree built differently: links in range, no cycle or shared node,\n"
-            "every primitive in exactly one leaf, boxes as above against the scene's boxes. For Karras layouts the\n"
-            "leaf order is the oracle's sorted keys unless --gpu-order gives the GPU's (primitive per sorted leaf).\n\n"
+            "Modes (the report names the one used):\n"
+            "  exact           items, links and parents equal to the oracle's (the default)\n"
+            "  structure-only  any valid tree over the same primitives: links in range, no cycle or shared node,\n"
+            "                  every primitive in exactly one leaf (--structure-only, or implied by --gpu-order)\n"
+            "Boxes, in both modes (DESIGN.md §9), checked bottom-up so a fault is named where it starts: TLAS leaf\n"
+            "boxes within 8*2^-24*(|m0*x|+|m1*y|+|m2*z|+|t|) per world coordinate of the instance's transformed\n"
+            "box, triangle boxes exact, every internal box the exact union of the dump's own children, EMPTY boxes\n"
+            "(+inf, -inf).\n"
+            "--gpu-order order.npy gives the GPU's own leaf order of a Karras tree (uint32 primitive per sorted\n"
+            "leaf; it must be a permutation); the tree then differs from the oracle's, so it implies\n"
+            "--structure-only. Without it the leaf order is the oracle's.\n\n"
             "Fault classes: size, cycle, shared-node, bad-link, dropped-leaf, item, swapped-children, topology,\n"
-            "parent, empty, box. Exit status: 0 valid, 1 a fault was found, 2 bad usage or input.\n");
+            "parent, empty, box. Exit status: 0 valid, 1 a fault was found, 2 bad usage or input (including a\n"
+            "bundle whose arrays disagree with its manifest).\n");
 }
 
-static int load_bundle_file(rto_bundle_reader *b, const char *name, rto_npy *out, const char *dir)
+/* What check-bvh reads from a build bundle, each array validated before use. */
+typedef struct build_arrays {
+    rto_bundle_reader *b;
+    const char *dir;
+    int64_t meshes;
+    rto_npy nodes, boxes, order, keys, inst; /* the oracle's tree, primitive boxes, BLAS leaf order, TLAS sorted keys,
+                                              * instance records */
+    uint32_t *prims;                         /* primitive of each sorted leaf (Karras layouts) */
+    size_t prim_count, leaves, node_count;
+    double *tol; /* TLAS: 3 leaf-box tolerances per instance */
+} build_arrays;
+
+static void arrays_free(build_arrays *a)
+{
+    rto_npy_free(&a->nodes);
+    rto_npy_free(&a->boxes);
+    rto_npy_free(&a->order);
+    rto_npy_free(&a->keys);
+    rto_npy_free(&a->inst);
+    free(a->prims);
+    free(a->tol);
+}
+
+/* One line naming the bundle, the file and what is wrong with it; exit status 2. */
+static int refuse(const build_arrays *a, const char *file, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+static int refuse(const build_arrays *a, const char *file, const char *fmt, ...)
+{
+    char text[400];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    return cli_fail("check-bvh", "--expected %s: %s: %s", a->dir, file, text);
+}
+
+/* A count the manifest must state, within 0 .. max. */
+static int manifest_count(const build_arrays *a, const char *section, const char *key, uint64_t max, size_t *out)
+{
+    int64_t v = -1;
+    if (!rto_bundle_get_int(a->b, section, key, &v) || v < 0 || (uint64_t)v > max)
+        return refuse(a, "manifest.json", "%s.%s is missing or outside 0 .. %" PRIu64, section, key, max);
+    *out = (size_t)v;
+    return EXIT_PASS;
+}
+
+/* Loads a bundle file (sha256 checked) and requires exactly the dtype and shape of want (records of layout). */
+static int load_array(const build_arrays *a, const char *name, const rto_npy_desc *want, const char *layout,
+                      rto_npy *out)
 {
     rto_msg msg = {{0}};
-    if (rto_bundle_read_name(b, name, out, &msg))
-        return cli_fail("check-bvh", "--expected %s: %s", dir, msg.text);
+    char have[160], need[160];
+    if (rto_bundle_read_name(a->b, name, out, &msg))
+        return cli_fail("check-bvh", "--expected %s: %s", a->dir, msg.text);
+    if (!cli_npy_same(&out->desc, want)) {
+        /* the layout's name for what has its fields, whatever its shape */
+        rto_npy_desc same_fields = out->desc;
+        memcpy(same_fields.shape, want->shape, sizeof same_fields.shape);
+        same_fields.ndim = want->ndim;
+        const char *have_layout = cli_npy_same(&same_fields, want) ? layout : NULL;
+        return refuse(a, name, "holds %s; expected %s", cli_npy_what(&out->desc, have_layout, have, sizeof have),
+                      cli_npy_what(want, layout, need, sizeof need));
+    }
     return EXIT_PASS;
+}
+
+static int box_empty(const rto_aabb *b)
+{
+    return b->min.x == INFINITY && b->min.y == INFINITY && b->min.z == INFINITY && b->max.x == -INFINITY &&
+           b->max.y == -INFINITY && b->max.z == -INFINITY;
+}
+
+static int box_finite(const rto_aabb *b)
+{
+    const float mn[3] = {b->min.x, b->min.y, b->min.z}, mx[3] = {b->max.x, b->max.y, b->max.z};
+    for (int k = 0; k < 3; k++)
+        if (!isfinite(mn[k]) || !isfinite(mx[k]) || !(mn[k] <= mx[k]))
+            return 0;
+    return 1;
+}
+
+/* Every box finite with min <= max, or (where allowed) the empty box (+inf, -inf). */
+static int check_boxes(const build_arrays *a, const char *name, const rto_aabb *boxes, size_t n, int allow_empty)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!box_finite(&boxes[i]) && !(allow_empty && box_empty(&boxes[i])))
+            return refuse(a, name, "box %zu is neither finite with min <= max%s", i,
+                          allow_empty ? " nor the empty box (+inf, -inf)" : "");
+    return EXIT_PASS;
+}
+
+/* blas_M_prim_aabbs.npy: one finite box per triangle the manifest counts. */
+static int load_prim_boxes(const build_arrays *a, uint32_t m, rto_npy *out, size_t *triangles)
+{
+    char name[96], section[32];
+    snprintf(name, sizeof name, "blas_%" PRIu32 "_prim_aabbs.npy", m);
+    snprintf(section, sizeof section, "blas_%" PRIu32, m);
+    int rc = manifest_count(a, section, "triangles", UINT32_MAX, triangles);
+    rto_npy_desc want = layout_desc(LAYOUT_AABB, *triangles);
+    if (!rc)
+        rc = load_array(a, name, &want, layout_name(LAYOUT_AABB), out);
+    return rc ? rc : check_boxes(a, name, out->data, *triangles, 0);
+}
+
+/* The bundle's own tree must pass the validator as a GPU's would (exactly, no tolerance): what a GPU dump is
+ * compared with is then known to be a tree over these primitives. */
+static int self_check(const build_arrays *a, const char *name, int sweep)
+{
+    rto_bvh_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.nodes = a->nodes.data;
+    d.node_count = a->node_count;
+    d.prim_boxes = a->boxes.data;
+    d.prim_count = a->prim_count;
+    d.leaf_prims = a->prims;
+    d.leaf_count = a->leaves;
+    rto_report r;
+    rto_msg msg = {{0}};
+    rto_status s = sweep ? rto_tlas_check(&d, &r, &msg) : rto_karras_check(&d, &r, &msg);
+    if (s == RTO_ERR_MISMATCH)
+        return refuse(a, name, "not a valid tree over the bundle's primitives: %s", r.summary);
+    if (s)
+        return refuse(a, name, "%s", msg.text);
+    return EXIT_PASS;
+}
+
+static int load_blas(build_arrays *a, uint32_t m)
+{
+    char name[96], section[32];
+    size_t t = 0, nodes = 0;
+    int rc = load_prim_boxes(a, m, &a->boxes, &t);
+    if (rc)
+        return rc;
+    snprintf(section, sizeof section, "blas_%" PRIu32, m);
+    if ((rc = manifest_count(a, section, "nodes", UINT32_MAX, &nodes)))
+        return rc;
+    if (nodes != (t >= 2 ? t - 1 : 0))
+        return refuse(a, "manifest.json", "%s.nodes is %zu; a Karras tree over %zu triangles has %zu", section, nodes,
+                      t, t >= 2 ? t - 1 : 0);
+    /* the leaf order: a permutation of the triangles */
+    snprintf(name, sizeof name, "blas_%" PRIu32 "_order.npy", m);
+    rto_npy_desc od = rto_npy_desc_array(RTO_DTYPE_U32, 1, t, 0, 0);
+    if ((rc = load_array(a, name, &od, NULL, &a->order)))
+        return rc;
+    const uint32_t *order = a->order.data;
+    unsigned char *seen = calloc(t ? t : 1, 1);
+    if (!seen)
+        return cli_fail("check-bvh", "out of memory");
+    for (size_t j = 0; j < t && !rc; j++) {
+        if (order[j] >= t)
+            rc = refuse(a, name, "entry %zu names triangle %" PRIu32 " of %zu", j, order[j], t);
+        else if (seen[order[j]]++)
+            rc = refuse(a, name, "triangle %" PRIu32 " appears twice (again at entry %zu): not a permutation",
+                        order[j], j);
+    }
+    free(seen);
+    if (rc)
+        return rc;
+    a->prims = malloc((t ? t : 1) * sizeof *a->prims);
+    if (!a->prims)
+        return cli_fail("check-bvh", "out of memory");
+    if (t)
+        memcpy(a->prims, order, t * sizeof *order);
+    a->prim_count = a->leaves = t;
+    a->node_count = nodes;
+    snprintf(name, sizeof name, "blas_%" PRIu32 "_nodes.npy", m);
+    rto_npy_desc nd = layout_desc(LAYOUT_BVH_NODE, nodes);
+    if ((rc = load_array(a, name, &nd, layout_name(LAYOUT_BVH_NODE), &a->nodes)))
+        return rc;
+    return self_check(a, name, 0);
+}
+
+/* The 8 corners of an object box through a transform, as the oracle bounds an instance (docs/bvh.md). */
+static rto_aabb transform_box(const rto_mat34 *m, const rto_aabb *ob)
+{
+    rto_aabb w = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    if (box_empty(ob))
+        return w;
+    for (int c = 0; c < 8; c++) {
+        rto_vec3 p = {(c & 1) ? ob->max.x : ob->min.x, (c & 2) ? ob->max.y : ob->min.y, (c & 4) ? ob->max.z : ob->min.z};
+        rto_vec3 q = rto_mat34_point(m, p);
+        w.min.x = q.x < w.min.x ? q.x : w.min.x;
+        w.min.y = q.y < w.min.y ? q.y : w.min.y;
+        w.min.z = q.z < w.min.z ? q.z : w.min.z;
+        w.max.x = q.x > w.max.x ? q.x : w.max.x;
+        w.max.y = q.y > w.max.y ? q.y : w.max.y;
+        w.max.z = q.z > w.max.z ? q.z : w.max.z;
+    }
+    return w;
+}
+
+/* Equal as numbers: +0 and -0 are the same bound (which one a min keeps depends on the order of the vertices). */
+static int same_box(const rto_aabb *x, const rto_aabb *y)
+{
+    return x->min.x == y->min.x && x->min.y == y->min.y && x->min.z == y->min.z && x->max.x == y->max.x &&
+           x->max.y == y->max.y && x->max.z == y->max.z;
+}
+
+/* instances.npy and instance_aabbs.npy: each instance's BLAS exists, its transform is finite, and its world box is
+ * its BLAS's object box (the union of the triangle boxes) through that transform; the §9 leaf tolerance follows. */
+static int load_instances(build_arrays *a, size_t n)
+{
+    const size_t rec = layout_size(LAYOUT_INSTANCE);
+    rto_npy_desc id = layout_desc(LAYOUT_INSTANCE, n), bd = layout_desc(LAYOUT_AABB, n);
+    int rc = load_array(a, "instances.npy", &id, layout_name(LAYOUT_INSTANCE), &a->inst);
+    if (!rc)
+        rc = load_array(a, "instance_aabbs.npy", &bd, layout_name(LAYOUT_AABB), &a->boxes);
+    if (!rc)
+        rc = check_boxes(a, "instance_aabbs.npy", a->boxes.data, n, 1);
+    if (rc)
+        return rc;
+    rto_mat34 *xf = malloc((n ? n : 1) * sizeof *xf);
+    uint32_t *blas = malloc((n ? n : 1) * sizeof *blas);
+    rto_aabb *obj = calloc(a->meshes ? (size_t)a->meshes : 1, sizeof *obj);
+    unsigned char *have = calloc(a->meshes ? (size_t)a->meshes : 1, 1);
+    a->tol = malloc((n ? n : 1) * 3 * sizeof *a->tol);
+    if (!xf || !blas || !obj || !have || !a->tol)
+        rc = cli_fail("check-bvh", "out of memory");
+    for (size_t i = 0; !rc && i < n; i++) {
+        const unsigned char *p = (const unsigned char *)a->inst.data + i * rec;
+        memcpy(xf[i].m, p, sizeof xf[i].m);
+        memcpy(&blas[i], p + 96, sizeof blas[i]);
+        if ((int64_t)blas[i] >= a->meshes)
+            rc = refuse(a, "instances.npy", "instance %zu names BLAS %" PRIu32 "; the bundle has %" PRId64 " meshes", i,
+                        blas[i], a->meshes);
+        for (int k = 0; !rc && k < 12; k++)
+            if (!isfinite(xf[i].m[k / 4][k % 4]))
+                rc = refuse(a, "instances.npy", "objToWorld of instance %zu is not finite", i);
+    }
+    /* each referenced BLAS's object box: the union of its triangle boxes */
+    for (size_t i = 0; !rc && i < n; i++) {
+        const uint32_t m = blas[i];
+        if (have[m])
+            continue;
+        rto_npy pb = {0};
+        size_t t = 0;
+        rc = load_prim_boxes(a, m, &pb, &t);
+        rto_aabb u = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+        const rto_aabb *tb = pb.data;
+        for (size_t k = 0; !rc && k < t; k++) {
+            u.min.x = tb[k].min.x < u.min.x ? tb[k].min.x : u.min.x;
+            u.min.y = tb[k].min.y < u.min.y ? tb[k].min.y : u.min.y;
+            u.min.z = tb[k].min.z < u.min.z ? tb[k].min.z : u.min.z;
+            u.max.x = tb[k].max.x > u.max.x ? tb[k].max.x : u.max.x;
+            u.max.y = tb[k].max.y > u.max.y ? tb[k].max.y : u.max.y;
+            u.max.z = tb[k].max.z > u.max.z ? tb[k].max.z : u.max.z;
+        }
+        rto_npy_free(&pb);
+        obj[m] = u;
+        have[m] = 1;
+    }
+    const rto_aabb *wb = a->boxes.data;
+    for (size_t i = 0; !rc && i < n; i++) {
+        rto_aabb w = transform_box(&xf[i], &obj[blas[i]]);
+        if (!same_box(&w, &wb[i]))
+            rc = refuse(a, "instance_aabbs.npy", "the box of instance %zu is not the box of BLAS %" PRIu32
+                        " through its objToWorld (instances.npy)", i, blas[i]);
+        else
+            rto_transform_box_tolerance(&xf[i], &obj[blas[i]], &a->tol[3 * i]);
+    }
+    free(xf);
+    free(blas);
+    free(obj);
+    free(have);
+    return rc;
+}
+
+/* tlas_sorted_keys.npy of a Karras TLAS: the keys of the instances with a leaf, ascending, each naming one such
+ * instance in its low 16 bits, then sentinels up to n_padded. */
+static int load_sorted_keys(build_arrays *a, size_t np)
+{
+    const char *name = "tlas_sorted_keys.npy";
+    rto_npy_desc kd = rto_npy_desc_keys(RTO_KEY_U32, np);
+    int rc = load_array(a, name, &kd, NULL, &a->keys);
+    if (rc)
+        return rc;
+    const uint32_t *k = a->keys.data;
+    const rto_aabb *boxes = a->boxes.data;
+    unsigned char *seen = calloc(a->prim_count ? a->prim_count : 1, 1);
+    a->prims = malloc((a->leaves ? a->leaves : 1) * sizeof *a->prims);
+    if (!seen || !a->prims)
+        rc = cli_fail("check-bvh", "out of memory");
+    for (size_t j = 0; !rc && j < np; j++) {
+        const uint32_t p = k[j] & 0xFFFFu;
+        if (j >= a->leaves) {
+            if (k[j] != RTO_SENTINEL_U32)
+                rc = refuse(a, name, "slot %zu holds 0x%08" PRIx32 "; the %zu slots after the %zu keyed instances "
+                            "must be the sentinel", j, k[j], np - a->leaves, a->leaves);
+        } else if (k[j] & 0x80000000u) {
+            rc = refuse(a, name, "key %zu is 0x%08" PRIx32 ": a TLAS key's top bit is 0", j, k[j]);
+        } else if (j && k[j] <= k[j - 1]) {
+            rc = refuse(a, name, "key %zu (0x%08" PRIx32 ") does not ascend from key %zu (0x%08" PRIx32 ")", j, k[j],
+                        j - 1, k[j - 1]);
+        } else if (p >= a->prim_count || box_empty(&boxes[p])) {
+            rc = refuse(a, name, "key %zu (0x%08" PRIx32 ") names instance %" PRIu32 ", %s", j, k[j], p,
+                        p >= a->prim_count ? "which does not exist" : "whose BLAS is empty (it has no key)");
+        } else if (seen[p]++) {
+            rc = refuse(a, name, "key %zu (0x%08" PRIx32 ") names instance %" PRIu32 " a second time", j, k[j], p);
+        } else {
+            a->prims[j] = p;
+        }
+    }
+    free(seen);
+    return rc;
+}
+
+static int load_tlas(build_arrays *a, int sweep)
+{
+    size_t n = 0, np = 0, nodes = 0;
+    int rc = manifest_count(a, "counts", "instances", RTO_TLAS_MAX_INSTANCES, &n);
+    if (!rc)
+        rc = load_instances(a, n);
+    if (rc)
+        return rc;
+    const rto_aabb *boxes = a->boxes.data;
+    size_t keyed = 0;
+    for (size_t i = 0; i < n; i++)
+        keyed += !box_empty(&boxes[i]);
+    a->prim_count = n;
+    a->leaves = keyed;
+    const size_t want = sweep ? rto_tlas_sweep_node_count(keyed) : (keyed >= 2 ? keyed - 1 : 0);
+    if ((rc = manifest_count(a, "tlas", "n_padded", (uint64_t)1 << 17, &np)) ||
+        (rc = manifest_count(a, "tlas", "nodes", (uint64_t)1 << 18, &nodes)))
+        return rc;
+    if (np != rto_next_pow2(keyed))
+        return refuse(a, "manifest.json", "tlas.n_padded is %zu; %zu instances have a leaf (next power of two %zu)",
+                      np, keyed, rto_next_pow2(keyed));
+    if (nodes != want)
+        return refuse(a, "manifest.json", "tlas.nodes is %zu; a %s TLAS over %zu leaves has %zu", nodes,
+                      sweep ? "sweep" : "Karras", keyed, want);
+    a->node_count = nodes;
+    rto_npy_desc nd = layout_desc(sweep ? LAYOUT_TLAS_NODE : LAYOUT_BVH_NODE, nodes);
+    const char *layout = layout_name(sweep ? LAYOUT_TLAS_NODE : LAYOUT_BVH_NODE);
+    if ((rc = load_array(a, "tlas_nodes.npy", &nd, layout, &a->nodes)))
+        return rc;
+    if (!sweep && (rc = load_sorted_keys(a, np)))
+        return rc;
+    return self_check(a, "tlas_nodes.npy", sweep);
 }
 
 int cmd_check_bvh(int argc, char **argv)
@@ -70,31 +417,35 @@ int cmd_check_bvh(int argc, char **argv)
         return cli_fail("check-bvh", "--expected and --gpu are required (rtoracle check-bvh --help)");
 
     rto_msg msg = {{0}};
-    rto_bundle_reader *b = NULL;
-    rto_npy g = {0}, exp = {0}, boxes = {0}, order = {0}, keys = {0};
+    build_arrays a;
+    memset(&a, 0, sizeof a);
+    a.dir = expected;
+    rto_npy g = {0}, order = {0};
     int rc = EXIT_PASS;
-    if (rto_bundle_open(expected, &b, &msg)) {
+    if (rto_bundle_open(expected, &a.b, &msg)) {
         rc = cli_fail("check-bvh", "--expected: %s", msg.text);
         goto out;
     }
-    const char *kind = rto_bundle_get_str(b, "", "kind"), *tlas_mode = rto_bundle_get_str(b, "params", "tlas");
-    if (!kind || strcmp(kind, "build") || !tlas_mode) {
+    const char *kind = rto_bundle_get_str(a.b, "", "kind"), *tlas_mode = rto_bundle_get_str(a.b, "params", "tlas");
+    if (!kind || strcmp(kind, "build") || !tlas_mode || (strcmp(tlas_mode, "sweep") && strcmp(tlas_mode, "karras"))) {
         rc = cli_fail("check-bvh", "--expected %s is not a build bundle (rtoracle build)", expected);
         goto out;
     }
-    int64_t meshes = 0;
-    rto_bundle_get_int(b, "counts", "meshes", &meshes);
-    if (blas >= meshes) {
-        rc = cli_fail("check-bvh", "--blas %lld: the scene has %lld meshes", (long long)blas, (long long)meshes);
+    size_t meshes = 0;
+    if ((rc = manifest_count(&a, "counts", "meshes", UINT32_MAX, &meshes)))
+        goto out;
+    a.meshes = (int64_t)meshes;
+    if (blas >= a.meshes) {
+        rc = cli_fail("check-bvh", "--blas %lld: the scene has %lld meshes", (long long)blas, (long long)a.meshes);
         goto out;
     }
     const int sweep = blas < 0 && !strcmp(tlas_mode, "sweep");
+    if (sweep && order_path) {
+        rc = cli_fail("check-bvh", "--gpu-order applies to Karras trees (a BLAS, or a TLAS built with --tlas karras); "
+                      "a sweep TLAS's leaf order is its items");
+        goto out;
+    }
     const layout_kind lk = sweep ? LAYOUT_TLAS_NODE : LAYOUT_BVH_NODE;
-    char name[96], what[64];
-    if (blas >= 0)
-        snprintf(what, sizeof what, "BLAS %lld", (long long)blas);
-    else
-        snprintf(what, sizeof what, "TLAS (%s)", tlas_mode);
     if (rto_npy_read(gpu, &g, &msg)) {
         rc = cli_fail("check-bvh", "--gpu %s: %s", gpu, msg.text);
         goto out;
@@ -104,105 +455,48 @@ int cmd_check_bvh(int argc, char **argv)
         rc = cli_fail("check-bvh", "--gpu %s: %s", gpu, msg.text);
         goto out;
     }
-    /* expected nodes and primitive boxes */
-    if (blas < 0)
-        snprintf(name, sizeof name, "tlas_nodes.npy");
-    else
-        snprintf(name, sizeof name, "blas_%lld_nodes.npy", (long long)blas);
-    if ((rc = load_bundle_file(b, name, &exp, expected)))
+    if ((rc = blas >= 0 ? load_blas(&a, (uint32_t)blas) : load_tlas(&a, sweep)))
         goto out;
-    if (blas < 0)
-        snprintf(name, sizeof name, "instance_aabbs.npy");
-    else
-        snprintf(name, sizeof name, "blas_%lld_prim_aabbs.npy", (long long)blas);
-    if ((rc = load_bundle_file(b, name, &boxes, expected)))
-        goto out;
-    const size_t n = (size_t)boxes.desc.shape[0], exp_count = (size_t)exp.desc.shape[0];
-    rto_bvh_report r;
-    rto_status s;
-    if (sweep) {
-        s = rto_tlas_check(g.data, count, structure_only ? NULL : exp.data, boxes.data, n, &r, &msg);
-    } else {
-        uint32_t *prims = NULL;
-        if (order_path) {
-            if (rto_npy_read(order_path, &order, &msg) || order.desc.dtype != RTO_DTYPE_U32 || order.desc.ndim != 1 ||
-                order.desc.shape[0] != n) {
-                rc = cli_fail("check-bvh", "--gpu-order %s: expected %zu uint32 primitive indices%s%s", order_path, n,
-                              msg.text[0] ? ": " : "", msg.text);
-                goto out;
-            }
-            prims = order.data;
-            for (size_t j = 0; j < n; j++)
-                if (prims[j] >= n) {
-                    rc = cli_fail("check-bvh", "--gpu-order %s: entry %zu names primitive %u of %zu", order_path, j,
-                                  prims[j], n);
-                    goto out;
-                }
-        } else if (blas >= 0) {
-            snprintf(name, sizeof name, "blas_%lld_order.npy", (long long)blas);
-            if ((rc = load_bundle_file(b, name, &order, expected)))
-                goto out;
-            prims = order.data;
-        } else {
-            if ((rc = load_bundle_file(b, "tlas_sorted_keys.npy", &keys, expected)))
-                goto out;
-            prims = malloc((n ? n : 1) * sizeof *prims);
-            if (!prims) {
-                rc = cli_fail("check-bvh", "out of memory");
-                goto out;
-            }
-            for (size_t j = 0; j < n; j++)
-                prims[j] = rto_key_prim(RTO_KEY_U32, ((const uint32_t *)keys.data)[j]);
+    rto_bvh_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.nodes = g.data;
+    d.node_count = count;
+    d.expected = structure_only || order_path ? NULL : a.nodes.data;
+    d.prim_boxes = a.boxes.data;
+    d.prim_count = a.prim_count;
+    d.leaf_tolerance = blas < 0 ? a.tol : NULL;
+    d.leaf_prims = a.prims;
+    d.leaf_count = a.leaves;
+    if (order_path) {
+        /* the GPU's leaf order is a GPU output: its shape is input, its values are checked by the validator */
+        if (rto_npy_read(order_path, &order, &msg) || order.desc.dtype != RTO_DTYPE_U32 || order.desc.ndim != 1) {
+            rc = cli_fail("check-bvh", "--gpu-order %s: expected a 1-D uint32 array (primitive per sorted leaf)%s%s",
+                          order_path, msg.text[0] ? ": " : "", msg.text);
+            goto out;
         }
-        const int exact = !structure_only && !order_path;
-        s = rto_karras_check(g.data, count, exact && count == exp_count ? exp.data : NULL, prims, boxes.data, n,
-                             blas < 0 ? RTO_TLAS_LEAF_ULPS : 0, &r, &msg);
-        if (prims != order.data)
-            free(prims);
+        d.leaf_prims = order.data;
+        d.leaf_count = (size_t)order.desc.shape[0];
     }
+    rto_report r;
+    rto_status s = sweep ? rto_tlas_check(&d, &r, &msg) : rto_karras_check(&d, &r, &msg);
     if (s != RTO_OK && s != RTO_ERR_MISMATCH) {
         rc = cli_status("check-bvh", s, &msg);
         goto out;
     }
-    json_t *j = json_object();
-    json_object_set_new(j, "command", json_string("check-bvh"));
-    json_object_set_new(j, "tree", json_string(what));
-    json_object_set_new(j, "mode", json_string(structure_only || order_path ? "structure-only" : "exact"));
-    json_object_set_new(j, "result", json_string(s == RTO_OK ? "pass" : "fail"));
-    json_object_set_new(j, "fault", json_string(rto_bvh_fault_name(r.fault)));
-    json_object_set_new(j, "node", r.node >= 0 ? json_integer(r.node) : json_null());
-    json_object_set_new(j, "leaf", r.leaf >= 0 ? json_integer(r.leaf) : json_null());
-    json_t *all = json_array();
-    for (int f = 1; f <= RTO_BVH_BOX; f++)
-        if (r.faults & (1u << f))
-            json_array_append_new(all, json_string(rto_bvh_fault_name((rto_bvh_fault)f)));
-    json_object_set_new(j, "faults", all);
-    json_object_set_new(j, "nodes", json_integer((json_int_t)count));
-    json_object_set_new(j, "message", json_string(s == RTO_OK ? "ok" : r.summary));
-    if (json) {
-        json_dumpf(j, stdout, JSON_INDENT(2));
-        fputc('\n', stdout);
-    } else if (s == RTO_OK) {
-        printf("check-bvh %s: PASS %zu nodes over %zu primitives (%s)\n", what, count, n,
-               structure_only || order_path ? "valid structure" : "equal to the oracle within tolerance");
-    } else {
-        printf("check-bvh %s: FAIL %s\n", what, r.summary);
-        printf("  fault classes seen:");
-        for (int f = 1; f <= RTO_BVH_BOX; f++)
-            if (r.faults & (1u << f))
-                printf(" %s", rto_bvh_fault_name((rto_bvh_fault)f));
-        printf("\n");
+    if (blas >= 0)
+        snprintf(r.what, sizeof r.what, "BLAS %lld", (long long)blas);
+    else
+        snprintf(r.what, sizeof r.what, "TLAS (%s)", tlas_mode);
+    if (order_path) {
+        size_t used = strlen(r.context);
+        snprintf(r.context + used, sizeof r.context - used, "; leaf order from --gpu-order%s",
+                 structure_only ? "" : ", which implies --structure-only");
     }
-    if (s == RTO_ERR_MISMATCH && artifacts)
-        cli_write_report(gpu, "check-bvh", j);
-    json_decref(j);
-    rc = s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
+    rc = cli_report("check-bvh", &r, json, artifacts, gpu);
 out:
     rto_npy_free(&g);
-    rto_npy_free(&exp);
-    rto_npy_free(&boxes);
     rto_npy_free(&order);
-    rto_npy_free(&keys);
-    rto_bundle_close(b);
+    arrays_free(&a);
+    rto_bundle_close(a.b);
     return rc;
 }

@@ -74,82 +74,43 @@ static int split_pairs(rto_npy *gpu, rto_npy *values, const char *path)
     return EXIT_PASS;
 }
 
-static const char *check_state(const rto_sort_report *r, uint32_t bit)
+/* A sort bundle's input is read like a GPU dump: its dtype and shape must be what the manifest states (input.format,
+ * input.n), and the padded size must follow from them, so nothing later indexes past what was read. */
+static int check_bundle_keys(rto_bundle_reader *b, const char *dir, const rto_npy *keys)
 {
-    return !(r->checked & bit) ? "n/a" : (r->failed & bit) ? "FAIL" : "ok";
+    const char *fmt = rto_bundle_get_str(b, "input", "format");
+    const char *file = rto_bundle_get_str(b, "input", "file");
+    int64_t n = -1, np = -1;
+    rto_key_format f;
+    char got[96];
+    file = file ? file : "keys.npy";
+    if (!fmt || !cli_parse_format(fmt, &f))
+        return cli_fail("check-sort", "--expected %s: manifest input.format is %s%s%s, not u32 or u64", dir,
+                        fmt ? "'" : "", fmt ? fmt : "missing", fmt ? "'" : "");
+    if (!rto_bundle_get_int(b, "input", "n", &n) || n < 0 || (uint64_t)n > RTO_MAX_KEYS)
+        return cli_fail("check-sort", "--expected %s: manifest input.n is missing or outside 0 .. %llu", dir,
+                        (unsigned long long)RTO_MAX_KEYS);
+    rto_npy_desc want = rto_npy_desc_keys(f, (uint64_t)n);
+    if (!cli_npy_same(&keys->desc, &want))
+        return cli_fail("check-sort", "--expected %s: %s: holds %s; the manifest says %lld %s keys", dir, file,
+                        cli_npy_what(&keys->desc, NULL, got, sizeof got), (long long)n, fmt);
+    if (!rto_bundle_get_int(b, "params", "n_padded", &np) || (uint64_t)np != rto_next_pow2((size_t)n))
+        return cli_fail("check-sort", "--expected %s: manifest params.n_padded is %lld, not the next power of two "
+                        "of input.n %lld", dir, (long long)np, (long long)n);
+    return EXIT_PASS;
 }
 
-static const struct {
-    uint32_t bit;
-    const char *name;
-} check_names[] = {{RTO_CHECK_SORTED, "sorted"}, {RTO_CHECK_PERMUTATION, "permutation"}, {RTO_CHECK_TAIL, "tail"},
-                   {RTO_CHECK_VALUES, "values"}, {RTO_CHECK_STABLE, "stable"},           {RTO_CHECK_PASSES, "passes"}};
-
-static json_t *report_json(const rto_sort_report *r, const char *case_id, rto_key_format f, size_t n, size_t gpu_n)
+/* The pass count a bundle states must be the schedule's for its size, algorithm and digit width. */
+static int check_bundle_params(rto_bundle_reader *b, const char *dir, const rto_sort_check_desc *d)
 {
-    json_t *o = json_object(), *checks = json_object(), *diffs = json_array();
-    char buf[40];
-    int w = r->diffs_are_values ? 0 : (f == RTO_KEY_U32 ? 8 : 16);
-    json_object_set_new(o, "command", json_string("check-sort"));
-    json_object_set_new(o, "case", case_id ? json_string(case_id) : json_null());
-    json_object_set_new(o, "result", json_string(r->fault == RTO_FAULT_NONE ? "pass" : "fail"));
-    json_object_set_new(o, "fault", json_string(rto_fault_name(r->fault)));
-    json_object_set_new(o, "first_slot", r->first_slot == SIZE_MAX ? json_null() : json_integer((json_int_t)r->first_slot));
-    if (r->pass >= 0) {
-        json_t *p = json_object();
-        json_object_set_new(p, "index", json_integer(r->pass));
-        json_object_set_new(p, "k", json_integer(r->pass_k));
-        json_object_set_new(p, "j", json_integer(r->pass_j));
-        json_object_set_new(o, "pass", p);
-    } else {
-        json_object_set_new(o, "pass", json_null());
-    }
-    json_object_set_new(o, "n", json_integer((json_int_t)n));
-    json_object_set_new(o, "gpu_n", json_integer((json_int_t)gpu_n));
-    for (size_t i = 0; i < sizeof check_names / sizeof check_names[0]; i++) {
-        const char *st = check_state(r, check_names[i].bit);
-        json_object_set_new(checks, check_names[i].name, !strcmp(st, "n/a") ? json_null() : json_boolean(!strcmp(st, "ok")));
-    }
-    json_object_set_new(o, "checks", checks);
-    json_object_set_new(o, "diffs_compare", json_string(r->diffs_are_values ? "values" : "keys"));
-    for (size_t i = 0; i < r->ndiffs; i++) {
-        json_t *d = json_object();
-        json_object_set_new(d, "slot", json_integer((json_int_t)r->diffs[i].slot));
-        snprintf(buf, sizeof buf, "0x%0*" PRIx64, w, r->diffs[i].expected);
-        json_object_set_new(d, "expected", json_string(buf));
-        snprintf(buf, sizeof buf, "0x%0*" PRIx64, w, r->diffs[i].actual);
-        json_object_set_new(d, "actual", json_string(buf));
-        json_array_append_new(diffs, d);
-    }
-    json_object_set_new(o, "diffs", diffs);
-    json_object_set_new(o, "message", json_string(r->summary));
-    return o;
-}
-
-static void print_human(const rto_sort_report *r, const char *case_id, rto_key_format f, size_t n, size_t gpu_n)
-{
-    printf("check-sort%s%s: %zu keys (%s), GPU dump of %zu slots (n_padded %zu)\n", case_id ? " " : "",
-           case_id ? case_id : "", n, f == RTO_KEY_U32 ? "u32" : "u64", gpu_n, rto_next_pow2(n));
-    if (r->fault == RTO_FAULT_NONE)
-        printf("PASS %s\n", r->summary);
-    else
-        printf("FAIL %s\n", r->summary);
-    for (size_t i = 0; i < sizeof check_names / sizeof check_names[0]; i++)
-        printf("  %-12s %s\n", check_names[i].name, check_state(r, check_names[i].bit));
-    if (!r->ndiffs)
-        return;
-    int w = r->diffs_are_values ? 10 : (f == RTO_KEY_U32 ? 8 : 16);
-    printf("  first differing slots (%s):\n  %-10s %-*s %-*s %s\n", r->diffs_are_values ? "source indices" : "keys",
-           "slot", w + 2, "expected", w + 2, "actual", r->diffs_are_values ? "diff" : "xor");
-    for (size_t i = 0; i < r->ndiffs; i++) {
-        const rto_sort_diff *d = &r->diffs[i];
-        if (r->diffs_are_values)
-            printf("  %-10zu %-*" PRIu64 " %-*" PRIu64 " %+" PRId64 "\n", d->slot, w + 2, d->expected, w + 2,
-                   d->actual, (int64_t)(d->actual - d->expected));
-        else
-            printf("  %-10zu 0x%0*" PRIx64 " 0x%0*" PRIx64 " 0x%0*" PRIx64 "\n", d->slot, w, d->expected, w,
-                   d->actual, w, d->expected ^ d->actual);
-    }
+    int64_t passes = -1;
+    const uint32_t want = d->algo == RTO_SORT_BITONIC ? rto_bitonic_pass_count(rto_next_pow2(d->n))
+                                                      : rto_radix_pass_count(d->format, d->radix_bits);
+    if (!rto_bundle_get_int(b, "params", "passes", &passes) || passes != (int64_t)want)
+        return cli_fail("check-sort", "--expected %s: manifest params.passes is %lld; %s over %zu keys has %u", dir,
+                        (long long)passes, d->algo == RTO_SORT_BITONIC ? "the bitonic network" : "the radix sort",
+                        d->n, want);
+    return EXIT_PASS;
 }
 
 static int load(const char *path, rto_npy *out, const char *what)
@@ -231,9 +192,15 @@ int cmd_check_sort(int argc, char **argv)
             rc = cli_fail("check-sort", "--expected: %s", msg.text);
             goto out;
         }
+        if ((rc = check_bundle_keys(bundle, expected, &bin))) {
+            rto_npy_free(&bin);
+            goto out;
+        }
         if (input) {
-            if ((rc = load(input, &l.input, "--input")))
+            if ((rc = load(input, &l.input, "--input"))) {
+                rto_npy_free(&bin);
                 goto out;
+            }
             int same = l.input.nbytes == bin.nbytes && l.input.desc.dtype == bin.desc.dtype &&
                        (bin.nbytes == 0 || memcmp(l.input.data, bin.data, bin.nbytes) == 0);
             rto_npy_free(&bin);
@@ -285,6 +252,8 @@ int cmd_check_sort(int argc, char **argv)
         rc = cli_fail("check-sort", "input: %s", msg.text);
         goto out;
     }
+    if (bundle && (rc = check_bundle_params(bundle, expected, &d)))
+        goto out;
     if (rto_npy_as_keys(&l.gpu, &gf, &gn, &msg)) {
         rc = cli_fail("check-sort", "--gpu %s: %s", gpu, msg.text);
         goto out;
@@ -330,23 +299,14 @@ int cmd_check_sort(int argc, char **argv)
         }
     }
 
-    rto_sort_report r;
+    rto_report r;
     rto_status s = rto_sort_check(&d, &r, &msg);
     if (s != RTO_OK && s != RTO_ERR_MISMATCH) {
         rc = cli_status("check-sort", s, &msg);
         goto out;
     }
-    json_t *j = report_json(&r, case_id, d.format, d.n, gn);
-    if (json) {
-        json_dumpf(j, stdout, JSON_INDENT(2));
-        fputc('\n', stdout);
-    } else {
-        print_human(&r, case_id, d.format, d.n, gn);
-    }
-    if (s == RTO_ERR_MISMATCH && artifacts)
-        cli_write_report(gpu, "check-sort", j);
-    json_decref(j);
-    rc = s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
+    snprintf(r.what, sizeof r.what, "%s", case_id ? case_id : "");
+    rc = cli_report("check-sort", &r, json, artifacts, gpu);
 out:
     loaded_free(&l);
     rto_bundle_close(bundle);

@@ -7,7 +7,8 @@
  *
  *     keys      rto_keys_generate / rto_tlas_keys / rto_blas_keys        Morton keys and named distributions (§3)
  *     sort      rto_bitonic_sort (+ checkpoints) / rto_radix_sort         the canonical network and LSD radix (§4)
- *     check     rto_sort_check                                            sorted / permutation / stable / passes
+ *     check     rto_sort_check, rto_tlas_check / rto_karras_check         sorted / permutation / passes; trees (§9)
+ *     report    rto_report, rto_report_text / rto_report_json             one report shape for every validator
  *     files     rto_npy_read / rto_npy_write, rto_bundle_*                .npy arrays and manifest.json (§8)
  *
  * Conventions (STYLE.md): fallible calls return rto_status and, when given a non-NULL rto_msg, write a one-line
@@ -182,6 +183,113 @@ rto_status rto_radix_sort(rto_key_format f, const void *keys, size_t n, uint32_t
                           uint32_t *perm, const rto_radix_trace *trace, rto_msg *msg);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
+/* Validation reports (DESIGN.md §9): one shape for every check-* validator                                        */
+
+/** How a report value is typed, so that keys print as hex, indices as integers and coordinates as floats. */
+typedef enum rto_value_type {
+    RTO_VALUE_NONE = 0,  /* absent: "-" in text, null in JSON */
+    RTO_VALUE_HEX32 = 1, /* a u32 bit pattern (TLAS keys, items, links): 0x%08x, a JSON string */
+    RTO_VALUE_HEX64 = 2, /* a u64 bit pattern (BLAS keys): 0x%016x, a JSON string */
+    RTO_VALUE_UINT = 3,  /* an unsigned count or index: decimal */
+    RTO_VALUE_INT = 4,   /* a signed difference: decimal with its sign */
+    RTO_VALUE_F32 = 5,   /* a binary32 value (coordinates, t): 9 significant digits, which round-trip */
+    RTO_VALUE_F64 = 6    /* a binary64 value (float differences, tolerances): 9 significant digits */
+} rto_value_type;
+
+/** A typed value: u for HEX32 / HEX64 / UINT, i for INT, f for F32 / F64. */
+typedef struct rto_value {
+    rto_value_type type;
+    union {
+        uint64_t u;
+        int64_t i;
+        double f;
+    } v;
+} rto_value;
+
+/** State of one property a validator checks ("sorted", "permutation", "boxes", ...). */
+typedef enum rto_check_state {
+    RTO_CHECK_NOT_RUN = 0, /* "n/a" */
+    RTO_CHECK_PASSED = 1,  /* "ok" */
+    RTO_CHECK_FAILED = 2   /* "FAIL" */
+} rto_check_state;
+
+#define RTO_REPORT_NAME_MAX 24
+#define RTO_REPORT_MAX_FIELDS 8
+#define RTO_REPORT_MAX_CHECKS 8
+#define RTO_REPORT_MAX_FAULTS 12
+#define RTO_REPORT_MAX_ROWS 16
+
+/** A named integer: a location ("node" 5, "slot" 2048, "pass" 45) or a size ("n" 4097, "nodes" 255). */
+typedef struct rto_report_field {
+    char name[RTO_REPORT_NAME_MAX];
+    int64_t value;
+} rto_report_field;
+
+typedef struct rto_report_check {
+    char name[RTO_REPORT_NAME_MAX];
+    rto_check_state state;
+} rto_report_check;
+
+/** One row of the table of first differing elements: the element (index, and which field of a record), the
+ * expected and actual values, their difference (xor for bit patterns, actual - expected otherwise) and the
+ * tolerance that applied to it (NONE where the comparison is exact). */
+typedef struct rto_report_row {
+    uint64_t index;
+    char field[RTO_REPORT_NAME_MAX]; /* "" for a scalar element, else "item", "left", "min.x", ... */
+    rto_value expected, actual, diff, tolerance;
+} rto_report_row;
+
+/**
+ * The result of a validator (check-sort, check-bvh; check-hits and check-frame to come). Filled by the validator;
+ * rto_report_text and rto_report_json write it out. All strings are NUL-terminated.
+ */
+typedef struct rto_report {
+    char validator[RTO_REPORT_NAME_MAX]; /* "check-sort", "check-bvh" */
+    char what[96];     /* the thing checked: a case id, "TLAS (sweep)", "BLAS 0"; "" when unnamed */
+    char context[160]; /* one line on what was compared: "4097 keys (u32), GPU dump of 4097 slots (n_padded 8192)" */
+    char mode[RTO_REPORT_NAME_MAX]; /* "exact", "structure-only"; "" for validators with one mode */
+    int code;                          /* the validator's fault enum (rto_fault, rto_bvh_fault); 0 = passed */
+    char fault[RTO_REPORT_NAME_MAX];   /* its stable name; "none" when passed */
+    char faults_seen[RTO_REPORT_MAX_FAULTS][RTO_REPORT_NAME_MAX]; /* every fault class found, the primary first */
+    uint32_t nfaults_seen;
+    rto_report_check checks[RTO_REPORT_MAX_CHECKS]; /* the properties checked, in a fixed order */
+    uint32_t nchecks;
+    rto_report_field where[RTO_REPORT_MAX_FIELDS]; /* location of the primary fault: node, leaf, slot, pass, k, j */
+    uint32_t nwhere;
+    rto_report_field facts[RTO_REPORT_MAX_FIELDS]; /* sizes of what was compared: n, gpu_n, nodes, leaves */
+    uint32_t nfacts;
+    char tolerance[224];    /* the comparison rule applied, with its DESIGN.md §9 source */
+    double tolerance_bound; /* the absolute bound at the reported element; 0 when exact */
+    char table_title[48];   /* what the rows compare: "keys", "source indices", "box", "links" */
+    char index_name[RTO_REPORT_NAME_MAX]; /* what a row's index counts: "slot", "node" */
+    uint32_t nrows;
+    rto_report_row rows[RTO_REPORT_MAX_ROWS]; /* the first differing elements of the primary fault */
+    char summary[512]; /* one line: "<fault>: what failed, where, and why" ("ok: ..." when passed) */
+} rto_report;
+
+/** Whether a report records a pass (code 0). */
+int rto_report_passed(const rto_report *r);
+/** Looks up a location field ("node", "slot", ...): returns 1 and sets *value, or 0 when absent. */
+int rto_report_where(const rto_report *r, const char *name, int64_t *value);
+/** The state of a named check; RTO_CHECK_NOT_RUN when the report has no such check. */
+rto_check_state rto_report_check_state(const rto_report *r, const char *name);
+
+/**
+ * Writes the report as text: a header line "<validator> <what>: <context>", "PASS|FAIL <summary>", then the mode,
+ * the checks, the location, the tolerance and the table of first differing elements, one item per line.
+ * buf receives up to cap bytes including the NUL; *len is set to the full length without the NUL. Returns
+ * RTO_ERR_BUFFER_TOO_SMALL (buf then holds a truncated prefix when cap > 0) when cap <= *len: call with
+ * buf = NULL, cap = 0 to size the buffer.
+ */
+rto_status rto_report_text(const rto_report *r, char *buf, size_t cap, size_t *len);
+/**
+ * Writes the report as one JSON object (indented by two spaces; keys: command, what, context, mode, result, fault,
+ * faults, location, checks, facts, tolerance, diffs, message). Hex values are strings, non-finite floats the
+ * strings "inf", "-inf", "nan". Same buffer contract as rto_report_text.
+ */
+rto_status rto_report_json(const rto_report *r, char *buf, size_t cap, size_t *len, rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
 /* Sort validation (DESIGN.md §4, §9)                                                                                */
 
 typedef enum rto_sort_algo { RTO_SORT_BITONIC = 0, RTO_SORT_RADIX = 1 } rto_sort_algo;
@@ -202,30 +310,14 @@ typedef enum rto_fault {
 
 const char *rto_fault_name(rto_fault f);
 
-enum {
-    RTO_CHECK_SORTED = 1u << 0,
-    RTO_CHECK_PERMUTATION = 1u << 1,
-    RTO_CHECK_TAIL = 1u << 2,
-    RTO_CHECK_VALUES = 1u << 3,
-    RTO_CHECK_STABLE = 1u << 4,
-    RTO_CHECK_PASSES = 1u << 5
-};
-
-#define RTO_SORT_MAX_DIFFS 16
-
-typedef struct rto_sort_diff {
-    size_t slot;
-    uint64_t expected;
-    uint64_t actual;
-} rto_sort_diff;
-
 typedef struct rto_sort_check_desc {
     rto_key_format format;
     const void *input; /* the n unsorted input keys */
     size_t n;
     const void *gpu_keys;       /* the GPU's sorted buffer */
     size_t gpu_n;               /* n or rto_next_pow2(n) */
-    const uint32_t *gpu_values; /* NULL, or gpu_n source indices carried with the keys (padding p carries n + p) */
+    const uint32_t *gpu_values; /* NULL, or gpu_n source indices carried with the keys: padding element p carries
+                                 * n + p, which may land in the first n slots when real keys equal the sentinel */
     int require_stable;         /* values of equal keys must ascend */
     /* Checkpoints: NULL, or gpu_pass_count arrays of gpu_pass_len keys (bitonic: n_padded slots per pass; radix:
      * n keys per pass). The oracle side is recomputed from input with algo / radix_bits / radix_tile. */
@@ -237,26 +329,14 @@ typedef struct rto_sort_check_desc {
     uint32_t radix_tile;
 } rto_sort_check_desc;
 
-typedef struct rto_sort_report {
-    rto_fault fault;     /* the primary fault, RTO_FAULT_NONE when everything passed */
-    uint32_t checked;    /* RTO_CHECK_* bits that were run */
-    uint32_t failed;     /* RTO_CHECK_* bits that failed */
-    size_t first_slot;   /* first bad slot of the primary fault (SIZE_MAX when none) */
-    int64_t pass;        /* first divergent checkpoint pass, -1 when none */
-    uint32_t pass_k;     /* bitonic (k, j) of that pass; for radix, k = digit shift and j = 0 */
-    uint32_t pass_j;
-    size_t ndiffs;       /* rows of diffs: the first differing slots of the primary fault */
-    int diffs_are_values; /* diffs compare values (stability, value faults), not keys */
-    rto_sort_diff diffs[RTO_SORT_MAX_DIFFS];
-    char summary[512]; /* one line: what failed, where, and why */
-} rto_sort_report;
-
 /**
  * Validates a GPU sort. Returns RTO_OK when all checks pass, RTO_ERR_MISMATCH when a fault was found (report says
- * which), other statuses for unusable input (msg says why). Independent of rto_bitonic_sort for the final array:
- * the expected order comes from the C library's qsort.
+ * which: code is an rto_fault; checks "sorted", "permutation", "tail", "values", "stable", "passes"; location
+ * "slot" and, for a checkpoint fault, "pass" with "k" / "j" (bitonic) or "digit_bit" (radix)), other statuses for
+ * unusable input (msg says why). Independent of rto_bitonic_sort for the final array: the expected order comes
+ * from the C library's qsort. report->what is left empty for the caller (e.g. the case id).
  */
-rto_status rto_sort_check(const rto_sort_check_desc *desc, rto_sort_report *report, rto_msg *msg);
+rto_status rto_sort_check(const rto_sort_check_desc *desc, rto_report *report, rto_msg *msg);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Scenes (DESIGN.md §5): meshes in object space, instances, materials, textures, cameras                          */
@@ -441,46 +521,61 @@ typedef enum rto_bvh_fault {
     RTO_BVH_SHARED = 3,       /* "shared-node": an internal node reachable from two parents */
     RTO_BVH_BAD_LINK = 4,     /* "bad-link": a child index out of range */
     RTO_BVH_DROPPED_LEAF = 5, /* "dropped-leaf": a primitive is in no leaf */
-    RTO_BVH_ITEM = 6,         /* "item": a leaf holds the wrong primitive (another one appears twice) */
+    RTO_BVH_ITEM = 6,         /* "item": a leaf holds the wrong primitive (another one appears twice, or it is out
+                               * of range, or an instance of an empty BLAS) */
     RTO_BVH_SWAPPED = 7,      /* "swapped-children": a node's two children exchanged */
     RTO_BVH_TOPOLOGY = 8,     /* "topology": links differ from the expected tree otherwise */
     RTO_BVH_PARENT = 9,       /* "parent": a parent link disagrees with the child links */
-    RTO_BVH_EMPTY = 10,       /* "empty": EMPTY / INTERNAL items or empty boxes wrong */
+    RTO_BVH_EMPTY = 10,       /* "empty": EMPTY / INTERNAL items wrong, or an EMPTY node's box not (+inf, -inf) */
     RTO_BVH_BOX = 11          /* "box": a box outside its tolerance or not the exact union of its children */
 } rto_bvh_fault;
 
 const char *rto_bvh_fault_name(rto_bvh_fault f);
 
-typedef struct rto_bvh_report {
-    rto_bvh_fault fault;
-    int64_t node;     /* first bad node (-1: none / whole tree) */
-    int64_t leaf;     /* the leaf or primitive concerned (-1: none) */
-    uint32_t faults;  /* bit (1 << fault) for every fault class seen */
-    size_t nodes_checked;
-    char summary[512];
-} rto_bvh_report;
+/**
+ * The leaf-box tolerance of DESIGN.md §9 for a box obtained by transforming object_box with m: per world coordinate
+ * r, 8·2^-24·(|m[r][0]·x| + |m[r][1]·y| + |m[r][2]·z| + |m[r][3]|) maximised over the box's 8 corners — twice the
+ * forward error bound γ4 of one transform row, so two evaluations, each with or without fused multiply-add, agree
+ * within it. Computed in binary64; an empty object box gives 0.
+ */
+void rto_transform_box_tolerance(const rto_mat34 *m, const rto_aabb *object_box, double tolerance[3]);
 
-/** Box tolerance of §9, in ulps per bound: leaves from transformed boxes (TLAS) 4, everything else exact. */
-#define RTO_TLAS_LEAF_ULPS 4u
+/** What a tree is checked against. Zero-initialise; a NULL pointer means "not given". */
+typedef struct rto_bvh_check_desc {
+    const void *nodes; /* the tree: rto_tlas_node records (rto_tlas_check) or rto_bvh_node (rto_karras_check) */
+    size_t node_count;
+    const void *expected; /* NULL: any valid tree over the primitives ("structure-only"); else the oracle's nodes,
+                           * as many as the tree must have (read only when node_count is right), whose items and
+                           * links must be equal ("exact") */
+    const rto_aabb *prim_boxes; /* prim_count primitive boxes (instance world boxes, triangle boxes); an empty box
+                                 * (+inf, -inf) marks a primitive that must be in no leaf: an instance of an empty BLAS */
+    size_t prim_count;
+    const double *leaf_tolerance; /* NULL: leaf boxes equal their primitive's box exactly (triangles); else
+                                   * 3 * prim_count per-axis bounds (rto_transform_box_tolerance) for TLAS leaves */
+    const uint32_t *leaf_prims;   /* Karras trees: the primitive of each sorted leaf, leaf_count entries; must be a
+                                   * permutation of the non-empty primitives (a GPU's own order is checked too) */
+    size_t leaf_count;
+} rto_bvh_check_desc;
 
 /**
- * Checks a sweep TLAS (gpu, node_count nodes) over n instance boxes. With expected (the oracle's nodes), compares
- * exactly (items, EMPTY handling) and boxes within tolerance; without, checks validity against the boxes alone:
- * each instance in exactly one leaf, items and EMPTY boxes consistent, every internal box the exact union of its
- * children, leaf boxes within RTO_TLAS_LEAF_ULPS of the instance box.
- * Returns RTO_OK, RTO_ERR_MISMATCH (report says what), or another status for unusable input.
+ * Checks a sweep TLAS (DESIGN.md §5, §9). The leaves are the non-empty primitives. Structure first (each non-empty
+ * primitive in exactly one leaf, none for an empty one), then, with expected, every item equal to the oracle's,
+ * then, bottom-up, every node on its own: items consistent with the children (INTERNAL / EMPTY), an EMPTY node's
+ * box (+inf, -inf), a leaf box within leaf_tolerance of its primitive's box, every internal box the exact union of
+ * the dump's own children. The first fault in that order is reported where it starts (report->code is an
+ * rto_bvh_fault; location "node", and "leaf" / "primitive" where one is concerned; checks "size", "leaves",
+ * "oracle", "links", "boxes"). Returns RTO_OK, RTO_ERR_MISMATCH, or another status for unusable input.
  */
-rto_status rto_tlas_check(const rto_tlas_node *gpu, size_t node_count, const rto_tlas_node *expected,
-                          const rto_aabb *boxes, size_t n, rto_bvh_report *report, rto_msg *msg);
+rto_status rto_tlas_check(const rto_bvh_check_desc *desc, rto_report *report, rto_msg *msg);
 
 /**
- * Checks a Karras-layout tree (gpu, node_count nodes) over n primitives whose sorted leaf j holds primitive
- * leaf_prims[j]. Structure first (links in range, no cycle or shared node, parents, every leaf exactly once), then,
- * with expected, exact topology; child boxes against prim_boxes (leaf_ulps tolerance) and exact unions.
+ * Checks a Karras-layout tree (BLAS, or a Karras TLAS): leaf_prims a permutation of the non-empty primitives, links
+ * in range, no cycle or shared node, parents, every leaf exactly once; with expected, links equal to the oracle's;
+ * then, bottom-up (post-order), leaf child boxes within leaf_tolerance of their primitive's box and internal child
+ * boxes the exact union of the dump's own child node. Report as rto_tlas_check; a box is reported at the node
+ * holding it, with "child" naming the internal child or "leaf" the sorted leaf.
  */
-rto_status rto_karras_check(const rto_bvh_node *gpu, size_t node_count, const rto_bvh_node *expected,
-                            const uint32_t *leaf_prims, const rto_aabb *prim_boxes, size_t n, uint32_t leaf_ulps,
-                            rto_bvh_report *report, rto_msg *msg);
+rto_status rto_karras_check(const rto_bvh_check_desc *desc, rto_report *report, rto_msg *msg);
 
 /** Depth, leaves and SAH cost of a sweep TLAS / a Karras tree (n primitives). */
 rto_bvh_stats rto_tlas_stats(const rto_tlas_node *nodes, size_t n);

@@ -19,6 +19,11 @@ run() {
 }
 # has TEXT out|err : the last command's stdout / stderr contains TEXT.
 has() { grep -q -- "$1" "$T/$2" || { fail "expected '$1' in $2 of the last command"; sed 's/^/    | /' "$T/$2" | head -20; }; }
+# loc KEY VALUE : the last command's JSON report (stdout) locates its fault at KEY = VALUE.
+loc() {
+    sed -n '/"location": {/,/}/p' "$T/out" | grep -Eq "^ *\"$1\": $2,?\$" ||
+        { fail "expected location $1 = $2"; sed -n '/"location"/,/}/p' "$T/out" | sed 's/^/    | /'; }
+}
 # finish MESSAGE : exits 1 if anything failed, else prints MESSAGE.
 finish() {
     if [ "$failures" != 0 ]; then

@@ -3,7 +3,7 @@
  * with the first bad slot, so a report reads "lost-key at slot 4090" rather than "arrays differ". The expected
  * final order comes from the C library's qsort, independent of the oracle's own sorts; only checkpoint passes are
  * compared with the oracle, because they are defined by its schedule. */
-#include "internal.h"
+#include "report_internal.h"
 
 #include <inttypes.h>
 #include <stdio.h>
@@ -65,30 +65,41 @@ static size_t count_of(const uint64_t *e, size_t n, uint64_t v)
 
 static int hexw(rto_key_format f) { return f == RTO_KEY_U32 ? 8 : 16; }
 
-static void add_diff(rto_sort_report *r, size_t slot, uint64_t expected, uint64_t actual)
+static rto_value key_value(rto_key_format f, uint64_t k)
 {
-    if (r->ndiffs < RTO_SORT_MAX_DIFFS) {
-        r->diffs[r->ndiffs].slot = slot;
-        r->diffs[r->ndiffs].expected = expected;
-        r->diffs[r->ndiffs].actual = actual;
-        r->ndiffs++;
+    return f == RTO_KEY_U32 ? rto_val_hex32((uint32_t)k) : rto_val_hex64(k);
+}
+
+/* A row of the table: keys compare as bit patterns (diff = xor), carried values as indices (diff = actual - expected). */
+static void add_diff(rto_report *r, rto_key_format f, int values, size_t slot, uint64_t expected, uint64_t actual)
+{
+    rto_report_row *row = rto_report_row_add(r, slot, "");
+    if (!row)
+        return;
+    if (values) {
+        row->expected = rto_val_uint(expected);
+        row->actual = rto_val_uint(actual);
+        row->diff = rto_val_int((int64_t)(actual - expected));
+    } else {
+        row->expected = key_value(f, expected);
+        row->actual = key_value(f, actual);
+        row->diff = key_value(f, expected ^ actual);
     }
 }
 
-/* The first fault found in priority order becomes the primary one; later ones only set their failed bit. */
-static int claim(rto_sort_report *r, rto_fault f, uint32_t bit, size_t slot)
+/* The first fault found in priority order becomes the primary one (its table compares keys, or source indices for
+ * value and stability faults); later ones only fail their check. */
+static int claim(rto_report *r, rto_fault f, const char *check, int values)
 {
-    r->failed |= bit;
-    if (r->fault != RTO_FAULT_NONE)
+    rto_report_mark(r, check, RTO_CHECK_FAILED);
+    if (!rto_report_claim(r, (int)f, rto_fault_name(f)))
         return 0;
-    r->fault = f;
-    r->first_slot = slot;
-    r->ndiffs = 0;
+    rto_report_table(r, values ? "source indices" : "keys", "slot");
     return 1;
 }
 
-/* Compares the GPU's checkpoint passes with the oracle's; fills the pass fields of r. */
-static rto_status check_passes(const rto_sort_check_desc *d, rto_sort_report *r, rto_msg *msg)
+/* Compares the GPU's checkpoint passes with the oracle's; records the first divergent pass. */
+static rto_status check_passes(const rto_sort_check_desc *d, rto_report *r, rto_msg *msg)
 {
     const rto_key_format f = d->format;
     const size_t ksz = rto_key_size(f), np = rto_next_pow2(d->n);
@@ -103,14 +114,15 @@ static rto_status check_passes(const rto_sort_check_desc *d, rto_sort_report *r,
         if (!passes || d->radix_tile == 0)
             return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "radix checkpoints need --radix-bits 4|8 and a tile >= 1");
     }
-    r->checked |= RTO_CHECK_PASSES;
+    rto_report_mark(r, "passes", RTO_CHECK_PASSED);
+    rto_report_fact(r, "passes", passes);
     if (d->gpu_pass_count != passes || d->gpu_pass_len != len) {
-        if (claim(r, RTO_FAULT_SIZE, RTO_CHECK_PASSES, 0))
-            snprintf(r->summary, sizeof r->summary,
-                     "size: the checkpoint dump holds %" PRIu32 " passes of %zu keys; the %s oracle has %" PRIu32
-                     " passes of %zu",
-                     d->gpu_pass_count, d->gpu_pass_len, d->algo == RTO_SORT_BITONIC ? "bitonic" : "radix", passes,
-                     len);
+        if (claim(r, RTO_FAULT_SIZE, "passes", 0))
+            rto_report_summary(r,
+                               "size: the checkpoint dump holds %" PRIu32 " passes of %zu keys; the %s oracle has %" PRIu32
+                               " passes of %zu",
+                               d->gpu_pass_count, d->gpu_pass_len, d->algo == RTO_SORT_BITONIC ? "bitonic" : "radix",
+                               passes, len);
         return RTO_OK;
     }
     if (passes == 0 || len == 0)
@@ -136,19 +148,15 @@ static rto_status check_passes(const rto_sort_check_desc *d, rto_sort_report *r,
         return s;
     }
     const unsigned char *gpu = d->gpu_passes;
-    for (uint32_t p = 0; p < passes && r->pass < 0; p++) {
+    for (uint32_t p = 0; p < passes; p++) {
         const unsigned char *e = expect + (size_t)p * len * ksz, *g = gpu + (size_t)p * len * ksz;
         if (memcmp(e, g, len * ksz) == 0)
             continue;
-        r->pass = p;
+        uint32_t k = p * d->radix_bits, j = 0;
         if (d->algo == RTO_SORT_BITONIC)
-            rto_bitonic_pass_kj(p, &r->pass_k, &r->pass_j);
-        else {
-            r->pass_k = p * d->radix_bits;
-            r->pass_j = 0;
-        }
+            rto_bitonic_pass_kj(p, &k, &j);
         size_t first = SIZE_MAX;
-        int own = claim(r, RTO_FAULT_PASS, RTO_CHECK_PASSES, 0);
+        int own = claim(r, RTO_FAULT_PASS, "passes", 0);
         for (size_t i = 0; i < len; i++) {
             uint64_t ev = rto_key_get(f, e, i), gv = rto_key_get(f, g, i);
             if (ev == gv)
@@ -156,43 +164,55 @@ static rto_status check_passes(const rto_sort_check_desc *d, rto_sort_report *r,
             if (first == SIZE_MAX)
                 first = i;
             if (own)
-                add_diff(r, i, ev, gv);
+                add_diff(r, f, 0, i, ev, gv);
         }
         if (own) {
-            r->first_slot = first;
-            if (d->algo == RTO_SORT_BITONIC)
-                snprintf(r->summary, sizeof r->summary,
-                         "pass: checkpoint pass %" PRIu32 " (k=%" PRIu32 ", j=%" PRIu32
-                         ") is the first to diverge, at slot %zu (compare-exchange partner %zu): expected 0x%0*" PRIx64
-                         ", got 0x%0*" PRIx64,
-                         p, r->pass_k, r->pass_j, first, first ^ (size_t)r->pass_j, hexw(f), rto_key_get(f, e, first),
-                         hexw(f), rto_key_get(f, g, first));
-            else
-                snprintf(r->summary, sizeof r->summary,
-                         "pass: radix pass %" PRIu32 " (digit bits %" PRIu32 "..%" PRIu32
-                         ") is the first to diverge, at slot %zu (tile %zu): expected 0x%0*" PRIx64 ", got 0x%0*" PRIx64,
-                         p, r->pass_k, r->pass_k + d->radix_bits - 1, first, first / d->radix_tile, hexw(f),
-                         rto_key_get(f, e, first), hexw(f), rto_key_get(f, g, first));
+            rto_report_at(r, "pass", p);
+            if (d->algo == RTO_SORT_BITONIC) {
+                rto_report_at(r, "k", k);
+                rto_report_at(r, "j", j);
+                rto_report_at(r, "slot", (int64_t)first);
+                rto_report_at(r, "partner", (int64_t)(first ^ (size_t)j));
+                rto_report_summary(r,
+                                   "pass: checkpoint pass %" PRIu32 " (k=%" PRIu32 ", j=%" PRIu32
+                                   ") is the first to diverge, at slot %zu (compare-exchange partner %zu): expected "
+                                   "0x%0*" PRIx64 ", got 0x%0*" PRIx64,
+                                   p, k, j, first, first ^ (size_t)j, hexw(f), rto_key_get(f, e, first), hexw(f),
+                                   rto_key_get(f, g, first));
+            } else {
+                rto_report_at(r, "digit_bit", k);
+                rto_report_at(r, "slot", (int64_t)first);
+                rto_report_at(r, "tile", (int64_t)(first / d->radix_tile));
+                rto_report_summary(r,
+                                   "pass: radix pass %" PRIu32 " (digit bits %" PRIu32 "..%" PRIu32
+                                   ") is the first to diverge, at slot %zu (tile %zu): expected 0x%0*" PRIx64
+                                   ", got 0x%0*" PRIx64,
+                                   p, k, k + d->radix_bits - 1, first, first / d->radix_tile, hexw(f),
+                                   rto_key_get(f, e, first), hexw(f), rto_key_get(f, g, first));
+            }
         } else {
-            /* Another fault is primary; keep the slot of the divergence in the summary's tail. */
-            size_t used = strlen(r->summary);
-            snprintf(r->summary + used, sizeof r->summary - used,
-                     "; checkpoints first diverge at pass %" PRIu32 " (k=%" PRIu32 ", j=%" PRIu32 ") slot %zu", p,
-                     r->pass_k, r->pass_j, first);
+            /* Another fault is primary; keep where the checkpoints diverge in the summary's tail. */
+            rto_report_append(r, "; checkpoints first diverge at pass %" PRIu32 " (k=%" PRIu32 ", j=%" PRIu32
+                              ") slot %zu", p, k, j, first);
         }
+        break;
     }
     free(expect);
     return RTO_OK;
 }
 
-rto_status rto_sort_check(const rto_sort_check_desc *d, rto_sort_report *r, rto_msg *msg)
+static const char *const check_names[] = {"sorted", "permutation", "tail", "values", "stable", "passes"};
+
+rto_status rto_sort_check(const rto_sort_check_desc *d, rto_report *r, rto_msg *msg)
 {
     if (!d || !r)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL descriptor or report");
-    memset(r, 0, sizeof *r);
-    r->fault = RTO_FAULT_NONE;
-    r->first_slot = SIZE_MAX;
-    r->pass = -1;
+    rto_report_begin(r, "check-sort");
+    for (size_t i = 0; i < sizeof check_names / sizeof check_names[0]; i++)
+        rto_report_add_check(r, check_names[i]);
+    rto_report_table(r, "keys", "slot");
+    snprintf(r->tolerance, sizeof r->tolerance, "exact: keys, carried values and checkpoint passes compare bit for "
+             "bit (DESIGN.md §9)");
     const rto_key_format f = d->format;
     if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
@@ -204,11 +224,16 @@ rto_status rto_sort_check(const rto_sort_check_desc *d, rto_sort_report *r, rto_
     const size_t n = d->n, np = rto_next_pow2(n), gn = d->gpu_n;
     const uint64_t sentinel = rto_key_sentinel(f);
     const int w = hexw(f);
+    snprintf(r->context, sizeof r->context, "%zu keys (%s), GPU dump of %zu slots (n_padded %zu)", n,
+             f == RTO_KEY_U32 ? "u32" : "u64", gn, np);
+    rto_report_fact(r, "n", (int64_t)n);
+    rto_report_fact(r, "n_padded", (int64_t)np);
+    rto_report_fact(r, "gpu_n", (int64_t)gn);
 
     if (gn != n && gn != np) {
-        claim(r, RTO_FAULT_SIZE, RTO_CHECK_PERMUTATION, gn < n ? gn : n);
-        snprintf(r->summary, sizeof r->summary,
-                 "size: the GPU dump holds %zu keys; expected n = %zu or n_padded = %zu", gn, n, np);
+        claim(r, RTO_FAULT_SIZE, "permutation", 0);
+        rto_report_at(r, "slot", (int64_t)(gn < n ? gn : n));
+        rto_report_summary(r, "size: the GPU dump holds %zu keys; expected n = %zu or n_padded = %zu", gn, n, np);
         return RTO_ERR_MISMATCH;
     }
 
@@ -227,7 +252,8 @@ rto_status rto_sort_check(const rto_sort_check_desc *d, rto_sort_report *r, rto_
     qsort(e, n, sizeof *e, cmp_u64);
     qsort(gs, n, sizeof *gs, cmp_u64);
 #define G(i) rto_key_get(f, d->gpu_keys, (i))
-    r->checked |= RTO_CHECK_SORTED | RTO_CHECK_PERMUTATION;
+    rto_report_mark(r, "sorted", RTO_CHECK_PASSED);
+    rto_report_mark(r, "permutation", RTO_CHECK_PASSED);
 
     /* Multiset: merge the sorted GPU real range against the sorted input. */
     size_t nmissing = 0, nextra = 0;
@@ -256,76 +282,79 @@ rto_status rto_sort_check(const rto_sort_check_desc *d, rto_sort_report *r, rto_
         if (G(i) != e[i])
             first_diff = i;
     if (nextra) {
-        rto_fault fault;
+        rto_fault fault = extra_sentinels ? RTO_FAULT_LOST : extra_foreign ? RTO_FAULT_CORRUPT : RTO_FAULT_DUPLICATE;
         size_t slot = first_diff;
-        if (extra_sentinels) {
-            fault = RTO_FAULT_LOST;
-            snprintf(r->summary, sizeof r->summary,
-                     "lost-key: %zu input key(s) missing from the sorted range (first 0x%0*" PRIx64
-                     ") and %" PRIu64 " extra sentinel(s) in their place; first bad slot %zu",
-                     nmissing, w, first_missing, extra_sentinels, slot);
-        } else if (extra_foreign) {
-            fault = RTO_FAULT_CORRUPT;
+        if (fault == RTO_FAULT_CORRUPT)
             for (size_t i = 0; i < n; i++)
                 if (!count_of(e, n, G(i))) {
                     slot = i;
                     break;
                 }
+        claim(r, fault, "permutation", 0);
+        rto_report_at(r, "slot", (int64_t)slot);
+        if (fault == RTO_FAULT_LOST) {
+            rto_report_summary(r,
+                               "lost-key: %zu input key(s) missing from the sorted range (first 0x%0*" PRIx64
+                               ") and %" PRIu64 " extra sentinel(s) in their place; first bad slot %zu",
+                               nmissing, w, first_missing, extra_sentinels, slot);
+        } else if (fault == RTO_FAULT_CORRUPT) {
             uint64_t x = G(slot) ^ e[slot];
             int bits = 0;
             for (uint64_t t = x; t; t &= t - 1)
                 bits++;
-            snprintf(r->summary, sizeof r->summary,
-                     "corrupt-key: slot %zu holds 0x%0*" PRIx64 ", which is not in the input; expected 0x%0*" PRIx64
-                     " (%d bit%s differ)",
-                     slot, w, G(slot), w, e[slot], bits, bits == 1 ? "" : "s");
+            rto_report_summary(r,
+                               "corrupt-key: slot %zu holds 0x%0*" PRIx64 ", which is not in the input; expected "
+                               "0x%0*" PRIx64 " (%d bit%s differ)",
+                               slot, w, G(slot), w, e[slot], bits, bits == 1 ? "" : "s");
         } else {
-            fault = RTO_FAULT_DUPLICATE;
-            snprintf(r->summary, sizeof r->summary,
-                     "duplicate-key: key 0x%0*" PRIx64 " appears %zu time(s), the input has it %zu time(s); 0x%0*" PRIx64
-                     " is missing; first bad slot %zu",
-                     w, first_extra, count_of(gs, n, first_extra), count_of(e, n, first_extra), w, first_missing, slot);
+            rto_report_summary(r,
+                               "duplicate-key: key 0x%0*" PRIx64 " appears %zu time(s), the input has it %zu time(s); "
+                               "0x%0*" PRIx64 " is missing; first bad slot %zu",
+                               w, first_extra, count_of(gs, n, first_extra), count_of(e, n, first_extra), w,
+                               first_missing, slot);
         }
-        claim(r, fault, RTO_CHECK_PERMUTATION, slot);
         for (size_t i = 0; i < n; i++)
             if (G(i) != e[i])
-                add_diff(r, i, e[i], G(i));
+                add_diff(r, f, 0, i, e[i], G(i));
     }
     for (size_t i = 0; i + 1 < n; i++) {
         if (G(i) > G(i + 1)) {
-            if (claim(r, RTO_FAULT_ORDER, RTO_CHECK_SORTED, i)) {
-                snprintf(r->summary, sizeof r->summary,
-                         "order: a permutation of the input but not sorted: slot %zu holds 0x%0*" PRIx64
-                         " > slot %zu 0x%0*" PRIx64,
-                         i, w, G(i), i + 1, w, G(i + 1));
+            if (claim(r, RTO_FAULT_ORDER, "sorted", 0)) {
+                rto_report_at(r, "slot", (int64_t)i);
+                rto_report_summary(r,
+                                   "order: a permutation of the input but not sorted: slot %zu holds 0x%0*" PRIx64
+                                   " > slot %zu 0x%0*" PRIx64,
+                                   i, w, G(i), i + 1, w, G(i + 1));
                 for (size_t s = 0; s < n; s++)
                     if (G(s) != e[s])
-                        add_diff(r, s, e[s], G(s));
+                        add_diff(r, f, 0, s, e[s], G(s));
             }
             break;
         }
     }
     if (gn > n) {
-        r->checked |= RTO_CHECK_TAIL;
+        rto_report_mark(r, "tail", RTO_CHECK_PASSED);
         for (size_t i = n; i < gn; i++) {
             if (G(i) == sentinel)
                 continue;
-            if (claim(r, RTO_FAULT_TAIL, RTO_CHECK_TAIL, i)) {
-                snprintf(r->summary, sizeof r->summary,
-                         "tail: padded slot %zu (of %zu) holds 0x%0*" PRIx64 " instead of the sentinel", i, gn, w,
-                         G(i));
+            if (claim(r, RTO_FAULT_TAIL, "tail", 0)) {
+                rto_report_at(r, "slot", (int64_t)i);
+                rto_report_summary(r, "tail: padded slot %zu (of %zu) holds 0x%0*" PRIx64 " instead of the sentinel", i,
+                                   gn, w, G(i));
                 for (size_t s = i; s < gn; s++)
                     if (G(s) != sentinel)
-                        add_diff(r, s, sentinel, G(s));
+                        add_diff(r, f, 0, s, sentinel, G(s));
             }
             break;
         }
     }
 
     if (d->gpu_values) {
-        /* The stable reference: (key, source index) ordered by qsort; padding p carries n + p. */
+        /* The stable reference: (key, source index) ordered by qsort; padding p carries n + p. A dump of n slots
+         * may hold such padding values too: where real keys equal the sentinel, a padding sentinel can overtake
+         * them in the network (docs/sort.md), so every value below n_padded names a source. */
         stable = rto_alloc(gn, sizeof *stable);
-        seen = calloc(gn ? gn : 1, 1);
+        seen = calloc(np ? np : 1, 1);
         if (!stable || !seen) {
             status = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking values");
             goto done;
@@ -335,44 +364,43 @@ rto_status rto_sort_check(const rto_sort_check_desc *d, rto_sort_report *r, rto_
             stable[i].index = (uint32_t)i;
         }
         qsort(stable, gn, sizeof *stable, cmp_keyed);
-        r->checked |= RTO_CHECK_VALUES;
+        rto_report_mark(r, "values", RTO_CHECK_PASSED);
         for (size_t i = 0; i < gn; i++) {
             uint32_t v = d->gpu_values[i];
             uint64_t src = v < n ? rto_key_get(f, d->input, v) : sentinel;
             const char *why = NULL;
-            if ((size_t)v >= gn)
+            if ((size_t)v >= np)
                 why = "is out of range";
             else if (seen[v])
                 why = "appears twice";
             else if (src != G(i))
                 why = "names a source slot holding a different key";
-            if (v < gn)
+            if (v < np)
                 seen[v] = 1;
             if (!why)
                 continue;
-            if (claim(r, RTO_FAULT_VALUE, RTO_CHECK_VALUES, i)) {
-                r->diffs_are_values = 1;
-                snprintf(r->summary, sizeof r->summary,
-                         "value: slot %zu carries source index %" PRIu32 ", which %s (key 0x%0*" PRIx64 ")", i, v, why,
-                         w, G(i));
-                add_diff(r, i, stable[i].index, v);
+            if (claim(r, RTO_FAULT_VALUE, "values", 1)) {
+                rto_report_at(r, "slot", (int64_t)i);
+                rto_report_summary(r, "value: slot %zu carries source index %" PRIu32 ", which %s (key 0x%0*" PRIx64 ")",
+                                   i, v, why, w, G(i));
+                add_diff(r, f, 1, i, stable[i].index, v);
             }
             break;
         }
         if (d->require_stable) {
-            r->checked |= RTO_CHECK_STABLE;
+            rto_report_mark(r, "stable", RTO_CHECK_PASSED);
             for (size_t i = 0; i + 1 < gn; i++) {
                 if (G(i) != G(i + 1) || d->gpu_values[i] < d->gpu_values[i + 1])
                     continue;
-                if (claim(r, RTO_FAULT_STABILITY, RTO_CHECK_STABLE, i)) {
-                    r->diffs_are_values = 1;
-                    snprintf(r->summary, sizeof r->summary,
-                             "stability: slots %zu and %zu hold equal keys 0x%0*" PRIx64
-                             " with source indices %" PRIu32 " then %" PRIu32 " (input order reversed)",
-                             i, i + 1, w, G(i), d->gpu_values[i], d->gpu_values[i + 1]);
+                if (claim(r, RTO_FAULT_STABILITY, "stable", 1)) {
+                    rto_report_at(r, "slot", (int64_t)i);
+                    rto_report_summary(r,
+                                       "stability: slots %zu and %zu hold equal keys 0x%0*" PRIx64
+                                       " with source indices %" PRIu32 " then %" PRIu32 " (input order reversed)",
+                                       i, i + 1, w, G(i), d->gpu_values[i], d->gpu_values[i + 1]);
                     for (size_t s = 0; s < gn; s++)
                         if (d->gpu_values[s] != stable[s].index)
-                            add_diff(r, s, stable[s].index, d->gpu_values[s]);
+                            add_diff(r, f, 1, s, stable[s].index, d->gpu_values[s]);
                 }
                 break;
             }
@@ -385,11 +413,12 @@ rto_status rto_sort_check(const rto_sort_check_desc *d, rto_sort_report *r, rto_
         if (status)
             goto done;
     }
-    if (r->fault == RTO_FAULT_NONE)
-        snprintf(r->summary, sizeof r->summary, "ok: %zu keys sorted, a permutation of the input%s%s", n,
-                 (r->checked & RTO_CHECK_STABLE) ? ", stable" : "",
-                 (r->checked & RTO_CHECK_PASSES) ? ", every checkpoint pass equal" : "");
-    status = r->fault == RTO_FAULT_NONE ? RTO_OK : RTO_ERR_MISMATCH;
+    if (r->code == RTO_FAULT_NONE)
+        rto_report_summary(r, "ok: %zu keys sorted, a permutation of the input%s%s", n,
+                           rto_report_check_state(r, "stable") == RTO_CHECK_PASSED ? ", stable" : "",
+                           rto_report_check_state(r, "passes") == RTO_CHECK_PASSED ? ", every checkpoint pass equal"
+                                                                                    : "");
+    status = r->code == RTO_FAULT_NONE ? RTO_OK : RTO_ERR_MISMATCH;
 done:
     free(e);
     free(gs);

@@ -1,6 +1,6 @@
 /* Test tool: injects one named fault into a correct node array (TlasNode or BlasNode records) and prints the node
  * where it put it, so the command-line tests can assert that check-bvh names it. Knows nothing of the validator.
- *   bvh_mutate tlas-item|tlas-drop|tlas-box|tlas-swap IN OUT
+ *   bvh_mutate tlas-item|tlas-drop|tlas-box|tlas-swap|tlas-leaf-box|tlas-leaf-ulp|tlas-empty-box IN OUT
  *   bvh_mutate karras-item|karras-drop|karras-box|karras-swap|karras-cycle IN OUT */
 #include "rtoracle.h"
 
@@ -47,6 +47,22 @@ int main(int argc, char **argv)
         } else if (!strcmp(m, "tlas-box")) { /* root's max.x shrunk by one ulp */
             node = 0;
             t[0].max[0] = nextafterf(t[0].max[0], -INFINITY);
+        } else if (!strcmp(m, "tlas-leaf-box")) { /* leaf 3's max.x one unit out, its ancestors left alone */
+            node = (long)(leaf0 + 3);
+            t[node].max[0] += 1.0f;
+        } else if (!strcmp(m, "tlas-leaf-ulp")) { /* leaf 3's max.x one ulp out, its ancestors following it */
+            node = (long)(leaf0 + 3);
+            t[node].max[0] = nextafterf(t[node].max[0], INFINITY);
+            for (size_t i = (size_t)node; i > 0;) {
+                i = (i - 1) / 2;
+                t[i].max[0] = fmaxf(t[2 * i + 1].max[0], t[2 * i + 2].max[0]);
+            }
+        } else if (!strcmp(m, "tlas-empty-box")) { /* the last leaf, EMPTY, given leaf 0's box */
+            node = (long)(count - 1);
+            if (t[node].item != RTO_TLAS_EMPTY)
+                return die("the last leaf is not EMPTY");
+            memcpy(t[node].min, t[leaf0].min, sizeof t[node].min);
+            memcpy(t[node].max, t[leaf0].max, sizeof t[node].max);
         } else if (!strcmp(m, "tlas-swap")) { /* exchange the subtrees under the root */
             node = 0;
             for (size_t x = 1, y = 2, w = 1; x < count; x = 2 * x + 1, y = 2 * y + 1, w *= 2)
