@@ -111,7 +111,8 @@ static void test_text_writer(void **state)
         "  oracle       n/a\n",
         "  where        node 5, leaf 2\n",
         "  faults seen  box empty\n",
-        "  tolerance    leaves within the transform bound (bound 0.125 at the reported element)\n",
+        "  tolerance    leaves within the transform bound\n",
+        "  bound        0.125 at the reported element\n",
         "  first differing nodes (boxes):\n",
     };
     const char *at = t;

@@ -265,12 +265,10 @@ rto_status rto_report_text(const rto_report *r, char *buf, size_t cap, size_t *l
             put(&s, " %s", r->faults_seen[i]);
         put(&s, "\n");
     }
-    if (r->tolerance[0]) {
-        put(&s, "  %-12s %s", "tolerance", r->tolerance);
-        if (failed && r->tolerance_bound > 0)
-            put(&s, " (bound %.9g at the reported element)", r->tolerance_bound);
-        put(&s, "\n");
-    }
+    if (r->tolerance[0])
+        put(&s, "  %-12s %s\n", "tolerance", r->tolerance);
+    if (failed && r->tolerance_bound > 0)
+        put(&s, "  %-12s %.9g at the reported element\n", "bound", r->tolerance_bound);
     if (failed && r->nrows)
         put_table(&s, r);
     return sink_end(&s, len);
