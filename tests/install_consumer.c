@@ -26,15 +26,23 @@ int main(void)
     d.n = N;
     d.gpu_keys = gpu;
     d.gpu_n = np;
-    rto_sort_report r;
+    rto_report r;
     rto_status ok = rto_sort_check(&d, &r, &msg);
     uint32_t t = gpu[100];
     gpu[100] = gpu[101];
     gpu[101] = t;
     rto_status bad = rto_sort_check(&d, &r, &msg);
-    printf("correct: %s; swapped: %s, fault %s at slot %zu\n", rto_status_string(ok), rto_status_string(bad),
-           rto_fault_name(r.fault), r.first_slot);
+    int64_t slot = -1;
+    rto_report_where(&r, "slot", &slot);
+    printf("correct: %s; swapped: %s, fault %s at slot %lld\n", rto_status_string(ok), rto_status_string(bad),
+           r.fault, (long long)slot);
+    /* the validator's own text report, through a buffer sized by a first call */
+    size_t len = 0;
+    char *text = rto_report_text(&r, NULL, 0, &len) == RTO_ERR_BUFFER_TOO_SMALL ? (char *)malloc(len + 1) : NULL;
+    if (text && rto_report_text(&r, text, len + 1, &len) == RTO_OK)
+        fputs(text, stdout);
+    free(text);
     free(keys);
     free(gpu);
-    return ok == RTO_OK && bad == RTO_ERR_MISMATCH && r.fault == RTO_FAULT_ORDER && r.first_slot == 100 ? 0 : 1;
+    return ok == RTO_OK && bad == RTO_ERR_MISMATCH && r.code == RTO_FAULT_ORDER && slot == 100 ? 0 : 1;
 }
