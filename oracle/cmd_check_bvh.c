@@ -217,7 +217,8 @@ static rto_aabb transform_box(const rto_mat34 *m, const rto_aabb *ob)
     if (box_empty(ob))
         return w;
     for (int c = 0; c < 8; c++) {
-        rto_vec3 p = {(c & 1) ? ob->max.x : ob->min.x, (c & 2) ? ob->max.y : ob->min.y, (c & 4) ? ob->max.z : ob->min.z};
+        rto_vec3 p = {(c & 1) ? ob->max.x : ob->min.x, (c & 2) ? ob->max.y : ob->min.y,
+                      (c & 4) ? ob->max.z : ob->min.z};
         rto_vec3 q = rto_mat34_point(m, p);
         w.min.x = q.x < w.min.x ? q.x : w.min.x;
         w.min.y = q.y < w.min.y ? q.y : w.min.y;

@@ -547,8 +547,9 @@ typedef struct rto_bvh_check_desc {
     const void *expected; /* NULL: any valid tree over the primitives ("structure-only"); else the oracle's nodes,
                            * as many as the tree must have (read only when node_count is right), whose items and
                            * links must be equal ("exact") */
-    const rto_aabb *prim_boxes; /* prim_count primitive boxes (instance world boxes, triangle boxes); an empty box
-                                 * (+inf, -inf) marks a primitive that must be in no leaf: an instance of an empty BLAS */
+    const rto_aabb *prim_boxes; /* prim_count primitive boxes (instance world boxes, triangle boxes); an empty
+                                 * box (+inf, -inf) marks a primitive that must be in no leaf: an instance of an
+                                 * empty BLAS */
     size_t prim_count;
     const double *leaf_tolerance; /* NULL: leaf boxes equal their primitive's box exactly (triangles); else
                                    * 3 * prim_count per-axis bounds (rto_transform_box_tolerance) for TLAS leaves */

@@ -96,8 +96,8 @@ cp -r "$T/rs" "$T/m" && sed -i 's/"n_padded": 128/"n_padded": 256/' "$T/m/manife
 refused "manifest.json: tlas.n_padded is 256; 125 instances have a leaf" "$RTO" check-bvh --expected "$T/m" \
     --gpu "$T/rs/tlas_nodes.npy"
 rm -rf "$T/m" && cp -r "$T/rs" "$T/m" && sed -i '0,/"instances": 125/s//"instances": 126/' "$T/m/manifest.json"
-refused "instances.npy: holds InstanceRecord records, shape (125,); expected InstanceRecord records, shape (126,)" "$RTO" check-bvh --expected "$T/m" \
-    --gpu "$T/rs/tlas_nodes.npy"
+refused "instances.npy: holds InstanceRecord records, shape (125,); expected InstanceRecord records, shape (126,)" \
+    "$RTO" check-bvh --expected "$T/m" --gpu "$T/rs/tlas_nodes.npy"
 rm -rf "$T/m" && cp -r "$T/rs" "$T/m" && sed -i 's/"nodes": 255/"nodes": 253/' "$T/m/manifest.json"
 refused "manifest.json: tlas.nodes is 253; a sweep TLAS over 125 leaves has 255" "$RTO" check-bvh --expected "$T/m" \
     --gpu "$T/rs/tlas_nodes.npy"

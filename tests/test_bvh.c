@@ -465,7 +465,8 @@ static void xscene_make(xscene *x, size_t n)
         }
         x->world[i] = w;
         /* 8 * 2^-24 * max over the corners of |m0 x| + |m1 y| + |m2 z| + |t| */
-        const float lo[3] = {x->obj.min.x, x->obj.min.y, x->obj.min.z}, hi[3] = {x->obj.max.x, x->obj.max.y, x->obj.max.z};
+        const float lo[3] = {x->obj.min.x, x->obj.min.y, x->obj.min.z},
+                    hi[3] = {x->obj.max.x, x->obj.max.y, x->obj.max.z};
         for (int r = 0; r < 3; r++) {
             double worst = 0;
             for (int k = 0; k < 8; k++) {

@@ -202,10 +202,10 @@ static void begin(rto_report *r, const rto_bvh_check_desc *d)
     rto_report_table(r, "nodes", "node");
     snprintf(r->mode, sizeof r->mode, "%s", d->expected ? "exact" : "structure-only");
     if (d->leaf_tolerance)
-        snprintf(r->tolerance, sizeof r->tolerance, "leaves within 8*2^-24*(|m0*x|+|m1*y|+|m2*z|+|t|) per world "
-                 "coordinate, internal boxes the exact union of the dump's children (DESIGN.md §9)");
+        snprintf(r->tolerance, sizeof r->tolerance, "leaves within 8*2^-24*(|m0*x|+|m1*y|+|m2*z|+|t|) per "
+                 "coordinate, internal boxes exact unions (§9)");
     else
-        snprintf(r->tolerance, sizeof r->tolerance, "leaves exact, internal boxes the exact union of the dump's "
+        snprintf(r->tolerance, sizeof r->tolerance, "leaves exact, internal boxes exact unions of the dump's own "
                  "children (DESIGN.md §9)");
 }
 
@@ -432,8 +432,8 @@ rto_status rto_tlas_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *m
     if (exp)
         tlas_compare(r, g, exp, count, np, pc);
     if (missing && first_dup != SIZE_MAX &&
-        note(r, RTO_BVH_ITEM, "leaves", (int64_t)first_dup, "instance %" PRIu32 " appears in two leaves and instance %zu "
-             "in none", g[first_dup].item, first_missing)) {
+        note(r, RTO_BVH_ITEM, "leaves", (int64_t)first_dup, "instance %" PRIu32 " appears in two leaves and "
+             "instance %zu in none", g[first_dup].item, first_missing)) {
         rto_report_at(r, "leaf", (int64_t)(first_dup - (np - 1)));
         rto_report_at(r, "primitive", g[first_dup].item);
         link_row(r, first_dup, "item", rto_val_none(), g[first_dup].item);
@@ -516,8 +516,8 @@ static int karras_walk_tree(rto_report *r, const rto_bvh_node *g, size_t count, 
                     w->dup_node = i;
                 }
             } else if (c >= count) {
-                if (note(r, RTO_BVH_BAD_LINK, "links", i, "node %" PRIu32 " %s child is internal node %" PRIu32 " of %zu",
-                         i, side_name(side), c, count))
+                if (note(r, RTO_BVH_BAD_LINK, "links", i, "node %" PRIu32 " %s child is internal node %" PRIu32
+                         " of %zu", i, side_name(side), c, count))
                     link_row(r, i, side_name(side), rto_val_none(), c);
                 return 1;
             } else if (w->state[c] == 1) {
@@ -593,8 +593,8 @@ static void leaf_order_fault(rto_report *r, const rto_bvh_check_desc *d, const k
     int64_t node = w && w->leaf_refs[bad] ? (int64_t)w->leaf_node[bad] : -1;
     int own;
     if (other != SIZE_MAX)
-        own = note(r, RTO_BVH_ITEM, "leaves", node, "sorted leaf %zu holds primitive %" PRIu32 ", which sorted leaf %zu "
-                   "holds too: the leaf order is not a permutation (a primitive is in no leaf)", bad, p,
+        own = note(r, RTO_BVH_ITEM, "leaves", node, "sorted leaf %zu holds primitive %" PRIu32 ", which sorted leaf "
+                   "%zu holds too: the leaf order is not a permutation (a primitive is in no leaf)", bad, p,
                    bad == j ? other : j);
     else
         own = note(r, RTO_BVH_ITEM, "leaves", node, "sorted leaf %zu holds primitive %" PRIu32 ": %s", j, p,

@@ -70,7 +70,8 @@ static rto_value key_value(rto_key_format f, uint64_t k)
     return f == RTO_KEY_U32 ? rto_val_hex32((uint32_t)k) : rto_val_hex64(k);
 }
 
-/* A row of the table: keys compare as bit patterns (diff = xor), carried values as indices (diff = actual - expected). */
+/* A row of the table: keys compare as bit patterns (diff = xor), carried values as indices (diff = actual -
+ * expected). */
 static void add_diff(rto_report *r, rto_key_format f, int values, size_t slot, uint64_t expected, uint64_t actual)
 {
     rto_report_row *row = rto_report_row_add(r, slot, "");
@@ -119,8 +120,8 @@ static rto_status check_passes(const rto_sort_check_desc *d, rto_report *r, rto_
     if (d->gpu_pass_count != passes || d->gpu_pass_len != len) {
         if (claim(r, RTO_FAULT_SIZE, "passes", 0))
             rto_report_summary(r,
-                               "size: the checkpoint dump holds %" PRIu32 " passes of %zu keys; the %s oracle has %" PRIu32
-                               " passes of %zu",
+                               "size: the checkpoint dump holds %" PRIu32 " passes of %zu keys; the %s oracle has "
+                               "%" PRIu32 " passes of %zu",
                                d->gpu_pass_count, d->gpu_pass_len, d->algo == RTO_SORT_BITONIC ? "bitonic" : "radix",
                                passes, len);
         return RTO_OK;
@@ -381,8 +382,8 @@ rto_status rto_sort_check(const rto_sort_check_desc *d, rto_report *r, rto_msg *
                 continue;
             if (claim(r, RTO_FAULT_VALUE, "values", 1)) {
                 rto_report_at(r, "slot", (int64_t)i);
-                rto_report_summary(r, "value: slot %zu carries source index %" PRIu32 ", which %s (key 0x%0*" PRIx64 ")",
-                                   i, v, why, w, G(i));
+                rto_report_summary(r, "value: slot %zu carries source index %" PRIu32 ", which %s (key 0x%0*" PRIx64
+                                   ")", i, v, why, w, G(i));
                 add_diff(r, f, 1, i, stable[i].index, v);
             }
             break;
