@@ -100,24 +100,24 @@ int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, 
 {
     const int passed = rto_report_passed(r);
     char *out = render(r, json), *jtext = json ? out : render(r, 1);
-    if (out) {
-        fputs(out, stdout);
-        if (json)
-            fputc('\n', stdout);
-    } else {
-        /* Nothing can be rendered only when memory runs out: still say what was found. */
-        printf("%s: %s %s\n", cmd, passed ? "PASS" : "FAIL", r->summary);
-    }
-    if (!passed && artifacts && jtext) {
+    int rc = passed ? EXIT_PASS : EXIT_MISMATCH;
+    if (!out || !jtext) {
+        rc = cli_fail(cmd, "out of memory writing the report");
+    } else if (fputs(out, stdout) < 0 || (json && fputc('\n', stdout) == EOF) || fflush(stdout) != 0) {
+        /* a verdict that did not reach its reader is no verdict */
+        rc = cli_fail(cmd, "cannot write the report to stdout");
+    } else if (!passed && artifacts) {
         json_t *j = json_loads(jtext, 0, NULL);
         if (j)
             cli_write_report(gpu_path, cmd, j);
+        else
+            rc = cli_fail(cmd, "out of memory writing the report");
         json_decref(j);
     }
     if (jtext != out)
         free(jtext);
     free(out);
-    return passed ? EXIT_PASS : EXIT_MISMATCH;
+    return rc;
 }
 
 bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want)

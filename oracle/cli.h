@@ -24,7 +24,8 @@ int cli_status(const char *cmd, rto_status s, const rto_msg *msg);
 void cli_write_report(const char *gpu_path, const char *command, const json_t *report);
 /**
  * Prints a validator's report to stdout (text, or JSON with json) and, when it records a fault and artifacts is
- * set, writes its JSON next to the GPU dump (cli_write_report). Returns EXIT_PASS or EXIT_MISMATCH.
+ * set, writes its JSON next to the GPU dump (cli_write_report). Returns EXIT_PASS or EXIT_MISMATCH, or
+ * EXIT_BAD_INPUT after one line on stderr when the report could not be written out.
  */
 int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, const char *gpu_path);
 /** Whether a loaded array has exactly the dtype (struct fields included) and shape of want. */

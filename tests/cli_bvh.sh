@@ -68,6 +68,9 @@ run 1 "$RTO" check-bvh --expected "$T/bunny" --blas 0 --gpu "$T/bunny/blas_0_nod
 run 2 "$RTO" check-bvh --expected "$T/rs" --gpu "$T/rs/tlas_nodes.npy" --gpu-order "$T/order.npy" && has "Karras" err
 run 2 "$RTO" check-bvh --expected "$T/bunny" --blas 0 --gpu "$T/bunny/blas_0_nodes.npy" \
     --gpu-order "$T/bunny/instance_aabbs.npy" && has "uint32" err
+# a report that cannot reach stdout is an error, not a verdict
+"$RTO" check-bvh --expected "$T/rs" --gpu "$T/rs/tlas_nodes.npy" >/dev/full 2>"$T/err"
+[ $? = 2 ] && grep -q "cannot write the report to stdout" "$T/err" || fail "check-bvh to a full stdout: $(cat "$T/err")"
 # wrong layout / size
 run 2 "$RTO" check-bvh --expected "$T/rs" --gpu "$T/rs/tlas_keys.npy" && has "TlasNode" err
 run 2 "$RTO" check-bvh --expected "$T/rs" --gpu "$T/rs/tlas_nodes.npy" --blas 7 && has "meshes" err
