@@ -260,7 +260,7 @@ typedef struct rto_report {
     uint32_t nfacts;
     char tolerance[224];    /* the comparison rule applied, with its DESIGN.md §9 source */
     double tolerance_bound; /* the absolute bound at the reported element; 0 when exact */
-    char table_title[48];   /* what the rows compare: "keys", "source indices", "box", "links" */
+    char table_title[48];   /* what the rows compare: "keys", "source indices", "boxes", "items", "links" */
     char index_name[RTO_REPORT_NAME_MAX]; /* what a row's index counts: "slot", "node" */
     uint32_t nrows;
     rto_report_row rows[RTO_REPORT_MAX_ROWS]; /* the first differing elements of the primary fault */
@@ -275,8 +275,10 @@ int rto_report_where(const rto_report *r, const char *name, int64_t *value);
 rto_check_state rto_report_check_state(const rto_report *r, const char *name);
 
 /**
- * Writes the report as text: a header line "<validator> <what>: <context>", "PASS|FAIL <summary>", then the mode,
- * the checks, the location, the tolerance and the table of first differing elements, one item per line.
+ * Writes the report as text: a header line "<validator> <what>: <context>", "PASS|FAIL <summary>", then one item
+ * per line: the mode, the checks ("ok", "FAIL", "n/a"), for a fault its location ("where") and the other fault
+ * classes seen, the tolerance rule, for a fault the bound at the reported element and the table of first differing
+ * elements.
  * buf receives up to cap bytes including the NUL; *len is set to the full length without the NUL. Returns
  * RTO_ERR_BUFFER_TOO_SMALL (buf then holds a truncated prefix when cap > 0) when cap <= *len: call with
  * buf = NULL, cap = 0 to size the buffer.
