@@ -249,6 +249,8 @@ int cmd_info(int argc, char **argv)
         json_decref(root);
     } else {
         print_text(s, &c, &box);
+        if (fflush(stdout) != 0 || ferror(stdout))
+            rc = cli_fail("info", "cannot write to stdout: %s", strerror(errno ? errno : EIO));
     }
     free(c.mesh_instances);
     rto_scene_destroy(s);

@@ -226,6 +226,14 @@ for f in triangle rtstress:2 "${RTO_FIXTURES:-fixtures}/Duck/glTF/Duck.gltf" \
         "$JSON" "$T/out" "$k/$n" >/dev/null 2>&1 && fail "info --json $f: more $k than $n"
     done
 done
+# a failed write of the description is an error, not a silent exit 0
+if [ -w /dev/full ]; then
+    for json in --json ""; do
+        "$RTO" info triangle $json >/dev/full 2>"$T/err"
+        rc=$?
+        [ $rc = 2 ] && [ "$(wc -l <"$T/err")" = 1 ] || fail "info $json >/dev/full: exit $rc, $(cat "$T/err")"
+    done
+fi
 no_temporaries "end"
 
 finish "all output-safety checks passed"

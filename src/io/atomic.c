@@ -40,15 +40,30 @@ static struct {
     char path[PATH_MAX];
 } g_slots[TMP_SLOTS];
 
+/* Slots are keyed by the path as the writer names it; the handler removes the absolute path kept beside it, so a
+ * later chdir by the program does not point it at the wrong place. */
+static char g_keys[TMP_SLOTS][PATH_MAX];
+
 static void registry_add(const char *path)
 {
-    size_t len = strlen(path);
-    if (len >= PATH_MAX)
+    size_t len = strlen(path), pre = 0;
+    char cwd[PATH_MAX];
+    if (path[0] != '/') {
+        if (!getcwd(cwd, sizeof cwd))
+            return;
+        pre = strlen(cwd) + 1;
+    }
+    if (len >= PATH_MAX || pre + len >= PATH_MAX)
         return;
     for (int i = 0; i < TMP_SLOTS; i++) {
         int expected = SLOT_FREE;
         if (atomic_compare_exchange_strong(&g_slots[i].state, &expected, SLOT_FILLING)) {
-            memcpy(g_slots[i].path, path, len + 1);
+            if (pre) {
+                memcpy(g_slots[i].path, cwd, pre - 1);
+                g_slots[i].path[pre - 1] = '/';
+            }
+            memcpy(g_slots[i].path + pre, path, len + 1);
+            memcpy(g_keys[i], path, len + 1);
             atomic_store(&g_slots[i].state, SLOT_LIVE);
             return;
         }
@@ -59,7 +74,7 @@ static void registry_remove(const char *path)
 {
     for (int i = 0; i < TMP_SLOTS; i++) {
         int expected = SLOT_LIVE;
-        if (atomic_load(&g_slots[i].state) == SLOT_LIVE && strcmp(g_slots[i].path, path) == 0 &&
+        if (atomic_load(&g_slots[i].state) == SLOT_LIVE && strcmp(g_keys[i], path) == 0 &&
             atomic_compare_exchange_strong(&g_slots[i].state, &expected, SLOT_FILLING)) {
             atomic_store(&g_slots[i].state, SLOT_FREE);
             return;
