@@ -20,7 +20,8 @@ static const char info_usage[] =
     "  instances:DIST:N    N boxes of half-size 1e-4 on a centroid distribution (rtoracle keys --list),\n"
     "                      0 <= N <= 65536, seed 1\n";
 
-static const char info_epilog[] = "Exit status: 0 loaded, 2 bad usage or a refused scene (one line on stderr says why).\n";
+static const char info_epilog[] =
+    "Exit status: 0 loaded, 2 bad usage or a refused scene (one line on stderr says why).\n";
 
 typedef struct scene_counts {
     uint64_t vertices, unique_tris, instanced_tris;

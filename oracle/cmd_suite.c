@@ -12,8 +12,8 @@ static const char suite_usage[] =
     "them with case ids such as sort:bitonic:fmt=u32:dist=clustered:n=4097. Written atomically.\n"
     "Combinations that do not exist are skipped (digit-4..7 need u64; centroid distributions give TLAS\n"
     "keys of at most 65536 instances in u32).\n"
-    "A LIST is comma-separated; a name given twice (or also through all / centroid / raw) makes one case,\n"
-    "in the order first given.\n";
+    "A LIST is comma-separated; a name given twice (or also through all / centroid / raw) makes one case.\n"
+    "Sizes run in ascending order, the other lists in the order first given.\n";
 
 static int cmp_size(const void *a, const void *b)
 {
@@ -50,7 +50,7 @@ int cmd_suite(int argc, char **argv)
         OPT_CHOICE("radix-bits", &base.radix_bits, cli_radix_bits_names, "B", "radix digit width", "8"),
         OPT_UINT("tile", &base.tile, 1, CLI_TILE_MAX, "T", "radix tile size in keys", "256"),
         OPT_UINT("checkpoint-max", &checkpoint_max, 0, RTO_MAX_KEYS, "N",
-                 "write bitonic passes / radix intermediates when n_padded <= N (0 for none)", "1024"),
+                 "write bitonic passes / radix intermediates for cases with n_padded <= N, none for 0", "1024"),
         OPT_PATH("output", 'o', &out, "DIR", "output directory"),
         OPT_END,
     };

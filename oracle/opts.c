@@ -208,7 +208,8 @@ static int take_value(const opt_command *c, const opt_spec *s, const char *v)
     case OPT_KIND_ENUM: {
         const opt_name *n = find_name(s->names, v, strlen(v));
         if (!n)
-            return value_error(c, "--%s %s: expected %s", s->name, *v ? v : "''", names_text(s->names, what, sizeof what));
+            return value_error(c, "--%s %s: expected %s", s->name, *v ? v : "''",
+                               names_text(s->names, what, sizeof what));
         store_uint(s, (uint64_t)n->value);
         return -1;
     }
@@ -347,7 +348,8 @@ static void help_line(FILE *to, const opt_spec *s)
     else if (s->kind == OPT_KIND_ENUM || s->kind == OPT_KIND_UINT)
         used += (size_t)snprintf(line + used, sizeof line - used, ": %s", names_text(s->names, what, sizeof what));
     else if (s->kind == OPT_KIND_LIST && s->names)
-        used += (size_t)snprintf(line + used, sizeof line - used, ", each %s", names_text(s->names, what, sizeof what));
+        used += (size_t)snprintf(line + used, sizeof line - used, ", each %s",
+                                 names_text(s->names, what, sizeof what));
     if (s->def && used < sizeof line)
         snprintf(line + used, sizeof line - used, " (default %s)", s->def);
     size_t len = strlen(left);

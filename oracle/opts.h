@@ -56,7 +56,8 @@ typedef struct opt_spec {
 } opt_spec;
 
 /* Table entries. ptr is the target: bool * (FLAG), an unsigned integer or enum (UINT, CHOICE, ENUM), const char **
- * (PATH, STRING), opt_list * (LIST). CHOICE is a number that must be one of the table's values (--radix-bits). text is the help line; dflt the default as --help shows it (NULL for none). */
+ * (PATH, STRING), opt_list * (LIST). CHOICE is a number that must be one of the table's values (--radix-bits).
+ * text is the help line; dflt the default as --help shows it (NULL for none). */
 #define OPT_FLAG(lname, ptr, text) {lname, 0, OPT_KIND_FLAG, (ptr), sizeof *(ptr), 0, 0, NULL, NULL, text, NULL}
 #define OPT_UINT(lname, ptr, lo, hi, meta, text, dflt)                                                             \
     {lname, 0, OPT_KIND_UINT, (ptr), sizeof *(ptr), (lo), (hi), NULL, meta, text, dflt}
