@@ -54,7 +54,7 @@ int cmd_suite(int argc, char **argv)
         OPT_PATH("output", 'o', &out, "DIR", "output directory"),
         OPT_END,
     };
-    const opt_command cmd = {"suite", suite_usage, NULL, opts, 1, 1, "a suite name: sort (the only suite so far)"};
+    const opt_command cmd = {"suite", suite_usage, NULL, opts, 1, 1, "a suite: sort"};
     opt_args args;
     int rc = opts_parse(&cmd, argc, argv, &args);
     if (rc >= 0)
