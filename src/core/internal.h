@@ -9,6 +9,11 @@
 #include <stdbool.h>
 #include <stdio.h>
 
+/* Everything declared below stays inside librtoracle.so: not part of the public API, not exported. */
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
+
 #if defined(__GNUC__)
 #define RTO_PRINTF(a, b) __attribute__((format(printf, a, b)))
 #else
@@ -82,5 +87,9 @@ void rto_atomic_discard(rto_atomic_file *f);
 
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
 void *rto_alloc(size_t count, size_t size);
+
+#if defined(__GNUC__)
+#pragma GCC visibility pop
+#endif
 
 #endif
