@@ -4,36 +4,34 @@
  * and value ranges as the manifest and the other arrays imply, so a hand-edited bundle is refused, never trusted. */
 #include "cli.h"
 
-#include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void check_bvh_help(FILE *to)
-{
-    fprintf(to,
-            "usage: rtoracle check-bvh --expected OUTDIR --gpu nodes.npy [--blas M] [--structure-only]\n"
-            "                          [--gpu-order order.npy] [--json] [--no-artifacts]\n\n"
-            "Compares a GPU-built node array with the bundle written by `rtoracle build`: the TLAS by default, the\n"
-            "BLAS of mesh M with --blas M. The dump may be the structured TlasNode / BlasNode records, a (count,\n"
-            "words) array or the raw buffer as flat uint32/float32 words.\n"
-            "Modes (the report names the one used):\n"
-            "  exact           items, links and parents equal to the oracle's (the default)\n"
-            "  structure-only  any valid tree over the same primitives: links in range, no cycle or shared node,\n"
-            "                  every primitive in exactly one leaf (--structure-only, or implied by --gpu-order)\n"
-            "Boxes, in both modes (DESIGN.md §9), checked bottom-up so a fault is named where it starts: TLAS leaf\n"
-            "boxes within 8*2^-24*(|m0*x|+|m1*y|+|m2*z|+|t|) per world coordinate of the instance's transformed\n"
-            "box, triangle boxes exact, every internal box the exact union of the dump's own children, EMPTY boxes\n"
-            "(+inf, -inf).\n"
-            "--gpu-order order.npy gives the GPU's own leaf order of a Karras tree (uint32 primitive per sorted\n"
-            "leaf; it must be a permutation); the tree then differs from the oracle's, so it implies\n"
-            "--structure-only. Without it the leaf order is the oracle's.\n\n"
-            "Fault classes: size, cycle, shared-node, bad-link, dropped-leaf, item, swapped-children, topology,\n"
-            "parent, empty, box. Exit status: 0 valid, 1 a fault was found, 2 bad usage or input (including a\n"
-            "bundle whose arrays disagree with its manifest).\n");
-}
+static const char check_bvh_usage[] =
+    "usage: rtoracle check-bvh --expected OUTDIR --gpu nodes.npy [--blas M] [--structure-only]\n"
+    "                          [--gpu-order order.npy] [--json] [--no-artifacts]\n\n"
+    "Compares a GPU-built node array with the bundle written by `rtoracle build`: the TLAS by default, the\n"
+    "BLAS of mesh M with --blas M. The dump may be the structured TlasNode / BlasNode records, a (count,\n"
+    "words) array or the raw buffer as flat uint32/float32 words.\n"
+    "Modes (the report names the one used):\n"
+    "  exact           items, links and parents equal to the oracle's (the default)\n"
+    "  structure-only  any valid tree over the same primitives: links in range, no cycle or shared node,\n"
+    "                  every primitive in exactly one leaf (--structure-only, or implied by --gpu-order)\n"
+    "Boxes, in both modes (DESIGN.md §9), checked bottom-up so a fault is named where it starts: TLAS leaf\n"
+    "boxes within 8*2^-24*(|m0*x|+|m1*y|+|m2*z|+|t|) per world coordinate of the instance's transformed\n"
+    "box, triangle boxes exact, every internal box the exact union of the dump's own children, EMPTY boxes\n"
+    "(+inf, -inf).\n"
+    "--gpu-order order.npy gives the GPU's own leaf order of a Karras tree (uint32 primitive per sorted\n"
+    "leaf; it must be a permutation); the tree then differs from the oracle's, so it implies\n"
+    "--structure-only. Without it the leaf order is the oracle's.\n";
+
+static const char check_bvh_epilog[] =
+    "Fault classes: size, cycle, shared-node, bad-link, dropped-leaf, item, swapped-children, topology,\n"
+    "parent, empty, box. Exit status: 0 valid, 1 a fault was found, 2 bad usage or input (including a\n"
+    "bundle whose arrays disagree with its manifest).\n";
 
 /* What check-bvh reads from a build bundle, each array validated before use. */
 typedef struct build_arrays {
@@ -381,41 +379,30 @@ static int load_tlas(build_arrays *a, int sweep)
 
 int cmd_check_bvh(int argc, char **argv)
 {
-    static const struct option opts[] = {
-        {"expected", required_argument, 0, 'e'}, {"gpu", required_argument, 0, 'g'},
-        {"blas", required_argument, 0, 'b'},     {"structure-only", no_argument, 0, 's'},
-        {"gpu-order", required_argument, 0, 'r'}, {"json", no_argument, 0, 'j'},
-        {"no-artifacts", no_argument, 0, 'n'},   {"help", no_argument, 0, 'h'},
-        {0, 0, 0, 0}};
     const char *expected = NULL, *gpu = NULL, *order_path = NULL;
-    int64_t blas = -1;
-    bool structure_only = false, json = false, artifacts = true;
-    uint64_t v;
-    optind = 1;
-    opterr = 0;
-    for (int c; (c = getopt_long(argc, argv, "h", opts, NULL)) != -1;) {
-        switch (c) {
-        case 'e': expected = optarg; break;
-        case 'g': gpu = optarg; break;
-        case 'b':
-            if (!cli_parse_u64(optarg, UINT32_MAX, &v))
-                return cli_fail("check-bvh", "--blas '%s': expected a mesh index", optarg);
-            blas = (int64_t)v;
-            break;
-        case 's': structure_only = true; break;
-        case 'r': order_path = optarg; break;
-        case 'j': json = true; break;
-        case 'n': artifacts = false; break;
-        case 'h': check_bvh_help(stdout); return EXIT_PASS;
-        default:
-            check_bvh_help(stderr);
-            return cli_fail("check-bvh", "unknown or incomplete option '%s'", argv[optind - 1]);
-        }
-    }
-    if (optind < argc)
-        return cli_fail("check-bvh", "unexpected argument '%s'", argv[optind]);
-    if (!expected || !gpu)
-        return cli_fail("check-bvh", "--expected and --gpu are required (rtoracle check-bvh --help)");
+    bool structure_only = false, json = false, no_artifacts = false;
+    uint32_t blas_index = 0;
+    const opt_spec opts[] = {
+        OPT_PATH("expected", 0, &expected, "OUTDIR", "the build bundle (rtoracle build)"),
+        OPT_PATH("gpu", 0, &gpu, "nodes.npy", "the GPU's node array"),
+        OPT_UINT("blas", &blas_index, 0, UINT32_MAX, "M", "check the BLAS of mesh M instead of the TLAS", NULL),
+        OPT_FLAG("structure-only", &structure_only, "accept any valid tree over the same primitives"),
+        OPT_PATH("gpu-order", 0, &order_path, "order.npy",
+                 "the GPU's primitive per sorted leaf (Karras layouts; implies --structure-only)"),
+        OPT_FLAG("json", &json, "print the report as JSON"),
+        OPT_FLAG("no-artifacts", &no_artifacts, "do not write the report next to the GPU dump"),
+        OPT_END,
+    };
+    const opt_command cmd = {"check-bvh", check_bvh_usage, check_bvh_epilog, opts, 0, 0, NULL};
+    opt_args args;
+    int parsed = opts_parse(&cmd, argc, argv, &args);
+    if (parsed >= 0)
+        return parsed;
+    static const char *const required[] = {"expected", "gpu", NULL};
+    if ((parsed = opts_require(&cmd, &args, required)))
+        return parsed;
+    const int64_t blas = opts_given(&cmd, &args, "blas") ? (int64_t)blas_index : -1;
+    const bool artifacts = !no_artifacts;
 
     rto_msg msg = {{0}};
     build_arrays a;

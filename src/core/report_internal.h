@@ -4,6 +4,11 @@
 
 #include "internal.h"
 
+/* Everything declared below stays inside librtoracle.so: not part of the public API, not exported. */
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
+
 static inline rto_value rto_val_none(void)
 {
     rto_value v;
@@ -83,5 +88,9 @@ void rto_report_fact(rto_report *r, const char *name, int64_t value);
 void rto_report_table(rto_report *r, const char *title, const char *index_name);
 /** Appends a row (values NONE) and returns it, or NULL once RTO_REPORT_MAX_ROWS rows are held. */
 rto_report_row *rto_report_row_add(rto_report *r, uint64_t index, const char *field);
+
+#if defined(__GNUC__)
+#pragma GCC visibility pop
+#endif
 
 #endif
