@@ -115,8 +115,9 @@ typedef struct rto_aabb {
 } rto_aabb;
 RTO_STATIC_ASSERT(sizeof(rto_aabb) == 24, "Aabb is 24 bytes");
 
-/** A triangle mesh of a scene (defined with the scenes below). */
+/** A triangle mesh of a scene and a row-major 3x4 transform (defined with the scenes below). */
 typedef struct rto_mesh rto_mesh;
+typedef struct rto_mat34 rto_mat34;
 
 /** Bytes per key of a format (4 or 8). */
 size_t rto_key_size(rto_key_format f);
@@ -146,6 +147,12 @@ rto_vec3 rto_aabb_centroid(const rto_aabb *box);
 int rto_aabb_is_empty(const rto_aabb *box);
 /** Bounds of triangle t of a mesh (exact min / max of its three vertices). t < triangle_count. */
 rto_aabb rto_mesh_triangle_aabb(const rto_mesh *mesh, uint32_t t);
+/**
+ * A box through a transform: its 8 corners through rto_mat34_point (corner c takes max on axis a when bit a of c is
+ * set, c = 0 .. 7), then min / max; a box that is empty (or NaN) stays the empty box. An instance's world box is its
+ * mesh's rto_mesh_aabb through objToWorld: the same bytes as rto_instance_aabb.
+ */
+rto_aabb rto_aabb_transform(const rto_mat34 *m, const rto_aabb *box);
 /** BLAS keys of n primitive boxes: rto_blas_keys of their centroids. keys holds n entries. */
 rto_status rto_blas_keys_from_boxes(const rto_aabb *boxes, size_t n, uint64_t *keys, rto_msg *msg);
 /** BLAS keys of a mesh: (morton30 << 32) | triangle, from each triangle's box centroid. keys: triangle_count. */

@@ -421,6 +421,9 @@ static void reference_blas(const rto_mesh *mesh, const rto_accel_blas *b, const 
     assert_int_equal(rto_karras_build(RTO_KEY_U64, bs, t, tb, bn, NULL), RTO_OK);
     assert_int_equal(b->triangle_count, t);
     assert_int_equal(b->node_count, t >= 2 ? t - 1 : 0);
+    rto_aabb bounds = rto_mesh_aabb(mesh); /* the accel takes it as the union of the triangle boxes */
+    if (memcmp(&b->bounds, &bounds, sizeof bounds))
+        fail_msg("%s BLAS %u: bounds differ from rto_mesh_aabb", spec, b->mesh);
     if (memcmp(b->sorted_keys, bs, t * 8) || memcmp(b->order, order, t * 4) || memcmp(b->prim_aabbs, tb, t * sizeof *tb) ||
         memcmp(b->nodes, bn, b->node_count * sizeof *bn))
         fail_msg("%s BLAS %u: differs from the step-by-step pipeline", spec, b->mesh);
@@ -655,6 +658,13 @@ static void test_tlas_keys_skip_empty_boxes(void **state)
         free(keys);
         free(ref);
     }
+    /* an empty or NaN box through a transform stays the empty box */
+    rto_mat34 xf = {{{1, 0, 0, 1}, {0, 1, 0, 2}, {0, 0, 1, 3}}};
+    rto_aabb none = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    rto_aabb nan_box = {{NAN, 0, 0}, {1, 1, 1}};
+    rto_aabb t1 = rto_aabb_transform(&xf, &none), t2 = rto_aabb_transform(&xf, &nan_box);
+    assert_memory_equal(&t1, &none, sizeof none);
+    assert_memory_equal(&t2, &none, sizeof none);
     /* a NaN bound is not empty: it is refused, naming the box */
     rto_aabb b[2] = {{{0, 0, 0}, {1, 1, 1}}, {{NAN, 0, 0}, {1, 1, 1}}};
     uint32_t k[2];

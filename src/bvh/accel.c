@@ -1,12 +1,14 @@
 /* The acceleration-structure object: every tree of a scene built once (DESIGN.md §5), the one build pipeline the
  * command, the benchmark and the tracer share. Per stage:
- *   instances  world boxes (rto_instance_aabb) -> TLAS keys of the non-empty ones -> radix sort -> sweep or Karras
- *   meshes     triangle boxes -> BLAS keys -> radix sort -> leaf order -> Karras tree
+ *   meshes     triangle boxes (their union: the mesh's bounds) -> BLAS keys -> radix sort -> leaf order -> Karras
+ *   instances  world boxes (the mesh's bounds through objToWorld) -> TLAS keys of the non-empty ones -> radix sort
+ *              -> sweep or Karras tree
  * The sorts are rto_fast_radix_sort: real keys are unique, so any correct sort gives the canonical network's bytes
  * (§4). An instance of an empty BLAS has an empty world box and gets no key and no leaf; an empty mesh gets an
  * empty BLAS (§5). Building validates nothing beyond its inputs; rto_accel_check runs the tree validators. */
 #include "internal.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -40,6 +42,18 @@ void rto_accel_destroy(rto_accel *a)
     free(a);
 }
 
+/* Union with min / max keeping the later operand when equal (rto_minf / rto_maxf). */
+static rto_aabb union_box(rto_aabb a, rto_aabb b)
+{
+    a.min.x = rto_minf(a.min.x, b.min.x);
+    a.min.y = rto_minf(a.min.y, b.min.y);
+    a.min.z = rto_minf(a.min.z, b.min.z);
+    a.max.x = rto_maxf(a.max.x, b.max.x);
+    a.max.y = rto_maxf(a.max.y, b.max.y);
+    a.max.z = rto_maxf(a.max.z, b.max.z);
+    return a;
+}
+
 static rto_status oom(rto_msg *msg) { return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory"); }
 
 static rto_status build_tlas(rto_accel *a, rto_tlas_kind kind, rto_msg *msg)
@@ -55,8 +69,10 @@ static rto_status build_tlas(rto_accel *a, rto_tlas_kind kind, rto_msg *msg)
     t->keys = keys;
     if (!boxes || !keys)
         return oom(msg);
+    /* The mesh's box through objToWorld, as rto_instance_aabb computes it, but with the mesh's box taken from its
+     * BLAS instead of a scan of the mesh per instance. */
     for (size_t i = 0; i < n; i++)
-        boxes[i] = rto_instance_aabb(sc, (uint32_t)i);
+        boxes[i] = rto_aabb_transform(&sc->instances[i].obj_to_world, &a->blas[sc->instances[i].blas].bounds);
     size_t m = 0;
     rto_status s = rto_tlas_keys_from_boxes(boxes, n, keys, &m, msg);
     if (s)
@@ -89,8 +105,11 @@ static rto_status build_tlas(rto_accel *a, rto_tlas_kind kind, rto_msg *msg)
         if (!nodes)
             return oom(msg);
         s = rto_karras_build(RTO_KEY_U32, sorted, m, boxes, nodes, msg);
-        /* The root box is the union of the keyed instances' boxes; rto_scene_aabb skips the empty ones. */
-        rto_aabb root = rto_scene_aabb(sc);
+        /* The root box of the statistics: the union of the keyed instances' boxes (rto_scene_aabb's value). */
+        rto_aabb root = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+        for (size_t i = 0; i < n; i++)
+            if (!rto_aabb_is_empty(&boxes[i]))
+                root = union_box(root, boxes[i]);
         if (!s)
             t->stats = rto_karras_stats(nodes, m, &root);
     }
@@ -103,7 +122,6 @@ static rto_status build_blas(const rto_mesh *mesh, uint32_t index, rto_accel_bla
     b->mesh = index;
     b->triangle_count = mesh->triangle_count;
     b->node_count = n >= 2 ? n - 1 : 0;
-    b->bounds = rto_mesh_aabb(mesh);
     rto_aabb *boxes = rto_alloc(n, sizeof *boxes);
     uint64_t *keys = rto_alloc(n, sizeof *keys), *sorted = rto_alloc(n, sizeof *sorted);
     uint32_t *order = rto_alloc(n, sizeof *order);
@@ -113,8 +131,14 @@ static rto_status build_blas(const rto_mesh *mesh, uint32_t index, rto_accel_bla
     b->order = order;
     b->nodes = nodes;
     rto_status s = boxes && keys && sorted && order && nodes ? RTO_OK : oom(msg);
-    for (size_t t = 0; !s && t < n; t++)
+    /* The mesh's bounds as the union of its triangles' boxes, in triangle order: the same bytes as rto_mesh_aabb
+     * (min / max over the referenced vertices in index order, the later operand kept when equal). */
+    rto_aabb u = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    for (size_t t = 0; !s && t < n; t++) {
         boxes[t] = rto_mesh_triangle_aabb(mesh, (uint32_t)t);
+        u = union_box(u, boxes[t]);
+    }
+    b->bounds = u;
     if (!s)
         s = rto_blas_keys_from_boxes(boxes, n, keys, msg);
     if (!s)
@@ -165,7 +189,8 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     a->scene = scene;
     a->blas_count = scene->mesh_count;
     a->blas = calloc(a->blas_count ? a->blas_count : 1, sizeof *a->blas);
-    rto_status s = a->blas ? build_tlas(a, d.tlas, msg) : oom(msg);
+    /* BLAS first: the TLAS takes each mesh's bounds from its BLAS. */
+    rto_status s = a->blas ? RTO_OK : oom(msg);
     for (uint32_t m = 0; !s && m < a->blas_count; m++) {
         s = build_blas(&scene->meshes[m], m, &a->blas[m], msg);
         if (s && msg) {
@@ -174,6 +199,8 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
             rto_fail(msg, s, "mesh %u (%s): %s", m, scene->meshes[m].name, inner.text);
         }
     }
+    if (!s)
+        s = build_tlas(a, d.tlas, msg);
     if (s) {
         rto_accel_destroy(a);
         return s;

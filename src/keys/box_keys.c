@@ -3,6 +3,7 @@
  * builders consume these keys; nothing here knows a tree. */
 #include "internal.h"
 
+#include <math.h>
 #include <stdlib.h>
 
 rto_vec3 rto_aabb_centroid(const rto_aabb *b)
@@ -15,6 +16,27 @@ int rto_aabb_is_empty(const rto_aabb *b)
 {
     /* Strict comparisons: a NaN bound is not "empty" (it reaches the keys' finite check and is refused there). */
     return b->min.x > b->max.x || b->min.y > b->max.y || b->min.z > b->max.z;
+}
+
+rto_aabb rto_aabb_transform(const rto_mat34 *m, const rto_aabb *box)
+{
+    rto_aabb w = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    if (!(box->min.x <= box->max.x && box->min.y <= box->max.y && box->min.z <= box->max.z))
+        return w; /* +-inf corners would give NaN through the matrix */
+    /* A fixed corner order and min / max that keep the later operand when equal: the same bytes everywhere, and the
+     * same as rto_instance_aabb, which the tests compare it with on every scene. */
+    for (int c = 0; c < 8; c++) {
+        rto_vec3 p = {(c & 1) ? box->max.x : box->min.x, (c & 2) ? box->max.y : box->min.y,
+                      (c & 4) ? box->max.z : box->min.z};
+        rto_vec3 q = rto_mat34_point(m, p);
+        w.min.x = rto_minf(w.min.x, q.x);
+        w.min.y = rto_minf(w.min.y, q.y);
+        w.min.z = rto_minf(w.min.z, q.z);
+        w.max.x = rto_maxf(w.max.x, q.x);
+        w.max.y = rto_maxf(w.max.y, q.y);
+        w.max.z = rto_maxf(w.max.z, q.z);
+    }
+    return w;
 }
 
 rto_aabb rto_mesh_triangle_aabb(const rto_mesh *m, uint32_t t)
