@@ -8,7 +8,9 @@
  * Cases: the BLAS of every mesh of the bunny and of 2CylinderEngine (one Embree scene per mesh, as the oracle builds
  * one BLAS per mesh; vertex and index buffers are filled before the clock starts, as the oracle's scene is loaded
  * before it), and the TLAS of instances:uniform:65536, where Embree's timed region includes creating the 65,536
- * instance geometries, as the oracle's includes its instance-box pass. The oracle's timed region is the whole
+ * instance geometries, as the oracle's includes its instance-box pass (the commit alone is printed beside it), and,
+ * as a second Embree TLAS, one user geometry of 65,536 boxes whose bounds callback transforms the instanced mesh's
+ * box as the oracle's instance-box pass does (no geometry object per instance). The oracle's timed region is the whole
  * rto_accel_build, so the BLAS cases include its TLAS over the scene's few instances, and the TLAS case the one
  * 12-triangle BLAS of the box.
  * Usage: bench_bvh [bunny.gltf] [2CylinderEngine.glb]. RTO_BENCH_EMBREE_CONFIG is appended to both devices' config
@@ -105,8 +107,9 @@ static double embree_blas(const rto_scene *s, const econf *c)
     return total;
 }
 
-/* Instance creation and rtcCommitScene of the top-level scene over a committed BLAS. Returns seconds. */
-static double embree_tlas(const rto_scene *s, RTCScene blas, const econf *c)
+/* Instance creation and rtcCommitScene of the top-level scene over a committed BLAS. Returns seconds, and the
+ * commit's alone in *commit. */
+static double embree_tlas(const rto_scene *s, RTCScene blas, const econf *c, double *commit)
 {
     RTCDevice dev = devices[c->dev];
     double t0 = now();
@@ -121,25 +124,73 @@ static double embree_tlas(const rto_scene *s, RTCScene blas, const econf *c)
         rtcAttachGeometry(top, g);
         rtcReleaseGeometry(g);
     }
+    double t1 = now();
+    rtcCommitScene(top);
+    double t = now() - t0;
+    *commit = now() - t1;
+    rtcReleaseScene(top);
+    return t;
+}
+
+typedef struct user_tlas {
+    const rto_scene *scene;
+    rto_aabb mesh_box; /* object-space box of the one instanced mesh */
+} user_tlas;
+
+/* Embree's bounds callback: the instance's world box, the mesh box through objToWorld as the oracle computes it. */
+static void user_bounds(const struct RTCBoundsFunctionArguments *args)
+{
+    const user_tlas *u = args->geometryUserPtr;
+    rto_aabb w = rto_aabb_transform(&u->scene->instances[args->primID].obj_to_world, &u->mesh_box);
+    args->bounds_o->lower_x = w.min.x;
+    args->bounds_o->lower_y = w.min.y;
+    args->bounds_o->lower_z = w.min.z;
+    args->bounds_o->upper_x = w.max.x;
+    args->bounds_o->upper_y = w.max.y;
+    args->bounds_o->upper_z = w.max.z;
+}
+
+/* One user geometry of instance_count boxes and rtcCommitScene. Returns seconds. */
+static double embree_user_tlas(const user_tlas *u, const econf *c)
+{
+    RTCDevice dev = devices[c->dev];
+    double t0 = now();
+    RTCScene top = rtcNewScene(dev);
+    rtcSetSceneBuildQuality(top, c->q);
+    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_USER);
+    rtcSetGeometryBuildQuality(g, c->q);
+    rtcSetGeometryUserPrimitiveCount(g, u->scene->instance_count);
+    rtcSetGeometryUserData(g, (void *)(uintptr_t)u);
+    rtcSetGeometryBoundsFunction(g, user_bounds, NULL);
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(top, g);
+    rtcReleaseGeometry(g);
     rtcCommitScene(top);
     double t = now() - t0;
     rtcReleaseScene(top);
     return t;
 }
 
-static void print_rows(const char *label, uint64_t prims, double oracle, const double *embree)
+/* The oracle's row, then one per Embree configuration (suffix: "" or " user"; note: NULL or one per row). */
+static void print_rows(const char *label, uint64_t prims, double oracle, const double *embree, const char *suffix,
+                       const double *note)
 {
-    printf("%-36s %8llu  %-24s %7s %9.2f %9.2f %12s\n", label, (unsigned long long)prims, "oracle rto_accel_build",
-           "1", oracle * 1e3, (double)prims / oracle * 1e-6, "1.00");
+    if (label)
+        printf("%-36s %8llu  %-24s %7s %9.2f %9.2f %12s\n", label, (unsigned long long)prims,
+               "oracle rto_accel_build", "1", oracle * 1e3, (double)prims / oracle * 1e-6, "1.00");
     for (size_t c = 0; c < NCONF; c++) {
+        char name[64], extra[64] = "";
+        snprintf(name, sizeof name, "%s%s", confs[c].name, suffix);
+        if (note)
+            snprintf(extra, sizeof extra, "  (commit alone %.2f ms)", note[c] * 1e3);
         char threads[16], ratio[16];
         if (confs[c].dev)
             snprintf(threads, sizeof threads, "all(%d)", hw_threads);
         else
             snprintf(threads, sizeof threads, "1");
         snprintf(ratio, sizeof ratio, "%.2f", oracle / embree[c]);
-        printf("%-36s %8s  %-24s %7s %9.2f %9.2f %12s\n", "", "", confs[c].name, threads, embree[c] * 1e3,
-               (double)prims / embree[c] * 1e-6, ratio);
+        printf("%-36s %8s  %-24s %7s %9.2f %9.2f %12s%s\n", "", "", name, threads, embree[c] * 1e3,
+               (double)prims / embree[c] * 1e-6, ratio, extra);
     }
 }
 
@@ -165,7 +216,7 @@ static void bench_blas(const char *path)
     const char *base = strrchr(path, '/');
     char label[128];
     snprintf(label, sizeof label, "BLAS %s (%u meshes)", base ? base + 1 : path, s->mesh_count);
-    print_rows(label, tris, median(to), me);
+    print_rows(label, tris, median(to), me, "", NULL);
     rto_scene_destroy(s);
 }
 
@@ -180,17 +231,25 @@ static void bench_tlas(const char *spec)
         blas[d] = embree_mesh_scene(devices[d], &s->meshes[0], RTC_BUILD_QUALITY_MEDIUM);
         rtcCommitScene(blas[d]);
     }
-    double to[RUNS], te[NCONF][RUNS], me[NCONF];
+    user_tlas u = {s, rto_mesh_aabb(&s->meshes[0])};
+    double to[RUNS], te[NCONF][RUNS], tc[NCONF][RUNS], tu[NCONF][RUNS], me[NCONF], mc[NCONF], mu[NCONF];
     for (int r = 0; r < RUNS; r++) {
         to[r] = oracle_build(s);
-        for (size_t c = 0; c < NCONF; c++)
-            te[c][r] = embree_tlas(s, blas[confs[c].dev], &confs[c]);
+        for (size_t c = 0; c < NCONF; c++) {
+            te[c][r] = embree_tlas(s, blas[confs[c].dev], &confs[c], &tc[c][r]);
+            tu[c][r] = embree_user_tlas(&u, &confs[c]);
+        }
     }
-    for (size_t c = 0; c < NCONF; c++)
+    for (size_t c = 0; c < NCONF; c++) {
         me[c] = median(te[c]);
+        mc[c] = median(tc[c]);
+        mu[c] = median(tu[c]);
+    }
     char label[128];
     snprintf(label, sizeof label, "TLAS %s", spec);
-    print_rows(label, s->instance_count, median(to), me);
+    double o = median(to);
+    print_rows(label, s->instance_count, o, me, " inst", mc);
+    print_rows(NULL, s->instance_count, o, mu, " user", NULL);
     for (int d = 0; d < 2; d++)
         rtcReleaseScene(blas[d]);
     rto_scene_destroy(s);
