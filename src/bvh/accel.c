@@ -257,8 +257,14 @@ static rto_status check_sweep(const rto_accel_tlas *t, rto_bvh_report *r, rto_ms
             if (nodes[i].item < t->instance_count)
                 nodes[i].item = renumber[nodes[i].item];
         s = rto_tlas_check(nodes, t->node_count, NULL, boxes, t->key_count, r, msg);
-        if (s == RTO_ERR_MISMATCH && r->leaf >= 0 && r->leaf < (int64_t)t->key_count)
-            r->leaf = keyed[r->leaf]; /* the summary's instance numbers count keyed instances only */
+        if (s == RTO_ERR_MISMATCH) {
+            if (r->leaf >= 0 && r->leaf < (int64_t)t->key_count)
+                r->leaf = keyed[r->leaf];
+            char note[sizeof r->summary];
+            snprintf(note, sizeof note, "%s", r->summary);
+            snprintf(r->summary, sizeof r->summary, "%.400s (instance numbers here count the %u keyed instances)",
+                     note, t->key_count);
+        }
     }
     free(keyed);
     free(boxes);
