@@ -1,7 +1,7 @@
 /* Shared plumbing of the rtoracle command. */
 #include "cli.h"
 
-#include <errno.h>
+#include <stdint.h>
 #include <jansson.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -28,38 +28,54 @@ int cli_status(const char *cmd, rto_status s, const rto_msg *msg)
     return cli_fail(cmd, "%s", msg && msg->text[0] ? msg->text : rto_status_string(s));
 }
 
-bool cli_parse_u64(const char *text, uint64_t max, uint64_t *out)
+rto_status cli_error(rto_msg *m, rto_status s, const char *fmt, ...)
 {
-    if (!text || !*text || *text == '-' || *text == '+' || *text == ' ')
-        return false;
-    char *end = NULL;
-    errno = 0;
-    unsigned long long v = strtoull(text, &end, 0);
-    if (errno || !end || *end || v > max)
-        return false;
-    *out = v;
-    return true;
+    if (m) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(m->text, sizeof m->text, fmt, ap);
+        va_end(ap);
+    }
+    return s;
+}
+
+void *cli_alloc(size_t count, size_t size)
+{
+    if (size != 0 && count > SIZE_MAX / size)
+        return NULL;
+    size_t bytes = count * size;
+    return malloc(bytes ? bytes : 1);
+}
+
+const opt_name cli_format_names[] = {{"u32", RTO_KEY_U32}, {"u64", RTO_KEY_U64}, {NULL, 0}};
+const opt_name cli_algo_names[] = {{"bitonic", RTO_SORT_BITONIC}, {"radix", RTO_SORT_RADIX}, {NULL, 0}};
+const opt_name cli_radix_bits_names[] = {{"4", 4}, {"8", 8}, {NULL, 0}};
+
+static bool lookup(const opt_name *names, const char *text, int *value)
+{
+    for (; text && names->name; names++)
+        if (!strcmp(names->name, text)) {
+            *value = names->value;
+            return true;
+        }
+    return false;
 }
 
 bool cli_parse_format(const char *text, rto_key_format *f)
 {
-    if (text && !strcmp(text, "u32"))
-        *f = RTO_KEY_U32;
-    else if (text && !strcmp(text, "u64"))
-        *f = RTO_KEY_U64;
-    else
+    int v;
+    if (!lookup(cli_format_names, text, &v))
         return false;
+    *f = (rto_key_format)v;
     return true;
 }
 
 bool cli_parse_algo(const char *text, rto_sort_algo *a)
 {
-    if (text && !strcmp(text, "bitonic"))
-        *a = RTO_SORT_BITONIC;
-    else if (text && !strcmp(text, "radix"))
-        *a = RTO_SORT_RADIX;
-    else
+    int v;
+    if (!lookup(cli_algo_names, text, &v))
         return false;
+    *a = (rto_sort_algo)v;
     return true;
 }
 

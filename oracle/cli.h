@@ -1,11 +1,14 @@
-/* Shared plumbing of the rtoracle command: exit codes, argument parsing, key files. */
+/* Shared plumbing of the rtoracle command: exit codes, messages, option tables, key files. The command is a user of
+ * the library like any other: it sees only the public header. */
 #ifndef RTO_CLI_H
 #define RTO_CLI_H
 
-#include "internal.h"
+#include "opts.h"
+#include "rtoracle.h"
 
 #include <jansson.h>
 #include <stdbool.h>
+#include <stdint.h>
 #include <stdio.h>
 
 /* Exit statuses of every command. */
@@ -17,15 +20,30 @@ int cli_fail(const char *cmd, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)))
 #endif
     ;
+/** Writes a formatted one-line reason into m (if non-NULL) and returns s, as the library's own calls do. */
+rto_status cli_error(rto_msg *m, rto_status s, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+/** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
+void *cli_alloc(size_t count, size_t size);
 /** Maps a library status to an exit status, printing msg for failures. */
 int cli_status(const char *cmd, rto_status s, const rto_msg *msg);
 
 /** Writes a failure report next to the GPU dump as <gpu>.<command>.json, through a temporary file. */
 void cli_write_report(const char *gpu_path, const char *command, const json_t *report);
-/** Strict unsigned parse (decimal or 0x hex) with an upper bound; false on junk, sign or overflow. */
-bool cli_parse_u64(const char *text, uint64_t max, uint64_t *out);
+/* Names of the key formats and sort algorithms, for option tables and manifests. */
+extern const opt_name cli_format_names[];
+extern const opt_name cli_algo_names[];
 bool cli_parse_format(const char *text, rto_key_format *f);
 bool cli_parse_algo(const char *text, rto_sort_algo *a);
+
+/* Limits shared by the commands' option tables. */
+#define CLI_SEED_MAX UINT32_MAX
+#define CLI_TILE_MAX (UINT32_C(1) << 24)
+/* --radix-bits: the digit widths the radix reference implements. */
+extern const opt_name cli_radix_bits_names[];
 
 /** Options shared by the sort-producing commands. */
 typedef struct sort_params {

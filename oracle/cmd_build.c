@@ -4,61 +4,50 @@
  * passed. */
 #include "cli.h"
 
-#include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void build_help(FILE *to)
-{
-    fprintf(to,
-            "usage: rtoracle build SCENE [--tlas sweep|karras] -o OUTDIR\n\n"
-            "SCENE is a .gltf / .glb path or a procedural scene: triangle, rtstress:N (1..40),\n"
-            "instances:DIST:N (N boxes around the centroids of a centroid distribution, N <= 65536).\n"
-            "Writes a bundle (atomically):\n"
-            "  instances.npy            InstanceRecord: objToWorld, worldToObj (3x4 row-major), blas, customIndex,\n"
-            "                           mask, sbtOffset, flags\n"
-            "  instance_aabbs.npy       world AABB of every instance (Aabb)\n"
-            "  tlas_keys.npy            TLAS keys in instance order (none for instances of an empty mesh);\n"
-            "                           tlas_sorted_keys.npy: n_padded, sorted\n"
-            "  tlas_nodes.npy           sweep: TlasNode heap (2 n_padded - 1); karras: BlasNode (n - 1)\n"
-            "  blas_M_sorted_keys.npy   per mesh M: sorted BLAS keys (u64), blas_M_order.npy: triangle of each\n"
-            "                           leaf, blas_M_nodes.npy: BlasNode (triangles - 1), blas_M_prim_aabbs.npy\n"
-            "  manifest.json            counts, depth and SAH cost of every tree\n\n"
-            "options:\n"
-            "  --tlas sweep|karras  TLAS layout (default sweep, the seeds' implicit tree)\n"
-            "  -o, --output DIR     output bundle directory\n");
-}
+static const char build_usage[] =
+    "usage: rtoracle build SCENE [--tlas sweep|karras] -o OUTDIR\n\n"
+    "SCENE is a .gltf / .glb path or a procedural scene: triangle, rtstress:N (1..40),\n"
+    "instances:DIST:N (N boxes around the centroids of a centroid distribution, N <= 65536).\n"
+    "Writes a bundle (atomically):\n"
+    "  instances.npy            InstanceRecord: objToWorld, worldToObj (3x4 row-major), blas, customIndex,\n"
+    "                           mask, sbtOffset, flags\n"
+    "  instance_aabbs.npy       world AABB of every instance (Aabb)\n"
+    "  tlas_keys.npy            TLAS keys in instance order (none for instances of an empty mesh);\n"
+    "                           tlas_sorted_keys.npy: n_padded, sorted\n"
+    "  tlas_nodes.npy           sweep: TlasNode heap (2 n_padded - 1); karras: BlasNode (n - 1)\n"
+    "  blas_M_sorted_keys.npy   per mesh M: sorted BLAS keys (u64), blas_M_order.npy: triangle of each\n"
+    "                           leaf, blas_M_nodes.npy: BlasNode (triangles - 1), blas_M_prim_aabbs.npy\n"
+    "  manifest.json            counts, depth and SAH cost of every tree\n";
+
+/* --tlas: the sweep tree (the seeds' implicit heap) or a Karras tree. */
+static const opt_name tlas_names[] = {{"sweep", 0}, {"karras", 1}, {NULL, 0}};
 
 int cmd_build(int argc, char **argv)
 {
-    static const struct option opts[] = {{"tlas", required_argument, 0, 't'}, {"output", required_argument, 0, 'o'},
-                                         {"help", no_argument, 0, 'h'},       {0, 0, 0, 0}};
     const char *out = NULL;
-    int karras = 0;
-    optind = 1;
-    opterr = 0;
-    for (int c; (c = getopt_long(argc, argv, "o:h", opts, NULL)) != -1;) {
-        switch (c) {
-        case 't':
-            if (!strcmp(optarg, "karras"))
-                karras = 1;
-            else if (strcmp(optarg, "sweep"))
-                return cli_fail("build", "--tlas '%s': expected sweep or karras", optarg);
-            break;
-        case 'o': out = optarg; break;
-        case 'h': build_help(stdout); return EXIT_PASS;
-        default: build_help(stderr); return cli_fail("build", "unknown or incomplete option '%s'", argv[optind - 1]);
-        }
-    }
-    if (optind + 1 != argc)
-        return cli_fail("build", "expected exactly one SCENE (rtoracle build --help)");
-    if (!out)
-        return cli_fail("build", "-o OUTDIR is required");
+    unsigned karras = 0;
+    const opt_spec opts[] = {
+        OPT_ENUM("tlas", &karras, tlas_names, "T", "TLAS layout", "sweep, the seeds' implicit tree"),
+        OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
+        OPT_END,
+    };
+    const opt_command cmd = {"build", build_usage, NULL, opts, 1, 1, "one SCENE"};
+    opt_args args;
+    int rc = opts_parse(&cmd, argc, argv, &args);
+    if (rc >= 0)
+        return rc;
+    static const char *const required[] = {"output", NULL};
+    if ((rc = opts_require(&cmd, &args, required)))
+        return rc;
+    const char *scene = args.arg[0];
     rto_msg msg = {{0}};
     rto_scene *sc = NULL;
-    rto_status s = rto_scene_load(argv[optind], &sc, &msg);
+    rto_status s = rto_scene_load(scene, &sc, &msg);
     if (s)
-        return cli_fail("build", "%s: %s", argv[optind], msg.text);
+        return cli_fail("build", "%s: %s", scene, msg.text);
     for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
         fprintf(stderr, "rtoracle build: warning: %s\n", sc->warnings[w]);
     rto_accel_desc desc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};

@@ -1,7 +1,6 @@
 /* rtoracle info: what a scene spec loads as (DESIGN.md §5): counts, bounds, materials, textures, cameras, warnings. */
 #include "cli.h"
 
-#include <getopt.h>
 #include <jansson.h>
 #include <math.h>
 #include <stdlib.h>
@@ -10,22 +9,19 @@
 /* Meshes listed in the text output; --json lists all of them. */
 #define INFO_TEXT_MESHES 40
 
-static void info_help(FILE *to)
-{
-    fprintf(to,
-            "usage: rtoracle info SCENE [--json]\n\n"
-            "Loads SCENE and prints what was loaded: mesh (BLAS) count, instance count, triangles (unique, i.e.\n"
-            "summed over the BLAS, and instanced, i.e. summed over the instances' BLAS), vertices, materials,\n"
-            "textures with their sizes, cameras, the scene's world bounds and the loader's warnings.\n\n"
-            "SCENE is a .gltf / .glb path or a procedural scene:\n"
-            "  triangle            the VulkanTriangle sample: one triangle, one identity instance, its camera\n"
-            "  rtstress:N          N x N x N instances of one unit cube, 2 units apart (1 <= N <= 40)\n"
-            "  instances:DIST:N    N boxes of half-size 1e-4 on a centroid distribution (rtoracle keys --list),\n"
-            "                      0 <= N <= 65536, seed 1\n\n"
-            "options:\n"
-            "  --json      one JSON object on stdout instead of text (meshes, materials, textures, cameras listed)\n\n"
-            "Exit status: 0 loaded, 2 bad usage or a refused scene (one line on stderr says why).\n");
-}
+static const char info_usage[] =
+    "usage: rtoracle info SCENE [--json]\n\n"
+    "Loads SCENE and prints what was loaded: mesh (BLAS) count, instance count, triangles (unique, i.e.\n"
+    "summed over the BLAS, and instanced, i.e. summed over the instances' BLAS), vertices, materials,\n"
+    "textures with their sizes, cameras, the scene's world bounds and the loader's warnings.\n\n"
+    "SCENE is a .gltf / .glb path or a procedural scene:\n"
+    "  triangle            the VulkanTriangle sample: one triangle, one identity instance, its camera\n"
+    "  rtstress:N          N x N x N instances of one unit cube, 2 units apart (1 <= N <= 40)\n"
+    "  instances:DIST:N    N boxes of half-size 1e-4 on a centroid distribution (rtoracle keys --list),\n"
+    "                      0 <= N <= 65536, seed 1\n";
+
+static const char info_epilog[] =
+    "Exit status: 0 loaded, 2 bad usage or a refused scene (one line on stderr says why).\n";
 
 typedef struct scene_counts {
     uint64_t vertices, unique_tris, instanced_tris;
@@ -176,24 +172,20 @@ static void print_text(const rto_scene *s, const scene_counts *c, const rto_aabb
 
 int cmd_info(int argc, char **argv)
 {
-    static const struct option opts[] = {{"json", no_argument, 0, 'j'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     bool as_json = false;
-    optind = 1;
-    opterr = 0;
-    for (int c; (c = getopt_long(argc, argv, "h", opts, NULL)) != -1;) {
-        switch (c) {
-        case 'j': as_json = true; break;
-        case 'h': info_help(stdout); return EXIT_PASS;
-        default: info_help(stderr); return cli_fail("info", "unknown or incomplete option '%s'", argv[optind - 1]);
-        }
-    }
-    if (optind >= argc)
-        return cli_fail("info", "a SCENE is required (rtoracle info --help)");
-    if (optind + 1 < argc)
-        return cli_fail("info", "unexpected argument '%s'", argv[optind + 1]);
+    const opt_spec opts[] = {
+        OPT_FLAG("json", &as_json, "one JSON object on stdout instead of text (meshes, materials, textures, cameras "
+                 "listed)"),
+        OPT_END,
+    };
+    const opt_command cmd = {"info", info_usage, info_epilog, opts, 1, 1, "a SCENE"};
+    opt_args args;
+    int rc = opts_parse(&cmd, argc, argv, &args);
+    if (rc >= 0)
+        return rc;
     rto_msg msg = {{0}};
     rto_scene *s = NULL;
-    rto_status st = rto_scene_load(argv[optind], &s, &msg);
+    rto_status st = rto_scene_load(args.arg[0], &s, &msg);
     if (st)
         return cli_status("info", st, &msg);
     scene_counts c;
