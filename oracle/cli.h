@@ -31,8 +31,19 @@ void *cli_alloc(size_t count, size_t size);
 /** Maps a library status to an exit status, printing msg for failures. */
 int cli_status(const char *cmd, rto_status s, const rto_msg *msg);
 
-/** Writes a failure report next to the GPU dump as <gpu>.<command>.json, through a temporary file. */
-void cli_write_report(const char *gpu_path, const char *command, const json_t *report);
+/** Writes a failure report next to the GPU dump as <gpu>.<command>.json, atomically (rto_file_write). Returns
+ * EXIT_PASS, or EXIT_BAD_INPUT after one line on stderr (report NULL, out of memory, a path that is not a file). */
+int cli_write_report(const char *gpu_path, const char *command, const json_t *report);
+/** JSON values that never fail silently: a string repaired to UTF-8 (rto_utf8_repair), a real with non-finite
+ * values as the strings "inf", "-inf", "nan". NULL only when out of memory. */
+json_t *cli_json_string(const char *text);
+json_t *cli_json_real(double v);
+/** root as indented JSON text with a final newline (malloc'ed), or NULL if root is NULL or memory ran out. */
+char *cli_json_text(const json_t *root);
+/** Serialises root (NULL: a build that failed) to stdout with a final newline; 0 if that failed. */
+int cli_json_print(const json_t *root);
+/** Removes the temporaries of unfinished outputs on SIGINT / SIGTERM / SIGHUP, then exits by that signal. */
+void cli_cleanup_on_signals(void);
 /* Names of the key formats and sort algorithms, for option tables and manifests. */
 extern const opt_name cli_format_names[];
 extern const opt_name cli_algo_names[];

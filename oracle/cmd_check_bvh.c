@@ -176,10 +176,9 @@ int cmd_check_bvh(int argc, char **argv)
                 printf(" %s", rto_bvh_fault_name((rto_bvh_fault)f));
         printf("\n");
     }
-    if (s == RTO_ERR_MISMATCH && artifacts)
-        cli_write_report(gpu, "check-bvh", j);
+    int wrote = s == RTO_ERR_MISMATCH && artifacts ? cli_write_report(gpu, "check-bvh", j) : EXIT_PASS;
     json_decref(j);
-    rc = s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
+    rc = wrote != EXIT_PASS ? wrote : s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
 out:
     rto_npy_free(&g);
     rto_npy_free(&exp);

@@ -320,10 +320,9 @@ int cmd_check_sort(int argc, char **argv)
     } else {
         print_human(&r, case_id, d.format, d.n, gn);
     }
-    if (s == RTO_ERR_MISMATCH && artifacts)
-        cli_write_report(gpu, "check-sort", j);
+    int wrote = s == RTO_ERR_MISMATCH && artifacts ? cli_write_report(gpu, "check-sort", j) : EXIT_PASS;
     json_decref(j);
-    rc = s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
+    rc = wrote != EXIT_PASS ? wrote : s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
 out:
     loaded_free(&l);
     rto_bundle_close(bundle);
