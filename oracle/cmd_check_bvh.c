@@ -72,6 +72,14 @@ static int refuse(const build_arrays *a, const char *file, const char *fmt, ...)
     return cli_fail("check-bvh", "--expected %s: %s: %s", a->dir, file, text);
 }
 
+/* The name of a bundle file, as the library names it for the writer (per-BLAS files take the mesh index). */
+static const char *file_name(rto_bundle_file f, uint32_t mesh, char name[RTO_BUNDLE_FILE_NAME_MAX])
+{
+    if (rto_bundle_file_name(f, mesh, name, RTO_BUNDLE_FILE_NAME_MAX))
+        snprintf(name, RTO_BUNDLE_FILE_NAME_MAX, "(bundle file %d)", (int)f); /* unreachable: every name fits */
+    return name;
+}
+
 /* A count the manifest must state, within 0 .. max. */
 static int manifest_count(const build_arrays *a, const char *section, const char *key, uint64_t max, size_t *out)
 {
@@ -82,7 +90,8 @@ static int manifest_count(const build_arrays *a, const char *section, const char
     return EXIT_PASS;
 }
 
-/* Loads a bundle file (sha256 checked) and requires exactly the dtype and shape of want (records of layout). */
+/* Loads a bundle file (sha256 checked) and requires exactly the dtype and shape of want (records of layout, NULL
+ * for a plain array). */
 static int load_array(const build_arrays *a, const char *name, const rto_npy_desc *want, const char *layout,
                       rto_npy *out)
 {
@@ -102,6 +111,7 @@ static int load_array(const build_arrays *a, const char *name, const rto_npy_des
     return EXIT_PASS;
 }
 
+/* Exactly (+inf, -inf) on every axis: the one empty box a bundle holds (rto_aabb_is_empty accepts any min > max). */
 static int box_empty(const rto_aabb *b)
 {
     return b->min.x == INFINITY && b->min.y == INFINITY && b->min.z == INFINITY && b->max.x == -INFINITY &&
@@ -127,16 +137,16 @@ static int check_boxes(const build_arrays *a, const char *name, const rto_aabb *
     return EXIT_PASS;
 }
 
-/* blas_M_prim_aabbs.npy: one finite box per triangle the manifest counts. */
+/* blas_M_prim_aabbs.npy: one finite box per triangle the manifest counts (none for an empty mesh). */
 static int load_prim_boxes(const build_arrays *a, uint32_t m, rto_npy *out, size_t *triangles)
 {
-    char name[96], section[32];
-    snprintf(name, sizeof name, "blas_%" PRIu32 "_prim_aabbs.npy", m);
+    char name[RTO_BUNDLE_FILE_NAME_MAX], section[32];
+    file_name(RTO_FILE_BLAS_PRIM_AABBS, m, name);
     snprintf(section, sizeof section, "blas_%" PRIu32, m);
     int rc = manifest_count(a, section, "triangles", UINT32_MAX, triangles);
-    rto_npy_desc want = layout_desc(LAYOUT_AABB, *triangles);
+    rto_npy_desc want = rto_layout_desc(RTO_LAYOUT_AABB, *triangles);
     if (!rc)
-        rc = load_array(a, name, &want, layout_name(LAYOUT_AABB), out);
+        rc = load_array(a, name, &want, rto_layout_name(RTO_LAYOUT_AABB), out);
     return rc ? rc : check_boxes(a, name, out->data, *triangles, 0);
 }
 
@@ -164,7 +174,7 @@ static int self_check(const build_arrays *a, const char *name, int sweep)
 
 static int load_blas(build_arrays *a, uint32_t m)
 {
-    char name[96], section[32];
+    char name[RTO_BUNDLE_FILE_NAME_MAX], section[32];
     size_t t = 0, nodes = 0;
     int rc = load_prim_boxes(a, m, &a->boxes, &t);
     if (rc)
@@ -176,7 +186,7 @@ static int load_blas(build_arrays *a, uint32_t m)
         return refuse(a, "manifest.json", "%s.nodes is %zu; a Karras tree over %zu triangles has %zu", section, nodes,
                       t, t >= 2 ? t - 1 : 0);
     /* the leaf order: a permutation of the triangles */
-    snprintf(name, sizeof name, "blas_%" PRIu32 "_order.npy", m);
+    file_name(RTO_FILE_BLAS_ORDER, m, name);
     rto_npy_desc od = rto_npy_desc_array(RTO_DTYPE_U32, 1, t, 0, 0);
     if ((rc = load_array(a, name, &od, NULL, &a->order)))
         return rc;
@@ -201,31 +211,11 @@ static int load_blas(build_arrays *a, uint32_t m)
         memcpy(a->prims, order, t * sizeof *order);
     a->prim_count = a->leaves = t;
     a->node_count = nodes;
-    snprintf(name, sizeof name, "blas_%" PRIu32 "_nodes.npy", m);
-    rto_npy_desc nd = layout_desc(LAYOUT_BVH_NODE, nodes);
-    if ((rc = load_array(a, name, &nd, layout_name(LAYOUT_BVH_NODE), &a->nodes)))
+    file_name(RTO_FILE_BLAS_NODES, m, name);
+    rto_npy_desc nd = rto_layout_desc(RTO_LAYOUT_BLAS_NODE, nodes);
+    if ((rc = load_array(a, name, &nd, rto_layout_name(RTO_LAYOUT_BLAS_NODE), &a->nodes)))
         return rc;
     return self_check(a, name, 0);
-}
-
-/* The 8 corners of an object box through a transform, as the oracle bounds an instance (docs/bvh.md). */
-static rto_aabb transform_box(const rto_mat34 *m, const rto_aabb *ob)
-{
-    rto_aabb w = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-    if (box_empty(ob))
-        return w;
-    for (int c = 0; c < 8; c++) {
-        rto_vec3 p = {(c & 1) ? ob->max.x : ob->min.x, (c & 2) ? ob->max.y : ob->min.y,
-                      (c & 4) ? ob->max.z : ob->min.z};
-        rto_vec3 q = rto_mat34_point(m, p);
-        w.min.x = q.x < w.min.x ? q.x : w.min.x;
-        w.min.y = q.y < w.min.y ? q.y : w.min.y;
-        w.min.z = q.z < w.min.z ? q.z : w.min.z;
-        w.max.x = q.x > w.max.x ? q.x : w.max.x;
-        w.max.y = q.y > w.max.y ? q.y : w.max.y;
-        w.max.z = q.z > w.max.z ? q.z : w.max.z;
-    }
-    return w;
 }
 
 /* Equal as numbers: +0 and -0 are the same bound (which one a min keeps depends on the order of the vertices). */
@@ -236,16 +226,19 @@ static int same_box(const rto_aabb *x, const rto_aabb *y)
 }
 
 /* instances.npy and instance_aabbs.npy: each instance's BLAS exists, its transform is finite, and its world box is
- * its BLAS's object box (the union of the triangle boxes) through that transform; the §9 leaf tolerance follows. */
+ * its BLAS's object box (the union of the triangle boxes; empty for an empty mesh) through that transform, as
+ * rto_aabb_transform computes it for the build; the §9 leaf tolerance follows. */
 static int load_instances(build_arrays *a, size_t n)
 {
-    const size_t rec = layout_size(LAYOUT_INSTANCE);
-    rto_npy_desc id = layout_desc(LAYOUT_INSTANCE, n), bd = layout_desc(LAYOUT_AABB, n);
-    int rc = load_array(a, "instances.npy", &id, layout_name(LAYOUT_INSTANCE), &a->inst);
+    char inst_name[RTO_BUNDLE_FILE_NAME_MAX], box_name[RTO_BUNDLE_FILE_NAME_MAX];
+    file_name(RTO_FILE_INSTANCES, 0, inst_name);
+    file_name(RTO_FILE_INSTANCE_AABBS, 0, box_name);
+    rto_npy_desc id = rto_layout_desc(RTO_LAYOUT_INSTANCE, n), bd = rto_layout_desc(RTO_LAYOUT_AABB, n);
+    int rc = load_array(a, inst_name, &id, rto_layout_name(RTO_LAYOUT_INSTANCE), &a->inst);
     if (!rc)
-        rc = load_array(a, "instance_aabbs.npy", &bd, layout_name(LAYOUT_AABB), &a->boxes);
+        rc = load_array(a, box_name, &bd, rto_layout_name(RTO_LAYOUT_AABB), &a->boxes);
     if (!rc)
-        rc = check_boxes(a, "instance_aabbs.npy", a->boxes.data, n, 1);
+        rc = check_boxes(a, box_name, a->boxes.data, n, 1);
     if (rc)
         return rc;
     rto_mat34 *xf = malloc((n ? n : 1) * sizeof *xf);
@@ -256,15 +249,16 @@ static int load_instances(build_arrays *a, size_t n)
     if (!xf || !blas || !obj || !have || !a->tol)
         rc = cli_fail("check-bvh", "out of memory");
     for (size_t i = 0; !rc && i < n; i++) {
-        const unsigned char *p = (const unsigned char *)a->inst.data + i * rec;
-        memcpy(xf[i].m, p, sizeof xf[i].m);
-        memcpy(&blas[i], p + 96, sizeof blas[i]);
+        rto_instance_record rec; /* the array's records are this struct's bytes (rto_layout_desc) */
+        memcpy(&rec, (const unsigned char *)a->inst.data + i * sizeof rec, sizeof rec);
+        memcpy(xf[i].m, rec.obj_to_world, sizeof xf[i].m);
+        blas[i] = rec.blas;
         if ((int64_t)blas[i] >= a->meshes)
-            rc = refuse(a, "instances.npy", "instance %zu names BLAS %" PRIu32 "; the bundle has %" PRId64 " meshes", i,
+            rc = refuse(a, inst_name, "instance %zu names BLAS %" PRIu32 "; the bundle has %" PRId64 " meshes", i,
                         blas[i], a->meshes);
         for (int k = 0; !rc && k < 12; k++)
             if (!isfinite(xf[i].m[k / 4][k % 4]))
-                rc = refuse(a, "instances.npy", "objToWorld of instance %zu is not finite", i);
+                rc = refuse(a, inst_name, "objToWorld of instance %zu is not finite", i);
     }
     /* each referenced BLAS's object box: the union of its triangle boxes */
     for (size_t i = 0; !rc && i < n; i++) {
@@ -290,9 +284,9 @@ static int load_instances(build_arrays *a, size_t n)
     }
     const rto_aabb *wb = a->boxes.data;
     for (size_t i = 0; !rc && i < n; i++) {
-        rto_aabb w = transform_box(&xf[i], &obj[blas[i]]);
+        rto_aabb w = rto_aabb_transform(&xf[i], &obj[blas[i]]);
         if (!same_box(&w, &wb[i]))
-            rc = refuse(a, "instance_aabbs.npy", "the box of instance %zu is not the box of BLAS %" PRIu32
+            rc = refuse(a, box_name, "the box of instance %zu is not the box of BLAS %" PRIu32
                         " through its objToWorld (instances.npy)", i, blas[i]);
         else
             rto_transform_box_tolerance(&xf[i], &obj[blas[i]], &a->tol[3 * i]);
@@ -308,7 +302,8 @@ static int load_instances(build_arrays *a, size_t n)
  * instance in its low 16 bits, then sentinels up to n_padded. */
 static int load_sorted_keys(build_arrays *a, size_t np)
 {
-    const char *name = "tlas_sorted_keys.npy";
+    char name[RTO_BUNDLE_FILE_NAME_MAX];
+    file_name(RTO_FILE_TLAS_SORTED_KEYS, 0, name);
     rto_npy_desc kd = rto_npy_desc_keys(RTO_KEY_U32, np);
     int rc = load_array(a, name, &kd, NULL, &a->keys);
     if (rc)
@@ -320,7 +315,7 @@ static int load_sorted_keys(build_arrays *a, size_t np)
     if (!seen || !a->prims)
         rc = cli_fail("check-bvh", "out of memory");
     for (size_t j = 0; !rc && j < np; j++) {
-        const uint32_t p = k[j] & 0xFFFFu;
+        const uint32_t p = rto_key_prim(RTO_KEY_U32, k[j]);
         if (j >= a->leaves) {
             if (k[j] != RTO_SENTINEL_U32)
                 rc = refuse(a, name, "slot %zu holds 0x%08" PRIx32 "; the %zu slots after the %zu keyed instances "
@@ -352,15 +347,31 @@ static int load_tlas(build_arrays *a, int sweep)
     if (rc)
         return rc;
     const rto_aabb *boxes = a->boxes.data;
-    size_t keyed = 0;
+    size_t keyed = 0, tlas_n = 0, tlas_keyed = 0;
     for (size_t i = 0; i < n; i++)
         keyed += !box_empty(&boxes[i]);
     a->prim_count = n;
     a->leaves = keyed;
     const size_t want = sweep ? rto_tlas_sweep_node_count(keyed) : (keyed >= 2 ? keyed - 1 : 0);
-    if ((rc = manifest_count(a, "tlas", "n_padded", (uint64_t)1 << 17, &np)) ||
+    if ((rc = manifest_count(a, "tlas", "instances", RTO_TLAS_MAX_INSTANCES, &tlas_n)) ||
+        (rc = manifest_count(a, "tlas", "n_padded", (uint64_t)1 << 17, &np)) ||
         (rc = manifest_count(a, "tlas", "nodes", (uint64_t)1 << 18, &nodes)))
         return rc;
+    if (tlas_n != n)
+        return refuse(a, "manifest.json", "tlas.instances is %zu; counts.instances is %zu", tlas_n, n);
+    /* The manifest states the keyed count when instances of an empty BLAS make it differ (rtoracle build writes it
+     * only then, so older bundles keep their bytes): absent, every instance must have a leaf. */
+    int64_t stated = -1;
+    if (!rto_bundle_get_int(a->b, "tlas", "keyed_instances", &stated)) {
+        if (keyed != n)
+            return refuse(a, "manifest.json", "tlas.keyed_instances is missing; %zu of the %zu instances have a "
+                          "non-empty box", keyed, n);
+    } else if ((rc = manifest_count(a, "tlas", "keyed_instances", n, &tlas_keyed))) {
+        return rc;
+    } else if (tlas_keyed != keyed) {
+        return refuse(a, "manifest.json", "tlas.keyed_instances is %zu; %zu of the %zu instances have a non-empty box",
+                      tlas_keyed, keyed, n);
+    }
     if (np != rto_next_pow2(keyed))
         return refuse(a, "manifest.json", "tlas.n_padded is %zu; %zu instances have a leaf (next power of two %zu)",
                       np, keyed, rto_next_pow2(keyed));
@@ -368,13 +379,15 @@ static int load_tlas(build_arrays *a, int sweep)
         return refuse(a, "manifest.json", "tlas.nodes is %zu; a %s TLAS over %zu leaves has %zu", nodes,
                       sweep ? "sweep" : "Karras", keyed, want);
     a->node_count = nodes;
-    rto_npy_desc nd = layout_desc(sweep ? LAYOUT_TLAS_NODE : LAYOUT_BVH_NODE, nodes);
-    const char *layout = layout_name(sweep ? LAYOUT_TLAS_NODE : LAYOUT_BVH_NODE);
-    if ((rc = load_array(a, "tlas_nodes.npy", &nd, layout, &a->nodes)))
+    const rto_layout lk = sweep ? RTO_LAYOUT_TLAS_NODE : RTO_LAYOUT_BLAS_NODE;
+    char name[RTO_BUNDLE_FILE_NAME_MAX];
+    file_name(RTO_FILE_TLAS_NODES, 0, name);
+    rto_npy_desc nd = rto_layout_desc(lk, nodes);
+    if ((rc = load_array(a, name, &nd, rto_layout_name(lk), &a->nodes)))
         return rc;
     if (!sweep && (rc = load_sorted_keys(a, np)))
         return rc;
-    return self_check(a, "tlas_nodes.npy", sweep);
+    return self_check(a, name, sweep);
 }
 
 int cmd_check_bvh(int argc, char **argv)
@@ -433,13 +446,13 @@ int cmd_check_bvh(int argc, char **argv)
                       "a sweep TLAS's leaf order is its items");
         goto out;
     }
-    const layout_kind lk = sweep ? LAYOUT_TLAS_NODE : LAYOUT_BVH_NODE;
+    const rto_layout lk = sweep ? RTO_LAYOUT_TLAS_NODE : RTO_LAYOUT_BLAS_NODE;
     if (rto_npy_read(gpu, &g, &msg)) {
         rc = cli_fail("check-bvh", "--gpu %s: %s", gpu, msg.text);
         goto out;
     }
     size_t count = 0;
-    if (layout_accept(lk, &g, &count, &msg)) {
+    if (rto_layout_accept(lk, &g, &count, &msg)) {
         rc = cli_fail("check-bvh", "--gpu %s: %s", gpu, msg.text);
         goto out;
     }

@@ -322,6 +322,8 @@ static void tlas_leaf(rto_report *r, const rto_bvh_check_desc *d, const rto_tlas
                     ": %s", i, j, t->item, t->item < pc ? "an instance of an empty BLAS, which has no leaf"
                                                         : "no such instance, nor EMPTY")) {
         rto_report_at(r, "leaf", (int64_t)j);
+        if (t->item < pc)
+            rto_report_at(r, "primitive", t->item);
         link_row(r, i, "item", rto_val_none(), t->item);
     }
 }
@@ -398,12 +400,14 @@ rto_status rto_tlas_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *m
     if (!seen)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     /* Leaves: every non-empty instance exactly once. */
-    size_t first_dup = SIZE_MAX, first_odd = SIZE_MAX;
+    size_t first_dup = SIZE_MAX, first_odd = SIZE_MAX, first_empty_instance = SIZE_MAX;
     for (size_t j = 0; j < np; j++) {
         const rto_tlas_node *t = &g[np - 1 + j];
         int real = t->item < pc && !prim_empty(d->prim_boxes, t->item);
         if (real && seen[t->item]++ && first_dup == SIZE_MAX)
             first_dup = np - 1 + j;
+        if (!real && t->item < pc && first_empty_instance == SIZE_MAX)
+            first_empty_instance = np - 1 + j;
         /* a leaf that holds no instance yet is not a clean EMPTY leaf: where a dropped instance most likely was */
         if (!real && (t->item != RTO_TLAS_EMPTY || !box_is_empty_identity(t->min, t->max)) && first_odd == SIZE_MAX)
             first_odd = np - 1 + j;
@@ -413,6 +417,13 @@ rto_status rto_tlas_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *m
         if (!prim_empty(d->prim_boxes, p) && !seen[p] && !missing++)
             first_missing = p;
     free(seen);
+    /* A leaf holding an instance of an empty BLAS is where the fault starts (the GPU did not skip it), even when it
+     * took the place of an instance that is now in no leaf: item, at that leaf. */
+    if (first_empty_instance != SIZE_MAX) {
+        tlas_leaf(r, d, &g[first_empty_instance], first_empty_instance, first_empty_instance - (np - 1));
+        if (exp && r->nrows == 1 && r->rows[0].index == first_empty_instance) /* what the oracle has there */
+            r->rows[0].expected = rto_val_hex32(exp[first_empty_instance].item);
+    }
     if (missing && first_dup == SIZE_MAX) {
         size_t node = first_odd;
         for (size_t j = 0; exp && j < np; j++)
@@ -708,7 +719,11 @@ rto_status rto_karras_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg 
     if (s)
         return s;
     const size_t want = n >= 2 ? n - 1 : 0;
-    snprintf(r->context, sizeof r->context, "%zu nodes over %zu leaves", count, n);
+    if (keyed == pc)
+        snprintf(r->context, sizeof r->context, "%zu nodes over %zu leaves", count, n);
+    else
+        snprintf(r->context, sizeof r->context, "%zu nodes over %zu leaves (%zu of %zu primitives empty, in no leaf)",
+                 count, n, pc - keyed, pc);
     rto_report_fact(r, "nodes", (int64_t)count);
     rto_report_fact(r, "primitives", (int64_t)pc);
     rto_report_fact(r, "leaves", (int64_t)n);
