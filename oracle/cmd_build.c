@@ -10,7 +10,7 @@
 static void build_help(FILE *to)
 {
     fprintf(to,
-            "usage: rtoracle build SCENE [--tlas sweep|karras] -o OUTDIR\n\n"
+            "usage: rtoracle build SCENE [--tlas sweep|karras] [--texture-budget MB] -o OUTDIR\n\n"
             "SCENE is a .gltf / .glb path or a procedural scene: triangle, rtstress:N (1..40),\n"
             "instances:DIST:N (N boxes around the centroids of a centroid distribution, N <= 65536).\n"
             "Writes a bundle (atomically):\n"
@@ -24,6 +24,7 @@ static void build_help(FILE *to)
             "  manifest.json            counts, depth and SAH cost of every tree\n\n"
             "options:\n"
             "  --tlas sweep|karras  TLAS layout (default sweep, the seeds' implicit tree)\n"
+            "  --texture-budget MB  decoded texture memory a scene may take (default 256 MiB)\n"
             "  -o, --output DIR     output bundle directory\n");
 }
 
@@ -189,8 +190,13 @@ static rto_status build_blas(rto_bundle *b, const rto_scene *sc, uint32_t m, uin
 
 int cmd_build(int argc, char **argv)
 {
-    static const struct option opts[] = {{"tlas", required_argument, 0, 't'}, {"output", required_argument, 0, 'o'},
-                                         {"help", no_argument, 0, 'h'},       {0, 0, 0, 0}};
+    static const struct option opts[] = {{"tlas", required_argument, 0, 't'},
+                                         {"output", required_argument, 0, 'o'},
+                                         {"texture-budget", required_argument, 0, 'B'},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
+    rto_scene_load_desc load = {0};
+    uint64_t mb = 0;
     const char *out = NULL;
     int karras = 0;
     optind = 1;
@@ -204,6 +210,11 @@ int cmd_build(int argc, char **argv)
                 return cli_fail("build", "--tlas '%s': expected sweep or karras", optarg);
             break;
         case 'o': out = optarg; break;
+        case 'B':
+            if (!cli_parse_u64(optarg, UINT64_C(1) << 20, &mb) || mb == 0)
+                return cli_fail("build", "--texture-budget '%s': expected MiB, 1 .. 1048576", optarg);
+            load.texture_budget_bytes = (size_t)(mb << 20);
+            break;
         case 'h': build_help(stdout); return EXIT_PASS;
         default: build_help(stderr); return cli_fail("build", "unknown or incomplete option '%s'", argv[optind - 1]);
         }
@@ -214,9 +225,9 @@ int cmd_build(int argc, char **argv)
         return cli_fail("build", "-o OUTDIR is required");
     rto_msg msg = {{0}};
     rto_scene *sc = NULL;
-    rto_status s = rto_scene_load(argv[optind], &sc, &msg);
-    if (s)
-        return cli_fail("build", "%s: %s", argv[optind], msg.text);
+    rto_status s = rto_scene_load_ex(argv[optind], &load, &sc, &msg);
+    if (s) /* the message names the scene file itself */
+        return cli_fail("build", "%s", msg.text);
     for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
         fprintf(stderr, "rtoracle build: warning: %s\n", sc->warnings[w]);
     rto_bundle *b = NULL;

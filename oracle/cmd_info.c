@@ -13,7 +13,7 @@
 static void info_help(FILE *to)
 {
     fprintf(to,
-            "usage: rtoracle info SCENE [--json]\n\n"
+            "usage: rtoracle info SCENE [--json] [--texture-budget MB]\n\n"
             "Loads SCENE and prints what was loaded: mesh (BLAS) count, instance count, triangles (unique, i.e.\n"
             "summed over the BLAS, and instanced, i.e. summed over the instances' BLAS), vertices, materials,\n"
             "textures with their sizes, cameras, the scene's world bounds and the loader's warnings.\n\n"
@@ -23,7 +23,10 @@ static void info_help(FILE *to)
             "  instances:DIST:N    N boxes of half-size 1e-4 on a centroid distribution (rtoracle keys --list),\n"
             "                      0 <= N <= 65536, seed 1\n\n"
             "options:\n"
-            "  --json      one JSON object on stdout instead of text (meshes, materials, textures, cameras listed)\n\n"
+            "  --json                one JSON object on stdout instead of text (meshes, materials, textures, cameras\n"
+            "                        listed)\n"
+            "  --texture-budget MB   decoded texture memory (RGBA8) the scene may take; a scene that needs more is\n"
+            "                        refused (default 256 MiB)\n\n"
             "Exit status: 0 loaded, 2 bad usage or a refused scene (one line on stderr says why).\n");
 }
 
@@ -176,13 +179,23 @@ static void print_text(const rto_scene *s, const scene_counts *c, const rto_aabb
 
 int cmd_info(int argc, char **argv)
 {
-    static const struct option opts[] = {{"json", no_argument, 0, 'j'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+    static const struct option opts[] = {{"json", no_argument, 0, 'j'},
+                                         {"texture-budget", required_argument, 0, 'B'},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
     bool as_json = false;
+    rto_scene_load_desc load = {0};
+    uint64_t mb = 0;
     optind = 1;
     opterr = 0;
     for (int c; (c = getopt_long(argc, argv, "h", opts, NULL)) != -1;) {
         switch (c) {
         case 'j': as_json = true; break;
+        case 'B':
+            if (!cli_parse_u64(optarg, UINT64_C(1) << 20, &mb) || mb == 0)
+                return cli_fail("info", "--texture-budget '%s': expected MiB, 1 .. 1048576", optarg);
+            load.texture_budget_bytes = (size_t)(mb << 20);
+            break;
         case 'h': info_help(stdout); return EXIT_PASS;
         default: info_help(stderr); return cli_fail("info", "unknown or incomplete option '%s'", argv[optind - 1]);
         }
@@ -193,7 +206,7 @@ int cmd_info(int argc, char **argv)
         return cli_fail("info", "unexpected argument '%s'", argv[optind + 1]);
     rto_msg msg = {{0}};
     rto_scene *s = NULL;
-    rto_status st = rto_scene_load(argv[optind], &s, &msg);
+    rto_status st = rto_scene_load_ex(argv[optind], &load, &s, &msg);
     if (st)
         return cli_status("info", st, &msg);
     scene_counts c;
