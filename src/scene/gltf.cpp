@@ -88,6 +88,10 @@ constexpr uint64_t kMaxAccessorCount = uint64_t(1) << 28;
 // Elements of an accessor without a bufferView: zeros that no byte of the file backs, so their count amplifies a
 // small file into a large allocation unless it is bounded on its own.
 constexpr uint64_t kMaxZeroAccessorCount = uint64_t(1) << 20;
+// Mesh memory (positions, normals, texture coordinates, indices of every BLAS) may be this many times the bytes of
+// the scene file and its buffers, and at least kMinMeshBytes (see Loader::blas).
+constexpr uint64_t kMaxAmplification = 256;
+constexpr uint64_t kMinMeshBytes = uint64_t(256) << 20;
 
 // A refusal: thrown anywhere below, caught once in rto__gltf_load.
 struct Refusal {
@@ -564,6 +568,7 @@ struct Context {
         size_t uses = 0; // buffers still to hand it to; the last one takes the bytes without a copy
     };
     std::map<std::string, Pending> files;
+    uint64_t input_bytes = 0; // the scene file and the external buffers read: what mesh memory is measured against
 
     // The path of an external URI, exactly as tinygltf forms it (percent-decoded, joined to the base directory).
     std::string resolve(const std::string &uri) const { return tinygltf::JoinPath(base_dir, tinygltf::dlib::urldecode(uri)); }
@@ -593,6 +598,7 @@ void read_buffers(const json &doc, Context &ctx)
                 refuse(RTO_ERR_PARSE, "buffer %zu ('%.200s'): the file holds %llu bytes, less than the byteLength %llu "
                        "it declares", i, path.c_str(), (unsigned long long)f.size(), (unsigned long long)want);
             p.bytes = f.read(want);
+            ctx.input_bytes += want;
         } else if (p.bytes.size() != want) {
             refuse(RTO_ERR_PARSE, "buffer %zu ('%.200s'): byteLength %llu, but an earlier buffer names the same file "
                    "with byteLength %zu", i, path.c_str(), (unsigned long long)want, p.bytes.size());
@@ -777,8 +783,7 @@ const unsigned char *view_range(const tinygltf::Model &g, int v, uint64_t offset
     return buf.data.data() + bv.byteOffset + offset;
 }
 
-// The accessor, range-checked: returned only if every byte its elements (and sparse substitutions) span lies inside
-// its bufferViews, and each view inside its buffer.
+// Accessor a, its index checked (its ranges are plan_accessor's).
 const tinygltf::Accessor &accessor_at(const tinygltf::Model &g, int a, const std::string &role)
 {
     if (a < 0 || size_t(a) >= g.accessors.size())
@@ -786,46 +791,49 @@ const tinygltf::Accessor &accessor_at(const tinygltf::Model &g, int a, const std
     return g.accessors[size_t(a)];
 }
 
-Packed read_accessor(const tinygltf::Model &g, int a, const std::string &role)
+// Where an accessor's bytes are, every range checked: its elements (and sparse substitutions) inside their
+// bufferViews, each view inside its buffer. Nothing is allocated.
+struct AccessorPlan {
+    const tinygltf::Accessor *acc = nullptr;
+    std::string what;
+    size_t ncomp = 0, comp_size = 0, elem = 0, stride = 0, isz = 0;
+    const unsigned char *src = nullptr, *ip = nullptr, *vp = nullptr; // elements, sparse indices, sparse values
+};
+
+AccessorPlan plan_accessor(const tinygltf::Model &g, int a, const std::string &role)
 {
+    AccessorPlan pl;
     const tinygltf::Accessor &acc = accessor_at(g, a, role);
-    const std::string what = "accessor " + std::to_string(a) + " (" + role + ")";
-    Packed p;
-    p.comp_size = component_size(acc.componentType);
-    p.ncomp = type_components(acc.type);
-    p.component_type = acc.componentType;
-    p.normalized = acc.normalized;
-    if (!p.comp_size || !p.ncomp)
-        refuse(RTO_ERR_PARSE, "%s: unknown componentType %d or type", what.c_str(), acc.componentType);
+    pl.acc = &acc;
+    pl.what = "accessor " + std::to_string(a) + " (" + role + ")";
+    const char *what = pl.what.c_str();
+    pl.comp_size = component_size(acc.componentType);
+    pl.ncomp = type_components(acc.type);
+    if (!pl.comp_size || !pl.ncomp)
+        refuse(RTO_ERR_PARSE, "%s: unknown componentType %d or type", what, acc.componentType);
     if (acc.count > kMaxAccessorCount)
-        refuse(RTO_ERR_UNSUPPORTED, "%s: %zu elements (at most %llu are supported)", what.c_str(), acc.count,
+        refuse(RTO_ERR_UNSUPPORTED, "%s: %zu elements (at most %llu are supported)", what, acc.count,
                (unsigned long long)kMaxAccessorCount);
-    const size_t elem = p.ncomp * p.comp_size;
-    // Every range first: nothing sized by count is allocated until the data behind it is known to exist, so a
-    // small file cannot make the loader allocate gigabytes.
-    const unsigned char *src = nullptr;
-    size_t stride = elem;
+    pl.elem = pl.stride = pl.ncomp * pl.comp_size;
     if (acc.bufferView >= 0) {
         const tinygltf::BufferView *bv =
             size_t(acc.bufferView) < g.bufferViews.size() ? &g.bufferViews[size_t(acc.bufferView)] : nullptr;
-        stride = bv && bv->byteStride ? bv->byteStride : elem;
-        if (stride < elem)
-            refuse(RTO_ERR_PARSE, "%s: byteStride %zu is smaller than an element (%zu bytes)", what.c_str(), stride,
-                   elem);
-        src = view_range(g, acc.bufferView, acc.byteOffset, stride, elem, acc.count, what);
+        pl.stride = bv && bv->byteStride ? bv->byteStride : pl.elem;
+        if (pl.stride < pl.elem)
+            refuse(RTO_ERR_PARSE, "%s: byteStride %zu is smaller than an element (%zu bytes)", what, pl.stride,
+                   pl.elem);
+        pl.src = view_range(g, acc.bufferView, acc.byteOffset, pl.stride, pl.elem, acc.count, pl.what);
     } else if (acc.count > kMaxZeroAccessorCount) {
         // Without a bufferView the elements are zeros (glTF 2.0 §3.6.2.3), backed by no data at all.
-        refuse(RTO_ERR_UNSUPPORTED, "%s: %zu elements without a bufferView (at most %llu are supported)", what.c_str(),
+        refuse(RTO_ERR_UNSUPPORTED, "%s: %zu elements without a bufferView (at most %llu are supported)", what,
                acc.count, (unsigned long long)kMaxZeroAccessorCount);
     }
     const auto &sp = acc.sparse;
-    const std::string swhat = what + " sparse";
-    const unsigned char *ip = nullptr, *vp = nullptr;
-    size_t isz = 0;
     if (sp.isSparse) {
+        const std::string swhat = pl.what + " sparse";
         if (sp.count < 1 || size_t(sp.count) > acc.count)
             refuse(RTO_ERR_PARSE, "%s: count %d not in 1 .. %zu", swhat.c_str(), sp.count, acc.count);
-        isz = component_size(sp.indices.componentType);
+        pl.isz = component_size(sp.indices.componentType);
         if (sp.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
             sp.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
             sp.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
@@ -833,36 +841,52 @@ Packed read_accessor(const tinygltf::Model &g, int a, const std::string &role)
                    sp.indices.componentType);
         if (sp.indices.byteOffset < 0 || sp.values.byteOffset < 0)
             refuse(RTO_ERR_PARSE, "%s: negative byteOffset", swhat.c_str());
-        ip = view_range(g, sp.indices.bufferView, uint64_t(sp.indices.byteOffset), isz, isz, uint64_t(sp.count),
-                        swhat + " indices");
-        vp = view_range(g, sp.values.bufferView, uint64_t(sp.values.byteOffset), elem, elem, uint64_t(sp.count),
-                        swhat + " values");
+        pl.ip = view_range(g, sp.indices.bufferView, uint64_t(sp.indices.byteOffset), pl.isz, pl.isz,
+                           uint64_t(sp.count), swhat + " indices");
+        pl.vp = view_range(g, sp.values.bufferView, uint64_t(sp.values.byteOffset), pl.elem, pl.elem,
+                           uint64_t(sp.count), swhat + " values");
     }
+    return pl;
+}
+
+// The accessor's elements, packed. Every range is checked first (plan_accessor): nothing sized by count is
+// allocated until the data behind it is known to exist, so a small file cannot make the loader allocate gigabytes.
+Packed read_accessor(const tinygltf::Model &g, int a, const std::string &role)
+{
+    const AccessorPlan pl = plan_accessor(g, a, role);
+    const tinygltf::Accessor &acc = *pl.acc;
+    Packed p;
+    p.comp_size = pl.comp_size;
+    p.ncomp = pl.ncomp;
+    p.component_type = acc.componentType;
+    p.normalized = acc.normalized;
     p.count = acc.count;
+    const size_t elem = pl.elem;
     p.bytes.assign(p.count * elem, 0);
-    if (src)
+    if (pl.src)
         for (size_t i = 0; i < p.count; i++)
-            memcpy(&p.bytes[i * elem], src + i * stride, elem);
+            memcpy(&p.bytes[i * elem], pl.src + i * pl.stride, elem);
+    const auto &sp = acc.sparse;
     if (sp.isSparse) {
         uint64_t prev = 0;
         for (size_t k = 0; k < size_t(sp.count); k++) {
             uint64_t idx = 0;
-            if (isz == 1)
-                idx = ip[k];
-            else if (isz == 2) {
+            if (pl.isz == 1)
+                idx = pl.ip[k];
+            else if (pl.isz == 2) {
                 uint16_t v;
-                memcpy(&v, ip + 2 * k, 2);
+                memcpy(&v, pl.ip + 2 * k, 2);
                 idx = v;
             } else {
                 uint32_t v;
-                memcpy(&v, ip + 4 * k, 4);
+                memcpy(&v, pl.ip + 4 * k, 4);
                 idx = v;
             }
             if (idx >= p.count || (k > 0 && idx <= prev))
-                refuse(RTO_ERR_PARSE, "%s: index %llu (entry %zu) out of range or not strictly increasing",
-                       swhat.c_str(), (unsigned long long)idx, k);
+                refuse(RTO_ERR_PARSE, "%s sparse: index %llu (entry %zu) out of range or not strictly increasing",
+                       pl.what.c_str(), (unsigned long long)idx, k);
             prev = idx;
-            memcpy(&p.bytes[size_t(idx) * elem], vp + k * elem, elem);
+            memcpy(&p.bytes[size_t(idx) * elem], pl.vp + k * elem, elem);
         }
     }
     return p;
@@ -1119,6 +1143,7 @@ struct Loader {
     std::map<std::pair<uint64_t, uint64_t>, int32_t> by_file;       // external file (device, inode) -> rto texture
     uint64_t texture_bytes = 0;                                     // decoded so far, against the budget
     uint64_t total_vertices = 0, total_triangles = 0;               // over the BLAS built so far, against the limits
+    uint64_t mesh_bytes = 0;                                        // their arrays' bytes, against amplification
     bool warned_skin = false, warned_targets = false;
     const Context &ctx;
 
@@ -1343,11 +1368,29 @@ struct Loader {
         auto pos = prim.attributes.find("POSITION");
         if (pos == prim.attributes.end())
             refuse(RTO_ERR_PARSE, "%s: no POSITION attribute", where.c_str());
-        // The limits on the scene's totals hold before a BLAS is allocated: a file that names one large accessor
-        // from many primitives cannot make the loader hold it many times over.
-        if (total_vertices + accessor_at(g, pos->second, "POSITION of " + where).count > RTO_SCENE_MAX_VERTICES)
+        // The limits on the scene's totals hold before a BLAS is allocated. Each BLAS holds its own copy of the
+        // vertices it names, so a small file whose primitives all name one large accessor could otherwise make the
+        // loader hold it many times over: the meshes may take at most kMaxAmplification times the bytes of the file
+        // and its buffers (or kMinMeshBytes).
+        const uint64_t nv_declared = plan_accessor(g, pos->second, "POSITION of " + where).acc->count;
+        if (total_vertices + nv_declared > RTO_SCENE_MAX_VERTICES)
             refuse(RTO_ERR_UNSUPPORTED, "%s: the meshes would hold more than %u vertices", where.c_str(),
                    RTO_SCENE_MAX_VERTICES);
+        {
+            const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+            const uint64_t nidx =
+                prim.indices >= 0 ? plan_accessor(g, prim.indices, "indices of " + where).acc->count : nv_declared;
+            const uint64_t tris = mode == TINYGLTF_MODE_TRIANGLES ? nidx / 3 : nidx >= 3 ? nidx - 2 : 0;
+            const uint64_t per_vertex = 12 + (prim.attributes.count("NORMAL") ? 12 : 0) +
+                                        (prim.attributes.count("TEXCOORD_0") ? 8 : 0);
+            const uint64_t need = nv_declared * per_vertex + 12 * tris;
+            const uint64_t limit = std::max(kMinMeshBytes, kMaxAmplification * ctx.input_bytes);
+            if (mesh_bytes + need > limit)
+                refuse(RTO_ERR_UNSUPPORTED, "%s: the meshes would take %llu bytes, more than %llu times the %llu "
+                       "bytes of the file and its buffers (each BLAS holds its own copy of the vertices it names)",
+                       where.c_str(), (unsigned long long)(mesh_bytes + need),
+                       (unsigned long long)kMaxAmplification, (unsigned long long)ctx.input_bytes);
+        }
         mb.positions = read_floats(g, pos->second, 3, false, "POSITION of " + where);
         const size_t nv = mb.positions.size() / 3;
         for (size_t i = 0; i < mb.positions.size(); i++)
@@ -1427,6 +1470,7 @@ struct Loader {
         view.triangle_count = uint32_t(mb.indices.size() / 3);
         mb.box = rto_mesh_aabb(&view);
         total_vertices += nv;
+        mesh_bytes += 4 * (mb.positions.size() + mb.normals.size() + mb.uvs.size() + mb.indices.size());
         total_triangles += mb.indices.size() / 3;
         const uint32_t id = uint32_t(meshes.size());
         meshes.push_back(std::move(mb));
@@ -1663,6 +1707,7 @@ void load(const char *path, const rto_scene_load_desc *opts, rto_scene *scene)
     const bool binary = is_glb(bytes);
     Context ctx;
     ctx.opts = *opts;
+    ctx.input_bytes = bytes.size();
     const size_t slash = p.find_last_of('/');
     ctx.base_dir = slash == std::string::npos ? std::string() : p.substr(0, slash);
     prepass(binary ? glb_json(bytes) : std::string(bytes.begin(), bytes.end()), ctx);
