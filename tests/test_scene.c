@@ -1590,6 +1590,47 @@ static void test_texture_budget(void **state)
     free(b.p);
 }
 
+/* JPEG, the other format glTF allows: the size comes from the frame header (SOF2 in a progressive file, after APP0
+ * and two DQT segments), found by walking the marker segments before anything is decoded. */
+static void test_jpeg_textures(void **state)
+{
+    (void)state;
+    char src[1024];
+    snprintf(src, sizeof src, "%s/../OBJ/engineflare1.jpg", assimp_dir()); /* 128 x 128, progressive */
+    size_t n;
+    unsigned char *jpg = read_all(src, &n);
+    assert_true(n > 200 && jpg[158] == 0xFF && jpg[159] == 0xC2); /* SOF2 at byte 158 */
+    bytes img = {jpg, n};
+    const int one[1] = {0};
+    const char *path = textured_gltf("jpeg.gltf", &img, 1, one, 1);
+    /* textured_gltf wrote a PNG mime type: the format is taken from the bytes, not from the URI */
+    rto_scene *s = load_ok(path);
+    assert_int_equal(s->texture_count, 1);
+    assert_int_equal(s->textures[0].width, 128);
+    assert_int_equal(s->textures[0].height, 128);
+    rto_scene_destroy(s);
+    rto_scene_load_desc d = {0};
+    d.texture_budget_bytes = 128 * 128 * 4 - 1;
+    expect_refusal_ex(path, &d, RTO_ERR_UNSUPPORTED, "image 0 ('image 0', 128x128): the decoded textures would take");
+    /* cut before the frame header; a frame header whose height is 0 (defined later by DNL) */
+    img.n = 158;
+    s = load_ok(textured_gltf("jpeg_cut.gltf", &img, 1, one, 1));
+    assert_int_equal(s->texture_count, 0);
+    assert_true(has_warning(s, "cannot decode: corrupt JPEG: no frame header"));
+    rto_scene_destroy(s);
+    img.n = n;
+    jpg[158 + 5] = 0, jpg[158 + 6] = 0;
+    s = load_ok(textured_gltf("jpeg_dnl.gltf", &img, 1, one, 1));
+    assert_true(has_warning(s, "JPEG without its height in the frame header (DNL) is not supported"));
+    rto_scene_destroy(s);
+    /* neither PNG nor JPEG (a GIF): glTF allows only those two */
+    bytes gif = {(unsigned char *)"GIF89a\x01\x00\x01\x00\x00\x00\x00;", 14};
+    s = load_ok(textured_gltf("gif.gltf", &gif, 1, one, 1));
+    assert_true(has_warning(s, "not a PNG or JPEG image (the formats glTF 2.0 allows)"));
+    rto_scene_destroy(s);
+    free(jpg);
+}
+
 /* embedded_only: no file but the scene file is opened. */
 static void test_embedded_only(void **state)
 {
@@ -1871,6 +1912,7 @@ int main(void)
         cmocka_unit_test(test_gltf1_refused),
         cmocka_unit_test(test_png_decoding),
         cmocka_unit_test(test_texture_budget),
+        cmocka_unit_test(test_jpeg_textures),
         cmocka_unit_test(test_embedded_only),
         cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_rtstress_all_sizes),

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Seed corpus for the glTF fuzz target (tests/fuzz_gltf.c): usage gltf_corpus.py OUTDIR FIXTURES [MORE_GLTF_DIRS...]
+"""Seed corpus for the glTF fuzz target (tests/fuzz_gltf.c): usage gltf_corpus.py OUTDIR FIXTURES [MORE_DIRS...]
 
 The fuzz target loads with embedded_only, so a seed that names an external file is refused before its accessors,
 nodes and textures are ever looked at. For every .gltf / .glb found, this writes:
@@ -7,7 +7,8 @@ nodes and textures are ever looked at. For every .gltf / .glb found, this writes
   - for a .gltf whose buffers are small enough: a self-contained .gltf (buffers as data: URIs) and a .glb (buffer 0
     in the BIN chunk, any others as data: URIs), with every image replaced by a 2x2 PNG data: URI, so seeds stay small
     and still reach the texture path.
-Seeds larger than MAX_SEED bytes are left out (large inputs slow every mutation down)."""
+The two smallest JPEGs found under the directories become textured one-triangle seeds. Seeds larger than MAX_SEED bytes
+are left out (large inputs slow every mutation down)."""
 import base64
 import json
 import os
@@ -71,9 +72,22 @@ def inline(path):
     return text, glb
 
 
+def textured_triangle(mime, image):
+    """A one-triangle .gltf whose material's base colour is the given image, as a data: URI."""
+    tri = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+    doc = {"asset": {"version": "2.0"},
+           "buffers": [{"byteLength": len(tri), "uri": data_uri("application/octet-stream", tri)}],
+           "bufferViews": [{"buffer": 0, "byteLength": len(tri)}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}],
+           "images": [{"uri": data_uri(mime, image)}], "textures": [{"source": 0}],
+           "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}], "nodes": [{"mesh": 0}]}
+    return json.dumps(doc, separators=(",", ":")).encode()
+
+
 def main():
     if len(sys.argv) < 3:
-        sys.exit("usage: gltf_corpus.py OUTDIR FIXTURES [MORE_GLTF_DIRS...]")
+        sys.exit("usage: gltf_corpus.py OUTDIR FIXTURES [MORE_DIRS...]")
     out = sys.argv[1]
     os.makedirs(out, exist_ok=True)
     written = 0
@@ -85,12 +99,16 @@ def main():
                 f.write(data)
             written += 1
 
+    jpegs = []
     for root_dir in sys.argv[2:]:
         if not os.path.isdir(root_dir):
             continue
         for root, _, files in sorted(os.walk(root_dir)):
             for name in sorted(files):
                 low = name.lower()
+                path = os.path.join(root, name)
+                if low.endswith(".jpg") and os.path.getsize(path) <= 16 * 1024:
+                    jpegs.append((os.path.getsize(path), path))
                 if not (low.endswith(".gltf") or low.endswith(".glb")):
                     continue
                 path = os.path.join(root, name)
@@ -100,11 +118,16 @@ def main():
                 if low.endswith(".gltf"):
                     try:
                         made = inline(path)
-                    except (ValueError, KeyError, TypeError, OSError):
+                    except (ValueError, KeyError, TypeError, AttributeError, OSError):  # glTF 1.0, broken JSON
                         made = None
                     if made:
                         put(stem + ".embedded.gltf", made[0])
                         put(stem + ".glb", made[1])
+    # JPEG is the other texture format glTF allows; the inlined seeds above carry PNGs only.
+    for i, (_, path) in enumerate(sorted(jpegs)[:2]):
+        with open(path, "rb") as f:
+            put("jpeg_texture_%d.gltf" % i, textured_triangle("image/jpeg", f.read()))
+    put("png_texture.gltf", textured_triangle("image/png", png_2x2()))
     print("%d seeds in %s" % (written, out))
 
 
