@@ -1,11 +1,14 @@
-/* Shared plumbing of the rtoracle command: exit codes, argument parsing, key files. */
+/* Shared plumbing of the rtoracle command: exit codes, messages, option tables, key files. The command is a user of
+ * the library like any other: it sees only the public header. */
 #ifndef RTO_CLI_H
 #define RTO_CLI_H
 
-#include "internal.h"
+#include "opts.h"
+#include "rtoracle.h"
 
 #include <jansson.h>
 #include <stdbool.h>
+#include <stdint.h>
 #include <stdio.h>
 
 /* Exit statuses of every command. */
@@ -17,15 +20,43 @@ int cli_fail(const char *cmd, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)))
 #endif
     ;
+/** Writes a formatted one-line reason into m (if non-NULL) and returns s, as the library's own calls do. */
+rto_status cli_error(rto_msg *m, rto_status s, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+/** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
+void *cli_alloc(size_t count, size_t size);
 /** Maps a library status to an exit status, printing msg for failures. */
 int cli_status(const char *cmd, rto_status s, const rto_msg *msg);
 
-/** Writes a failure report next to the GPU dump as <gpu>.<command>.json, through a temporary file. */
-void cli_write_report(const char *gpu_path, const char *command, const json_t *report);
-/** Strict unsigned parse (decimal or 0x hex) with an upper bound; false on junk, sign or overflow. */
-bool cli_parse_u64(const char *text, uint64_t max, uint64_t *out);
+/** Writes a failure report next to the GPU dump as <gpu>.<command>.json, atomically (rto_file_write). Returns
+ * EXIT_PASS, or EXIT_BAD_INPUT after one line on stderr (report NULL, out of memory, a path that is not a file). */
+int cli_write_report(const char *gpu_path, const char *command, const json_t *report);
+/** JSON values that never fail silently: a string repaired to UTF-8 (rto_utf8_repair), a real with non-finite
+ * values as the strings "inf", "-inf", "nan". NULL only when out of memory. */
+json_t *cli_json_string(const char *text);
+json_t *cli_json_real(double v);
+/** root as indented JSON text with a final newline (malloc'ed), or NULL if root is NULL or memory ran out. */
+char *cli_json_text(const json_t *root);
+/** Serialises root (NULL: a build that failed) to stdout with a final newline; 0 if that failed. */
+int cli_json_print(const json_t *root);
+/** Removes the temporaries of unfinished outputs on SIGINT / SIGTERM / SIGHUP, then exits by that signal. */
+void cli_cleanup_on_signals(void);
+/* Names of the key formats and sort algorithms, for option tables and manifests. */
+extern const opt_name cli_format_names[];
+extern const opt_name cli_algo_names[];
 bool cli_parse_format(const char *text, rto_key_format *f);
 bool cli_parse_algo(const char *text, rto_sort_algo *a);
+
+/* Limits shared by the commands' option tables. */
+#define CLI_SEED_MAX UINT32_MAX
+#define CLI_TILE_MAX (UINT32_C(1) << 24)
+/* --texture-budget MB (info, build): up to 1 TiB of decoded textures. */
+#define CLI_TEXTURE_BUDGET_MAX_MB (UINT64_C(1) << 20)
+/* --radix-bits: the digit widths the radix reference implements. */
+extern const opt_name cli_radix_bits_names[];
 
 /** Options shared by the sort-producing commands. */
 typedef struct sort_params {

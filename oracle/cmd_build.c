@@ -3,30 +3,25 @@
  * tree passes the structural self-check before the bundle is committed. */
 #include "cli.h"
 
-#include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void build_help(FILE *to)
-{
-    fprintf(to,
-            "usage: rtoracle build SCENE [--tlas sweep|karras] [--texture-budget MB] -o OUTDIR\n\n"
-            "SCENE is a .gltf / .glb path or a procedural scene: triangle, rtstress:N (1..40),\n"
-            "instances:DIST:N (N boxes around the centroids of a centroid distribution, N <= 65536).\n"
-            "Writes a bundle (atomically):\n"
-            "  instances.npy            InstanceRecord: objToWorld, worldToObj (3x4 row-major), blas, customIndex,\n"
-            "                           mask, sbtOffset, flags\n"
-            "  instance_aabbs.npy       world AABB of every instance (Aabb)\n"
-            "  tlas_keys.npy            TLAS keys in instance order; tlas_sorted_keys.npy: n_padded, sorted\n"
-            "  tlas_nodes.npy           sweep: TlasNode heap (2 n_padded - 1); karras: BlasNode (n - 1)\n"
-            "  blas_M_sorted_keys.npy   per mesh M: sorted BLAS keys (u64), blas_M_order.npy: triangle of each\n"
-            "                           leaf, blas_M_nodes.npy: BlasNode (triangles - 1), blas_M_prim_aabbs.npy\n"
-            "  manifest.json            counts, depth and SAH cost of every tree\n\n"
-            "options:\n"
-            "  --tlas sweep|karras  TLAS layout (default sweep, the seeds' implicit tree)\n"
-            "  --texture-budget MB  decoded texture memory a scene may take (default 256 MiB)\n"
-            "  -o, --output DIR     output bundle directory\n");
-}
+static const char build_usage[] =
+    "usage: rtoracle build SCENE [--tlas sweep|karras] [--texture-budget MB] -o OUTDIR\n\n"
+    "SCENE is a .gltf / .glb path or a procedural scene: triangle, rtstress:N (1..40),\n"
+    "instances:DIST:N (N boxes around the centroids of a centroid distribution, N <= 65536).\n"
+    "Writes a bundle (atomically):\n"
+    "  instances.npy            InstanceRecord: objToWorld, worldToObj (3x4 row-major), blas, customIndex,\n"
+    "                           mask, sbtOffset, flags\n"
+    "  instance_aabbs.npy       world AABB of every instance (Aabb)\n"
+    "  tlas_keys.npy            TLAS keys in instance order; tlas_sorted_keys.npy: n_padded, sorted\n"
+    "  tlas_nodes.npy           sweep: TlasNode heap (2 n_padded - 1); karras: BlasNode (n - 1)\n"
+    "  blas_M_sorted_keys.npy   per mesh M: sorted BLAS keys (u64), blas_M_order.npy: triangle of each\n"
+    "                           leaf, blas_M_nodes.npy: BlasNode (triangles - 1), blas_M_prim_aabbs.npy\n"
+    "  manifest.json            counts, depth and SAH cost of every tree\n";
+
+/* --tlas: the sweep tree (the seeds' implicit heap) or a Karras tree. */
+static const opt_name tlas_names[] = {{"sweep", 0}, {"karras", 1}, {NULL, 0}};
 
 static rto_status add_aabbs(rto_bundle *b, const char *name, const char *role, const rto_aabb *boxes, size_t n,
                             rto_msg *msg)
@@ -41,7 +36,7 @@ static rto_status add_instances(rto_bundle *b, const rto_scene *sc, rto_msg *msg
     const size_t rec = layout_size(LAYOUT_INSTANCE);
     unsigned char *buf = calloc(sc->instance_count ? sc->instance_count : 1, rec);
     if (!buf)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return cli_error(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     for (uint32_t i = 0; i < sc->instance_count; i++) {
         const rto_instance *in = &sc->instances[i];
         unsigned char *p = buf + i * rec;
@@ -59,7 +54,7 @@ static rto_status add_instances(rto_bundle *b, const rto_scene *sc, rto_msg *msg
 static rto_status self_check(rto_status s, const rto_bvh_report *r, const char *what, rto_msg *msg)
 {
     if (s == RTO_ERR_MISMATCH)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "internal self-check of %s failed: %s", what, r->summary);
+        return cli_error(msg, RTO_ERR_UNSUPPORTED, "internal self-check of %s failed: %s", what, r->summary);
     return s;
 }
 
@@ -67,15 +62,15 @@ static rto_status build_tlas(rto_bundle *b, const rto_scene *sc, int karras, rto
 {
     const size_t n = sc->instance_count, np = rto_next_pow2(n);
     if (n > RTO_TLAS_MAX_INSTANCES)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu instances: a TLAS key indexes at most %u", n,
+        return cli_error(msg, RTO_ERR_INVALID_ARGUMENT, "%zu instances: a TLAS key indexes at most %u", n,
                         RTO_TLAS_MAX_INSTANCES);
-    rto_aabb *boxes = rto_alloc(n, sizeof *boxes);
-    uint32_t *keys = rto_alloc(n, 4), *sorted = rto_alloc(np, 4), *prims = rto_alloc(n, 4);
+    rto_aabb *boxes = cli_alloc(n, sizeof *boxes);
+    uint32_t *keys = cli_alloc(n, 4), *sorted = cli_alloc(np, 4), *prims = cli_alloc(n, 4);
     size_t count = karras ? (n >= 2 ? n - 1 : 0) : rto_tlas_sweep_node_count(n);
-    void *nodes = rto_alloc(count, karras ? sizeof(rto_bvh_node) : sizeof(rto_tlas_node));
+    void *nodes = cli_alloc(count, karras ? sizeof(rto_bvh_node) : sizeof(rto_tlas_node));
     rto_status s = RTO_OK;
     if (!boxes || !keys || !sorted || !prims || !nodes)
-        s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        s = cli_error(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     for (size_t i = 0; !s && i < n; i++)
         boxes[i] = rto_instance_aabb(sc, (uint32_t)i);
     rto_bvh_report r;
@@ -132,13 +127,13 @@ static rto_status build_blas(rto_bundle *b, const rto_scene *sc, uint32_t m, uin
 {
     const rto_mesh *mesh = &sc->meshes[m];
     const size_t n = mesh->triangle_count, np = rto_next_pow2(n), count = n >= 2 ? n - 1 : 0;
-    uint64_t *keys = rto_alloc(n, 8), *sorted = rto_alloc(np, 8);
-    uint32_t *order = rto_alloc(n, 4);
-    rto_aabb *boxes = rto_alloc(n, sizeof *boxes);
-    rto_bvh_node *nodes = rto_alloc(count, sizeof *nodes);
+    uint64_t *keys = cli_alloc(n, 8), *sorted = cli_alloc(np, 8);
+    uint32_t *order = cli_alloc(n, 4);
+    rto_aabb *boxes = cli_alloc(n, sizeof *boxes);
+    rto_bvh_node *nodes = cli_alloc(count, sizeof *nodes);
     rto_status s = RTO_OK;
     if (!keys || !sorted || !order || !boxes || !nodes)
-        s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        s = cli_error(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     for (size_t t = 0; !s && t < n; t++)
         boxes[t] = rto_mesh_triangle_aabb(mesh, (uint32_t)t);
     if (!s)
@@ -190,42 +185,30 @@ static rto_status build_blas(rto_bundle *b, const rto_scene *sc, uint32_t m, uin
 
 int cmd_build(int argc, char **argv)
 {
-    static const struct option opts[] = {{"tlas", required_argument, 0, 't'},
-                                         {"output", required_argument, 0, 'o'},
-                                         {"texture-budget", required_argument, 0, 'B'},
-                                         {"help", no_argument, 0, 'h'},
-                                         {0, 0, 0, 0}};
-    rto_scene_load_desc load = {0};
-    uint64_t mb = 0;
     const char *out = NULL;
-    int karras = 0;
-    optind = 1;
-    opterr = 0;
-    for (int c; (c = getopt_long(argc, argv, "o:h", opts, NULL)) != -1;) {
-        switch (c) {
-        case 't':
-            if (!strcmp(optarg, "karras"))
-                karras = 1;
-            else if (strcmp(optarg, "sweep"))
-                return cli_fail("build", "--tlas '%s': expected sweep or karras", optarg);
-            break;
-        case 'o': out = optarg; break;
-        case 'B':
-            if (!cli_parse_u64(optarg, UINT64_C(1) << 20, &mb) || mb == 0)
-                return cli_fail("build", "--texture-budget '%s': expected MiB, 1 .. 1048576", optarg);
-            load.texture_budget_bytes = (size_t)(mb << 20);
-            break;
-        case 'h': build_help(stdout); return EXIT_PASS;
-        default: build_help(stderr); return cli_fail("build", "unknown or incomplete option '%s'", argv[optind - 1]);
-        }
-    }
-    if (optind + 1 != argc)
-        return cli_fail("build", "expected exactly one SCENE (rtoracle build --help)");
-    if (!out)
-        return cli_fail("build", "-o OUTDIR is required");
+    unsigned karras = 0;
+    uint64_t budget_mb = 0;
+    const opt_spec opts[] = {
+        OPT_ENUM("tlas", &karras, tlas_names, "T", "TLAS layout", "sweep, the seeds' implicit tree"),
+        OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
+                 "decoded texture memory (RGBA8, MiB) the scene may take", "256"),
+        OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
+        OPT_END,
+    };
+    const opt_command cmd = {"build", build_usage, NULL, opts, 1, 1, "one SCENE"};
+    opt_args args;
+    int rc = opts_parse(&cmd, argc, argv, &args);
+    if (rc >= 0)
+        return rc;
+    static const char *const required[] = {"output", NULL};
+    if ((rc = opts_require(&cmd, &args, required)))
+        return rc;
+    const char *scene = args.arg[0];
     rto_msg msg = {{0}};
     rto_scene *sc = NULL;
-    rto_status s = rto_scene_load_ex(argv[optind], &load, &sc, &msg);
+    rto_scene_load_desc load = {0};
+    load.texture_budget_bytes = (size_t)(budget_mb << 20); /* 0 (not given): the default */
+    rto_status s = rto_scene_load_ex(scene, &load, &sc, &msg);
     if (s) /* the message names the scene file itself */
         return cli_fail("build", "%s", msg.text);
     for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
@@ -240,7 +223,7 @@ int cmd_build(int argc, char **argv)
         for (uint32_t i = 0; i < sc->instance_count; i++)
             triangles += sc->meshes[sc->instances[i].blas].triangle_count;
         rto_bundle_set_int(b, "counts", "instanced_triangles", (int64_t)triangles);
-        s = build_tlas(b, sc, karras, &msg);
+        s = build_tlas(b, sc, (int)karras, &msg);
     }
     for (uint32_t m = 0; !s && m < sc->mesh_count; m++)
         s = build_blas(b, sc, m, &blas_nodes, &msg);

@@ -2,26 +2,24 @@
  * items) with DESIGN.md §9 box tolerances, or, with --structure-only, for validity against the scene alone. */
 #include "cli.h"
 
-#include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void check_bvh_help(FILE *to)
-{
-    fprintf(to,
-            "usage: rtoracle check-bvh --expected OUTDIR --gpu nodes.npy [--blas M] [--structure-only]\n"
-            "                          [--gpu-order order.npy] [--json] [--no-artifacts]\n\n"
-            "Compares a GPU-built node array with the bundle written by `rtoracle build`: the TLAS by default, the\n"
-            "BLAS of mesh M with --blas M. The dump may be the structured TlasNode / BlasNode records, a (count,\n"
-            "words) array or the raw buffer as flat uint32/float32 words.\n"
-            "Exact mode: items, links and parents must equal the oracle's; internal boxes must be the exact union\n"
-            "of their children; leaf boxes within 4 ulp for TLAS instances (transformed boxes) and exact for\n"
-            "triangles. --structure-only accepts a tree built differently: links in range, no cycle or shared node,\n"
-            "every primitive in exactly one leaf, boxes as above against the scene's boxes. For Karras layouts the\n"
-            "leaf order is the oracle's sorted keys unless --gpu-order gives the GPU's (primitive per sorted leaf).\n\n"
-            "Fault classes: size, cycle, shared-node, bad-link, dropped-leaf, item, swapped-children, topology,\n"
-            "parent, empty, box. Exit status: 0 valid, 1 a fault was found, 2 bad usage or input.\n");
-}
+static const char check_bvh_usage[] =
+    "usage: rtoracle check-bvh --expected OUTDIR --gpu nodes.npy [--blas M] [--structure-only]\n"
+    "                          [--gpu-order order.npy] [--json] [--no-artifacts]\n\n"
+    "Compares a GPU-built node array with the bundle written by `rtoracle build`: the TLAS by default, the\n"
+    "BLAS of mesh M with --blas M. The dump may be the structured TlasNode / BlasNode records, a (count,\n"
+    "words) array or the raw buffer as flat uint32/float32 words.\n"
+    "Exact mode: items, links and parents must equal the oracle's; internal boxes must be the exact union\n"
+    "of their children; leaf boxes within 4 ulp for TLAS instances (transformed boxes) and exact for\n"
+    "triangles. --structure-only accepts a tree built differently: links in range, no cycle or shared node,\n"
+    "every primitive in exactly one leaf, boxes as above against the scene's boxes. For Karras layouts the\n"
+    "leaf order is the oracle's sorted keys unless --gpu-order gives the GPU's (primitive per sorted leaf).\n";
+
+static const char check_bvh_epilog[] =
+    "Fault classes: size, cycle, shared-node, bad-link, dropped-leaf, item, swapped-children, topology,\n"
+    "parent, empty, box. Exit status: 0 valid, 1 a fault was found, 2 bad usage or input.\n";
 
 static int load_bundle_file(rto_bundle_reader *b, const char *name, rto_npy *out, const char *dir)
 {
@@ -33,41 +31,30 @@ static int load_bundle_file(rto_bundle_reader *b, const char *name, rto_npy *out
 
 int cmd_check_bvh(int argc, char **argv)
 {
-    static const struct option opts[] = {
-        {"expected", required_argument, 0, 'e'}, {"gpu", required_argument, 0, 'g'},
-        {"blas", required_argument, 0, 'b'},     {"structure-only", no_argument, 0, 's'},
-        {"gpu-order", required_argument, 0, 'r'}, {"json", no_argument, 0, 'j'},
-        {"no-artifacts", no_argument, 0, 'n'},   {"help", no_argument, 0, 'h'},
-        {0, 0, 0, 0}};
     const char *expected = NULL, *gpu = NULL, *order_path = NULL;
-    int64_t blas = -1;
-    bool structure_only = false, json = false, artifacts = true;
-    uint64_t v;
-    optind = 1;
-    opterr = 0;
-    for (int c; (c = getopt_long(argc, argv, "h", opts, NULL)) != -1;) {
-        switch (c) {
-        case 'e': expected = optarg; break;
-        case 'g': gpu = optarg; break;
-        case 'b':
-            if (!cli_parse_u64(optarg, UINT32_MAX, &v))
-                return cli_fail("check-bvh", "--blas '%s': expected a mesh index", optarg);
-            blas = (int64_t)v;
-            break;
-        case 's': structure_only = true; break;
-        case 'r': order_path = optarg; break;
-        case 'j': json = true; break;
-        case 'n': artifacts = false; break;
-        case 'h': check_bvh_help(stdout); return EXIT_PASS;
-        default:
-            check_bvh_help(stderr);
-            return cli_fail("check-bvh", "unknown or incomplete option '%s'", argv[optind - 1]);
-        }
-    }
-    if (optind < argc)
-        return cli_fail("check-bvh", "unexpected argument '%s'", argv[optind]);
-    if (!expected || !gpu)
-        return cli_fail("check-bvh", "--expected and --gpu are required (rtoracle check-bvh --help)");
+    bool structure_only = false, json = false, no_artifacts = false;
+    uint32_t blas_index = 0;
+    const opt_spec opts[] = {
+        OPT_PATH("expected", 0, &expected, "OUTDIR", "the build bundle (rtoracle build)"),
+        OPT_PATH("gpu", 0, &gpu, "nodes.npy", "the GPU's node array"),
+        OPT_UINT("blas", &blas_index, 0, UINT32_MAX, "M", "check the BLAS of mesh M instead of the TLAS", NULL),
+        OPT_FLAG("structure-only", &structure_only, "accept any valid tree over the same primitives"),
+        OPT_PATH("gpu-order", 0, &order_path, "order.npy",
+                 "the GPU's primitive per sorted leaf (Karras layouts; implies --structure-only)"),
+        OPT_FLAG("json", &json, "print the report as JSON"),
+        OPT_FLAG("no-artifacts", &no_artifacts, "do not write the report next to the GPU dump"),
+        OPT_END,
+    };
+    const opt_command cmd = {"check-bvh", check_bvh_usage, check_bvh_epilog, opts, 0, 0, NULL};
+    opt_args args;
+    int parsed = opts_parse(&cmd, argc, argv, &args);
+    if (parsed >= 0)
+        return parsed;
+    static const char *const required[] = {"expected", "gpu", NULL};
+    if ((parsed = opts_require(&cmd, &args, required)))
+        return parsed;
+    const int64_t blas = opts_given(&cmd, &args, "blas") ? (int64_t)blas_index : -1;
+    const bool artifacts = !no_artifacts;
 
     rto_msg msg = {{0}};
     rto_bundle_reader *b = NULL;
@@ -193,10 +180,9 @@ int cmd_check_bvh(int argc, char **argv)
                 printf(" %s", rto_bvh_fault_name((rto_bvh_fault)f));
         printf("\n");
     }
-    if (s == RTO_ERR_MISMATCH && artifacts)
-        cli_write_report(gpu, "check-bvh", j);
+    int wrote = s == RTO_ERR_MISMATCH && artifacts ? cli_write_report(gpu, "check-bvh", j) : EXIT_PASS;
     json_decref(j);
-    rc = s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
+    rc = wrote != EXIT_PASS ? wrote : s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
 out:
     rto_npy_free(&g);
     rto_npy_free(&exp);

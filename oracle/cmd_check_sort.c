@@ -1,30 +1,28 @@
 /* rtoracle check-sort: validates a GPU's sorted buffer (and its checkpoint passes) against the input keys. */
 #include "cli.h"
 
-#include <getopt.h>
 #include <inttypes.h>
 #include <jansson.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void check_help(FILE *to)
-{
-    fprintf(to,
-            "usage: rtoracle check-sort --input keys.npy --gpu gpu_sorted.npy [--gpu-values values.npy] [--stable]\n"
-            "                           [--expected OUTDIR] [--gpu-passes passes.npy] [--algo bitonic|radix]\n"
-            "                           [--radix-bits 4|8] [--tile T] [--json] [--no-artifacts]\n\n"
-            "Checks that the GPU's buffer is sorted, is a permutation of the input and (with values) that every\n"
-            "value names a source slot holding its key and, with --stable, that equal keys keep input order.\n"
-            "The dump may hold n keys or all n_padded slots (then the tail must be sentinels). --gpu may also be\n"
-            "a structured array with fields 'key' and 'value'. With --gpu-passes (shape passes x slots), names the\n"
-            "first checkpoint pass (k, j) and slot where the GPU diverges from the oracle's schedule.\n"
-            "--expected OUTDIR takes the input, algorithm, digit width and tile from a sort bundle (its input is\n"
-            "verified by sha256); a radix bundle implies --stable when the dump carries values.\n\n"
-            "Fault classes: size, lost-key, corrupt-key, duplicate-key, order, tail, value, stability, pass.\n"
-            "Exit status: 0 all checks pass, 1 a fault was found, 2 bad usage or input.\n"
-            "On a fault the JSON report is also written next to the GPU dump as <gpu>.check-sort.json\n"
-            "(--no-artifacts skips it).\n");
-}
+static const char check_usage[] =
+    "usage: rtoracle check-sort --input keys.npy --gpu gpu_sorted.npy [--gpu-values values.npy] [--stable]\n"
+    "                           [--expected OUTDIR] [--gpu-passes passes.npy] [--algo bitonic|radix]\n"
+    "                           [--radix-bits 4|8] [--tile T] [--json] [--no-artifacts]\n\n"
+    "Checks that the GPU's buffer is sorted, is a permutation of the input and (with values) that every\n"
+    "value names a source slot holding its key and, with --stable, that equal keys keep input order.\n"
+    "The dump may hold n keys or all n_padded slots (then the tail must be sentinels). --gpu may also be\n"
+    "a structured array with fields 'key' and 'value'. With --gpu-passes (shape passes x slots), names the\n"
+    "first checkpoint pass (k, j) and slot where the GPU diverges from the oracle's schedule.\n"
+    "--expected OUTDIR takes the input, algorithm, digit width and tile from a sort bundle (its input is\n"
+    "verified by sha256); a radix bundle implies --stable when the dump carries values.\n";
+
+static const char check_epilog[] =
+    "Fault classes: size, lost-key, corrupt-key, duplicate-key, order, tail, value, stability, pass.\n"
+    "Exit status: 0 all checks pass, 1 a fault was found, 2 bad usage or input.\n"
+    "On a fault the JSON report is also written next to the GPU dump as <gpu>.check-sort.json\n"
+    "(--no-artifacts skips it).\n";
 
 typedef struct loaded {
     rto_npy input, gpu, values, passes;
@@ -162,59 +160,38 @@ static int load(const char *path, rto_npy *out, const char *what)
 
 int cmd_check_sort(int argc, char **argv)
 {
-    static const struct option opts[] = {
-        {"input", required_argument, 0, 'i'},      {"gpu", required_argument, 0, 'g'},
-        {"gpu-values", required_argument, 0, 'v'}, {"stable", no_argument, 0, 's'},
-        {"expected", required_argument, 0, 'e'},   {"gpu-passes", required_argument, 0, 'p'},
-        {"algo", required_argument, 0, 'a'},       {"radix-bits", required_argument, 0, 'b'},
-        {"tile", required_argument, 0, 't'},       {"json", no_argument, 0, 'j'},
-        {"no-artifacts", no_argument, 0, 'n'},     {"help", no_argument, 0, 'h'},
-        {0, 0, 0, 0}};
     const char *input = NULL, *gpu = NULL, *values = NULL, *expected = NULL, *passes = NULL;
-    bool json = false, artifacts = true, stable = false, algo_given = false, radix_bundle = false;
+    bool json = false, no_artifacts = false, stable = false, radix_bundle = false;
     rto_sort_check_desc d;
     memset(&d, 0, sizeof d);
     d.algo = RTO_SORT_BITONIC;
     d.radix_bits = 8;
     d.radix_tile = 256;
-    uint64_t v;
-    optind = 1;
-    opterr = 0;
-    for (int c; (c = getopt_long(argc, argv, "h", opts, NULL)) != -1;) {
-        switch (c) {
-        case 'i': input = optarg; break;
-        case 'g': gpu = optarg; break;
-        case 'v': values = optarg; break;
-        case 's': stable = true; break;
-        case 'e': expected = optarg; break;
-        case 'p': passes = optarg; break;
-        case 'a':
-            if (!cli_parse_algo(optarg, &d.algo))
-                return cli_fail("check-sort", "--algo '%s': expected bitonic or radix", optarg);
-            algo_given = true;
-            break;
-        case 'b':
-            if (!cli_parse_u64(optarg, 8, &v) || (v != 4 && v != 8))
-                return cli_fail("check-sort", "--radix-bits '%s': expected 4 or 8", optarg);
-            d.radix_bits = (uint32_t)v;
-            break;
-        case 't':
-            if (!cli_parse_u64(optarg, 1u << 24, &v) || v == 0)
-                return cli_fail("check-sort", "--tile '%s': expected 1 .. 16777216", optarg);
-            d.radix_tile = (uint32_t)v;
-            break;
-        case 'j': json = true; break;
-        case 'n': artifacts = false; break;
-        case 'h': check_help(stdout); return EXIT_PASS;
-        default:
-            check_help(stderr);
-            return cli_fail("check-sort", "unknown or incomplete option '%s'", argv[optind - 1]);
-        }
-    }
-    if (optind < argc)
-        return cli_fail("check-sort", "unexpected argument '%s'", argv[optind]);
-    if (!gpu || (!input && !expected))
-        return cli_fail("check-sort", "--gpu and one of --input / --expected are required (rtoracle check-sort --help)");
+    const opt_spec opts[] = {
+        OPT_PATH("input", 0, &input, "keys.npy", "the keys the GPU sorted"),
+        OPT_PATH("gpu", 0, &gpu, "sorted.npy", "the GPU's sorted buffer (keys, or {key, value} records)"),
+        OPT_PATH("gpu-values", 0, &values, "values.npy", "the values the GPU carried with the keys"),
+        OPT_FLAG("stable", &stable, "require equal keys to keep input order (needs values)"),
+        OPT_PATH("expected", 0, &expected, "OUTDIR", "a sort bundle: input, algorithm, digit width and tile"),
+        OPT_PATH("gpu-passes", 0, &passes, "passes.npy", "the GPU's checkpoint passes (passes x slots)"),
+        OPT_ENUM("algo", &d.algo, cli_algo_names, "A", "the algorithm the GPU ran", "bitonic"),
+        OPT_CHOICE("radix-bits", &d.radix_bits, cli_radix_bits_names, "B", "radix digit width", "8"),
+        OPT_UINT("tile", &d.radix_tile, 1, CLI_TILE_MAX, "T", "radix tile size in keys", "256"),
+        OPT_FLAG("json", &json, "print the report as JSON"),
+        OPT_FLAG("no-artifacts", &no_artifacts, "do not write the report next to the GPU dump"),
+        OPT_END,
+    };
+    const opt_command cmd = {"check-sort", check_usage, check_epilog, opts, 0, 0, NULL};
+    opt_args args;
+    int parsed = opts_parse(&cmd, argc, argv, &args);
+    if (parsed >= 0)
+        return parsed;
+    const bool artifacts = !no_artifacts, algo_given = opts_given(&cmd, &args, "algo");
+    static const char *const required[] = {"gpu", NULL};
+    if ((parsed = opts_require(&cmd, &args, required)))
+        return parsed;
+    if (!input && !expected)
+        return cli_fail("check-sort", "one of --input / --expected is required (rtoracle check-sort --help)");
 
     loaded l;
     memset(&l, 0, sizeof l);
@@ -343,10 +320,9 @@ int cmd_check_sort(int argc, char **argv)
     } else {
         print_human(&r, case_id, d.format, d.n, gn);
     }
-    if (s == RTO_ERR_MISMATCH && artifacts)
-        cli_write_report(gpu, "check-sort", j);
+    int wrote = s == RTO_ERR_MISMATCH && artifacts ? cli_write_report(gpu, "check-sort", j) : EXIT_PASS;
     json_decref(j);
-    rc = s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
+    rc = wrote != EXIT_PASS ? wrote : s == RTO_OK ? EXIT_PASS : EXIT_MISMATCH;
 out:
     loaded_free(&l);
     rto_bundle_close(bundle);

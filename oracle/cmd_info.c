@@ -1,7 +1,7 @@
 /* rtoracle info: what a scene spec loads as (DESIGN.md §5): counts, bounds, materials, textures, cameras, warnings. */
 #include "cli.h"
 
-#include <getopt.h>
+#include <errno.h>
 #include <jansson.h>
 #include <math.h>
 #include <stdlib.h>
@@ -10,25 +10,19 @@
 /* Meshes listed in the text output; --json lists all of them. */
 #define INFO_TEXT_MESHES 40
 
-static void info_help(FILE *to)
-{
-    fprintf(to,
-            "usage: rtoracle info SCENE [--json] [--texture-budget MB]\n\n"
-            "Loads SCENE and prints what was loaded: mesh (BLAS) count, instance count, triangles (unique, i.e.\n"
-            "summed over the BLAS, and instanced, i.e. summed over the instances' BLAS), vertices, materials,\n"
-            "textures with their sizes, cameras, the scene's world bounds and the loader's warnings.\n\n"
-            "SCENE is a .gltf / .glb path or a procedural scene:\n"
-            "  triangle            the VulkanTriangle sample: one triangle, one identity instance, its camera\n"
-            "  rtstress:N          N x N x N instances of one unit cube, 2 units apart (1 <= N <= 40)\n"
-            "  instances:DIST:N    N boxes of half-size 1e-4 on a centroid distribution (rtoracle keys --list),\n"
-            "                      0 <= N <= 65536, seed 1\n\n"
-            "options:\n"
-            "  --json                one JSON object on stdout instead of text (meshes, materials, textures, cameras\n"
-            "                        listed)\n"
-            "  --texture-budget MB   decoded texture memory (RGBA8) the scene may take; a scene that needs more is\n"
-            "                        refused (default 256 MiB)\n\n"
-            "Exit status: 0 loaded, 2 bad usage or a refused scene (one line on stderr says why).\n");
-}
+static const char info_usage[] =
+    "usage: rtoracle info SCENE [--json] [--texture-budget MB]\n\n"
+    "Loads SCENE and prints what was loaded: mesh (BLAS) count, instance count, triangles (unique, i.e.\n"
+    "summed over the BLAS, and instanced, i.e. summed over the instances' BLAS), vertices, materials,\n"
+    "textures with their sizes, cameras, the scene's world bounds and the loader's warnings.\n\n"
+    "SCENE is a .gltf / .glb path or a procedural scene:\n"
+    "  triangle            the VulkanTriangle sample: one triangle, one identity instance, its camera\n"
+    "  rtstress:N          N x N x N instances of one unit cube, 2 units apart (1 <= N <= 40)\n"
+    "  instances:DIST:N    N boxes of half-size 1e-4 on a centroid distribution (rtoracle keys --list),\n"
+    "                      0 <= N <= 65536, seed 1\n";
+
+static const char info_epilog[] =
+    "Exit status: 0 loaded, 2 bad usage or a refused scene (one line on stderr says why).\n";
 
 typedef struct scene_counts {
     uint64_t vertices, unique_tris, instanced_tris;
@@ -57,74 +51,110 @@ static int box_empty(const rto_aabb *b)
     return !(b->min.x <= b->max.x && b->min.y <= b->max.y && b->min.z <= b->max.z);
 }
 
-static json_t *vec3_json(rto_vec3 v)
-{
-    return json_pack("[fff]", (double)v.x, (double)v.y, (double)v.z);
-}
+/* Every jansson call below can fail (out of memory), and a failure must fail the command rather than drop a field:
+ * set / push count failures in *bad; values come from cli_json_string / cli_json_real, which encode what JSON cannot
+ * hold (names that are not UTF-8, non-finite numbers) instead of failing on it. */
+static void set(int *bad, json_t *o, const char *key, json_t *v) { *bad |= json_object_set_new(o, key, v) != 0; }
+static void push(int *bad, json_t *a, json_t *v) { *bad |= json_array_append_new(a, v) != 0; }
 
-static json_t *floats_json(const float *v, int n)
+static json_t *vec3_json(int *bad, rto_vec3 v)
 {
     json_t *a = json_array();
-    for (int i = 0; i < n; i++)
-        json_array_append_new(a, json_real((double)v[i]));
+    *bad |= !a;
+    push(bad, a, cli_json_real((double)v.x));
+    push(bad, a, cli_json_real((double)v.y));
+    push(bad, a, cli_json_real((double)v.z));
     return a;
 }
 
-static void print_json(const rto_scene *s, const scene_counts *c, const rto_aabb *box)
+static json_t *floats_json(int *bad, const float *v, int n)
 {
-    json_t *root = json_object();
-    json_object_set_new(root, "source", json_string(s->source));
-    json_object_set_new(root, "counts",
-                        json_pack("{sIsIsIsIsIsIsIsIsI}", "meshes", (json_int_t)s->mesh_count, "instances",
-                                  (json_int_t)s->instance_count, "vertices", (json_int_t)c->vertices,
-                                  "triangles_unique", (json_int_t)c->unique_tris, "triangles_instanced",
-                                  (json_int_t)c->instanced_tris, "materials", (json_int_t)s->material_count,
-                                  "textures", (json_int_t)s->texture_count, "cameras", (json_int_t)s->camera_count,
-                                  "warnings", (json_int_t)s->warning_count));
-    json_object_set_new(root, "bounds",
-                        box_empty(box) ? json_null()
-                                       : json_pack("{soso}", "min", vec3_json(box->min), "max", vec3_json(box->max)));
+    json_t *a = json_array();
+    *bad |= !a;
+    for (int i = 0; i < n; i++)
+        push(bad, a, cli_json_real((double)v[i]));
+    return a;
+}
+
+static json_t *scene_json(const rto_scene *s, const scene_counts *c, const rto_aabb *box)
+{
+    int bad = 0;
+    json_t *root = json_object(), *counts = json_object();
+    bad |= !root || !counts;
+    set(&bad, root, "source", cli_json_string(s->source));
+    set(&bad, counts, "meshes", json_integer((json_int_t)s->mesh_count));
+    set(&bad, counts, "instances", json_integer((json_int_t)s->instance_count));
+    set(&bad, counts, "vertices", json_integer((json_int_t)c->vertices));
+    set(&bad, counts, "triangles_unique", json_integer((json_int_t)c->unique_tris));
+    set(&bad, counts, "triangles_instanced", json_integer((json_int_t)c->instanced_tris));
+    set(&bad, counts, "materials", json_integer((json_int_t)s->material_count));
+    set(&bad, counts, "textures", json_integer((json_int_t)s->texture_count));
+    set(&bad, counts, "cameras", json_integer((json_int_t)s->camera_count));
+    set(&bad, counts, "warnings", json_integer((json_int_t)s->warning_count));
+    set(&bad, root, "counts", counts);
+    json_t *bounds = box_empty(box) ? json_null() : json_object();
+    if (!box_empty(box)) {
+        set(&bad, bounds, "min", vec3_json(&bad, box->min));
+        set(&bad, bounds, "max", vec3_json(&bad, box->max));
+    }
+    set(&bad, root, "bounds", bounds);
     json_t *meshes = json_array();
     for (uint32_t m = 0; m < s->mesh_count; m++) {
         const rto_mesh *me = &s->meshes[m];
-        json_array_append_new(meshes, json_pack("{sssIsIsisIsbsb}", "name", me->name, "vertices",
-                                                (json_int_t)me->vertex_count, "triangles",
-                                                (json_int_t)me->triangle_count, "material", (int)me->material,
-                                                "instances", (json_int_t)c->mesh_instances[m], "normals",
-                                                me->normals != NULL, "uvs", me->uvs != NULL));
+        json_t *o = json_object();
+        set(&bad, o, "name", cli_json_string(me->name));
+        set(&bad, o, "vertices", json_integer((json_int_t)me->vertex_count));
+        set(&bad, o, "triangles", json_integer((json_int_t)me->triangle_count));
+        set(&bad, o, "material", json_integer((json_int_t)me->material));
+        set(&bad, o, "instances", json_integer((json_int_t)c->mesh_instances[m]));
+        set(&bad, o, "normals", json_boolean(me->normals != NULL));
+        set(&bad, o, "uvs", json_boolean(me->uvs != NULL));
+        push(&bad, meshes, o);
     }
-    json_object_set_new(root, "meshes", meshes);
+    set(&bad, root, "meshes", meshes);
     json_t *mats = json_array();
     for (uint32_t i = 0; i < s->material_count; i++) {
         const rto_material *ma = &s->materials[i];
-        json_array_append_new(mats, json_pack("{sosiso}", "base_color", floats_json(ma->base_color, 4),
-                                              "base_color_texture", (int)ma->base_color_texture, "emissive",
-                                              floats_json(ma->emissive, 3)));
+        json_t *o = json_object();
+        set(&bad, o, "base_color", floats_json(&bad, ma->base_color, 4));
+        set(&bad, o, "base_color_texture", json_integer((json_int_t)ma->base_color_texture));
+        set(&bad, o, "emissive", floats_json(&bad, ma->emissive, 3));
+        push(&bad, mats, o);
     }
-    json_object_set_new(root, "materials", mats);
+    set(&bad, root, "materials", mats);
     json_t *texs = json_array();
-    for (uint32_t i = 0; i < s->texture_count; i++)
-        json_array_append_new(texs, json_pack("{sssIsI}", "name", s->textures[i].name, "width",
-                                              (json_int_t)s->textures[i].width, "height",
-                                              (json_int_t)s->textures[i].height));
-    json_object_set_new(root, "textures", texs);
+    for (uint32_t i = 0; i < s->texture_count; i++) {
+        json_t *o = json_object();
+        set(&bad, o, "name", cli_json_string(s->textures[i].name));
+        set(&bad, o, "width", json_integer((json_int_t)s->textures[i].width));
+        set(&bad, o, "height", json_integer((json_int_t)s->textures[i].height));
+        push(&bad, texs, o);
+    }
+    set(&bad, root, "textures", texs);
     json_t *cams = json_array();
     for (uint32_t i = 0; i < s->camera_count; i++) {
         const rto_camera *ca = &s->cameras[i];
-        json_array_append_new(cams, json_pack("{sssosososfsfsfsf}", "name", ca->name, "position",
-                                              vec3_json(ca->position), "target", vec3_json(ca->target), "up",
-                                              vec3_json(ca->up), "fov_y", (double)ca->fov_y, "aspect",
-                                              (double)ca->aspect, "znear", (double)ca->znear, "zfar",
-                                              (double)ca->zfar));
+        json_t *o = json_object();
+        set(&bad, o, "name", cli_json_string(ca->name));
+        set(&bad, o, "position", vec3_json(&bad, ca->position));
+        set(&bad, o, "target", vec3_json(&bad, ca->target));
+        set(&bad, o, "up", vec3_json(&bad, ca->up));
+        set(&bad, o, "fov_y", cli_json_real((double)ca->fov_y));
+        set(&bad, o, "aspect", cli_json_real((double)ca->aspect));
+        set(&bad, o, "znear", cli_json_real((double)ca->znear));
+        set(&bad, o, "zfar", cli_json_real((double)ca->zfar));
+        push(&bad, cams, o);
     }
-    json_object_set_new(root, "cameras", cams);
+    set(&bad, root, "cameras", cams);
     json_t *warns = json_array();
     for (uint32_t i = 0; i < s->warning_count && i < RTO_SCENE_MAX_WARNINGS; i++)
-        json_array_append_new(warns, json_string(s->warnings[i]));
-    json_object_set_new(root, "warnings", warns);
-    json_dumpf(root, stdout, JSON_INDENT(2));
-    fputc('\n', stdout);
-    json_decref(root);
+        push(&bad, warns, cli_json_string(s->warnings[i]));
+    set(&bad, root, "warnings", warns);
+    if (bad) {
+        json_decref(root);
+        return NULL;
+    }
+    return root;
 }
 
 static void print_text(const rto_scene *s, const scene_counts *c, const rto_aabb *box)
@@ -179,34 +209,25 @@ static void print_text(const rto_scene *s, const scene_counts *c, const rto_aabb
 
 int cmd_info(int argc, char **argv)
 {
-    static const struct option opts[] = {{"json", no_argument, 0, 'j'},
-                                         {"texture-budget", required_argument, 0, 'B'},
-                                         {"help", no_argument, 0, 'h'},
-                                         {0, 0, 0, 0}};
     bool as_json = false;
-    rto_scene_load_desc load = {0};
-    uint64_t mb = 0;
-    optind = 1;
-    opterr = 0;
-    for (int c; (c = getopt_long(argc, argv, "h", opts, NULL)) != -1;) {
-        switch (c) {
-        case 'j': as_json = true; break;
-        case 'B':
-            if (!cli_parse_u64(optarg, UINT64_C(1) << 20, &mb) || mb == 0)
-                return cli_fail("info", "--texture-budget '%s': expected MiB, 1 .. 1048576", optarg);
-            load.texture_budget_bytes = (size_t)(mb << 20);
-            break;
-        case 'h': info_help(stdout); return EXIT_PASS;
-        default: info_help(stderr); return cli_fail("info", "unknown or incomplete option '%s'", argv[optind - 1]);
-        }
-    }
-    if (optind >= argc)
-        return cli_fail("info", "a SCENE is required (rtoracle info --help)");
-    if (optind + 1 < argc)
-        return cli_fail("info", "unexpected argument '%s'", argv[optind + 1]);
+    uint64_t budget_mb = 0;
+    const opt_spec opts[] = {
+        OPT_FLAG("json", &as_json, "one JSON object on stdout instead of text (meshes, materials, textures, cameras "
+                 "listed)"),
+        OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
+                 "decoded texture memory (RGBA8, MiB) the scene may take; a scene that needs more is refused", "256"),
+        OPT_END,
+    };
+    const opt_command cmd = {"info", info_usage, info_epilog, opts, 1, 1, "a SCENE"};
+    opt_args args;
+    int rc = opts_parse(&cmd, argc, argv, &args);
+    if (rc >= 0)
+        return rc;
     rto_msg msg = {{0}};
     rto_scene *s = NULL;
-    rto_status st = rto_scene_load_ex(argv[optind], &load, &s, &msg);
+    rto_scene_load_desc load = {0};
+    load.texture_budget_bytes = (size_t)(budget_mb << 20); /* 0 (not given): the default */
+    rto_status st = rto_scene_load_ex(args.arg[0], &load, &s, &msg);
     if (st)
         return cli_status("info", st, &msg);
     scene_counts c;
@@ -215,11 +236,20 @@ int cmd_info(int argc, char **argv)
         return cli_fail("info", "out of memory");
     }
     rto_aabb box = rto_scene_aabb(s);
-    if (as_json)
-        print_json(s, &c, &box);
-    else
+    rc = EXIT_PASS;
+    if (as_json) {
+        json_t *root = scene_json(s, &c, &box);
+        if (!root)
+            rc = cli_fail("info", "cannot build the JSON description of %s: out of memory", args.arg[0]);
+        else if (!cli_json_print(root))
+            rc = cli_fail("info", "cannot write the JSON description to stdout: %s", strerror(errno ? errno : EIO));
+        json_decref(root);
+    } else {
         print_text(s, &c, &box);
+        if (fflush(stdout) != 0 || ferror(stdout))
+            rc = cli_fail("info", "cannot write to stdout: %s", strerror(errno ? errno : EIO));
+    }
     free(c.mesh_instances);
     rto_scene_destroy(s);
-    return EXIT_PASS;
+    return rc;
 }

@@ -2,41 +2,18 @@
  * (DESIGN.md §3, §4). One suite directory holds a manifest listing every case and one sort bundle per case. */
 #include "cli.h"
 
-#include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void suite_help(FILE *to)
-{
-    fprintf(to,
-            "usage: rtoracle suite sort [--sizes LIST] [--dists LIST] [--formats LIST] [--algos LIST] [--seed S]\n"
-            "                           [--radix-bits 4|8] [--tile T] [--checkpoint-max N] -o DIR\n\n"
-            "Writes one sort bundle per case into DIR/<algo>-<fmt>-<dist>-n<N>/ and DIR/manifest.json listing\n"
-            "them with case ids such as sort:bitonic:fmt=u32:dist=clustered:n=4097. Written atomically.\n"
-            "Combinations that do not exist are skipped (digit-4..7 need u64; centroid distributions give TLAS\n"
-            "keys of at most 65536 instances in u32).\n\n"
-            "options (LIST = comma-separated):\n"
-            "  --sizes LIST         size classes (tiny, tile, pow2, large, all) and/or numbers; default all\n"
-            "  --dists LIST         distribution names, or all / centroid / raw; default all\n"
-            "  --formats LIST       u32, u64; default u32,u64\n"
-            "  --algos LIST         bitonic, radix; default bitonic,radix\n"
-            "  --seed S             PRNG seed, default 1\n"
-            "  --radix-bits B       4 or 8, default 8;  --tile T   radix tile, default 256\n"
-            "  --checkpoint-max N   write bitonic passes / radix intermediates when n_padded <= N (default 1024,\n"
-            "                       0 for none)\n"
-            "  -o, --output DIR     output directory\n");
-}
-
-#define MAX_ITEMS 256
-
-/* Splits a comma-separated list in place. */
-static size_t split(char *s, char **items)
-{
-    size_t n = 0;
-    for (char *tok = strtok(s, ","); tok && n < MAX_ITEMS; tok = strtok(NULL, ","))
-        items[n++] = tok;
-    return n;
-}
+static const char suite_usage[] =
+    "usage: rtoracle suite sort [--sizes LIST] [--dists LIST] [--formats LIST] [--algos LIST] [--seed S]\n"
+    "                           [--radix-bits 4|8] [--tile T] [--checkpoint-max N] -o DIR\n\n"
+    "Writes one sort bundle per case into DIR/<algo>-<fmt>-<dist>-n<N>/ and DIR/manifest.json listing\n"
+    "them with case ids such as sort:bitonic:fmt=u32:dist=clustered:n=4097. Written atomically.\n"
+    "Combinations that do not exist are skipped (digit-4..7 need u64; centroid distributions give TLAS\n"
+    "keys of at most 65536 instances in u32).\n"
+    "A LIST is comma-separated; a name given twice (or also through all / centroid / raw) makes one case.\n"
+    "Sizes run in ascending order, the other lists in the order first given.\n";
 
 static int cmp_size(const void *a, const void *b)
 {
@@ -44,87 +21,65 @@ static int cmp_size(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+#define MAX_DISTS 256
+
+/* Appends d to dists unless already there: a distribution named twice is one case. */
+static void add_dist(const rto_dist_info **dists, size_t *n, const rto_dist_info *d)
+{
+    for (size_t i = 0; i < *n; i++)
+        if (dists[i] == d)
+            return;
+    if (*n < MAX_DISTS)
+        dists[(*n)++] = d;
+}
+
 int cmd_suite(int argc, char **argv)
 {
-    static const struct option opts[] = {
-        {"sizes", required_argument, 0, 'z'},  {"dists", required_argument, 0, 'd'},
-        {"formats", required_argument, 0, 'f'}, {"algos", required_argument, 0, 'a'},
-        {"seed", required_argument, 0, 's'},   {"radix-bits", required_argument, 0, 'b'},
-        {"tile", required_argument, 0, 't'},   {"checkpoint-max", required_argument, 0, 'c'},
-        {"output", required_argument, 0, 'o'}, {"help", no_argument, 0, 'h'},
-        {0, 0, 0, 0}};
-    if (argc < 2 || strcmp(argv[1], "sort") != 0) {
-        if (argc >= 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-            suite_help(stdout);
-            return EXIT_PASS;
-        }
-        suite_help(stderr);
-        return cli_fail("suite", "expected 'sort' (the only suite so far)");
-    }
-    argc--;
-    argv++;
-    char sizes_buf[1024] = "all", dists_buf[1024] = "all", formats_buf[64] = "u32,u64", algos_buf[64] = "bitonic,radix";
+    static opt_list sizes_opt, dists_opt, formats_opt, algos_opt;
     const char *out = NULL;
-    uint64_t seed = 1, v, checkpoint_max = 1024;
+    uint32_t seed = 1;
+    uint64_t checkpoint_max = 1024;
     sort_params base = {RTO_SORT_BITONIC, 8, 256, false};
-    optind = 1;
-    opterr = 0;
-    for (int c; (c = getopt_long(argc, argv, "o:h", opts, NULL)) != -1;) {
-        char *dst = NULL;
-        size_t cap = 0;
-        switch (c) {
-        case 'z': dst = sizes_buf, cap = sizeof sizes_buf; break;
-        case 'd': dst = dists_buf, cap = sizeof dists_buf; break;
-        case 'f': dst = formats_buf, cap = sizeof formats_buf; break;
-        case 'a': dst = algos_buf, cap = sizeof algos_buf; break;
-        case 's':
-            if (!cli_parse_u64(optarg, UINT32_MAX, &seed))
-                return cli_fail("suite", "--seed '%s': expected 0 .. 4294967295", optarg);
-            break;
-        case 'b':
-            if (!cli_parse_u64(optarg, 8, &v) || (v != 4 && v != 8))
-                return cli_fail("suite", "--radix-bits '%s': expected 4 or 8", optarg);
-            base.radix_bits = (uint32_t)v;
-            break;
-        case 't':
-            if (!cli_parse_u64(optarg, 1u << 24, &v) || v == 0)
-                return cli_fail("suite", "--tile '%s': expected 1 .. 16777216", optarg);
-            base.tile = (uint32_t)v;
-            break;
-        case 'c':
-            if (!cli_parse_u64(optarg, RTO_MAX_KEYS, &checkpoint_max))
-                return cli_fail("suite", "--checkpoint-max '%s': expected 0 .. %llu", optarg,
-                                (unsigned long long)RTO_MAX_KEYS);
-            break;
-        case 'o': out = optarg; break;
-        case 'h': suite_help(stdout); return EXIT_PASS;
-        default: suite_help(stderr); return cli_fail("suite", "unknown or incomplete option '%s'", argv[optind - 1]);
-        }
-        if (dst) {
-            if (strlen(optarg) >= cap || !*optarg)
-                return cli_fail("suite", "option list '%s' is empty or too long", optarg);
-            strcpy(dst, optarg);
-        }
-    }
-    if (optind < argc)
-        return cli_fail("suite", "unexpected argument '%s'", argv[optind]);
-    if (!out)
-        return cli_fail("suite", "-o DIR is required");
+    sizes_opt.count = dists_opt.count = formats_opt.count = algos_opt.count = 0;
+    const opt_spec opts[] = {
+        OPT_LIST("sizes", &sizes_opt, NULL, "size classes (tiny, tile, pow2, large, all) and/or numbers", "all"),
+        OPT_LIST("dists", &dists_opt, NULL, "distribution names, or all / centroid / raw", "all"),
+        OPT_LIST("formats", &formats_opt, cli_format_names, "key formats", "u32,u64"),
+        OPT_LIST("algos", &algos_opt, cli_algo_names, "sorting algorithms", "bitonic,radix"),
+        OPT_UINT("seed", &seed, 0, CLI_SEED_MAX, "S", "PRNG seed", "1"),
+        OPT_CHOICE("radix-bits", &base.radix_bits, cli_radix_bits_names, "B", "radix digit width", "8"),
+        OPT_UINT("tile", &base.tile, 1, CLI_TILE_MAX, "T", "radix tile size in keys", "256"),
+        OPT_UINT("checkpoint-max", &checkpoint_max, 0, RTO_MAX_KEYS, "N",
+                 "write bitonic passes / radix intermediates for cases with n_padded <= N, none for 0", "1024"),
+        OPT_PATH("output", 'o', &out, "DIR", "output directory"),
+        OPT_END,
+    };
+    const opt_command cmd = {"suite", suite_usage, NULL, opts, 1, 1, "a suite: sort"};
+    opt_args args;
+    int rc = opts_parse(&cmd, argc, argv, &args);
+    if (rc >= 0)
+        return rc;
+    if (strcmp(args.arg[0], "sort") != 0)
+        return cli_fail("suite", "unknown suite '%s': expected sort (the only suite so far)", args.arg[0]);
+    static const char *const required[] = {"output", NULL};
+    if ((rc = opts_require(&cmd, &args, required)))
+        return rc;
 
     /* Sizes: classes and numbers, deduplicated and ascending. */
-    char *items[MAX_ITEMS];
-    size_t sizes[4 * RTO_SIZE_CLASS_MAX], nsizes = 0;
-    size_t ni = split(sizes_buf, items);
-    for (size_t i = 0; i < ni; i++) {
+    size_t sizes[4 * RTO_SIZE_CLASS_MAX + OPT_LIST_MAX], nsizes = 0;
+    static const char *const all[] = {"all"};
+    const char *const *size_items = sizes_opt.count ? sizes_opt.item : all;
+    size_t nsize_items = sizes_opt.count ? sizes_opt.count : 1;
+    for (size_t i = 0; i < nsize_items; i++) {
         size_t cls[RTO_SIZE_CLASS_MAX], nc = 0;
         uint64_t num;
         rto_msg m = {{0}};
-        if (cli_parse_u64(items[i], RTO_MAX_KEYS, &num)) {
+        if (opts_parse_uint(size_items[i], RTO_MAX_KEYS, &num)) {
             cls[0] = (size_t)num;
             nc = 1;
-        } else if (rto_size_class(items[i], cls, &nc, &m)) {
-            return cli_fail("suite", "--sizes: '%s' is neither a number nor a size class (tiny, tile, pow2, large, all)",
-                            items[i]);
+        } else if (rto_size_class(size_items[i], cls, &nc, &m)) {
+            return cli_fail("suite", "--sizes %s: expected a size class (tiny, tile, pow2, large, all) or an integer "
+                            "0 .. %llu", size_items[i], (unsigned long long)RTO_MAX_KEYS);
         }
         for (size_t k = 0; k < nc; k++) {
             int dup = 0;
@@ -136,35 +91,34 @@ int cmd_suite(int argc, char **argv)
     }
     qsort(sizes, nsizes, sizeof *sizes, cmp_size);
 
-    const rto_dist_info *dists[MAX_ITEMS];
+    /* Distributions in the order first named; a group adds its members not named before. */
+    const rto_dist_info *dists[MAX_DISTS];
     size_t ndists = 0;
-    ni = split(dists_buf, items);
-    for (size_t i = 0; i < ni; i++) {
-        int all = !strcmp(items[i], "all"), cen = !strcmp(items[i], "centroid"), raw = !strcmp(items[i], "raw");
-        if (all || cen || raw) {
-            for (size_t k = 0; k < rto_dist_count() && ndists < MAX_ITEMS; k++) {
+    const char *const *dist_items = dists_opt.count ? dists_opt.item : all;
+    size_t ndist_items = dists_opt.count ? dists_opt.count : 1;
+    for (size_t i = 0; i < ndist_items; i++) {
+        const char *item = dist_items[i];
+        int every = !strcmp(item, "all"), cen = !strcmp(item, "centroid"), raw = !strcmp(item, "raw");
+        if (every || cen || raw) {
+            for (size_t k = 0; k < rto_dist_count(); k++) {
                 const rto_dist_info *di = rto_dist_at(k);
-                if (all || (cen && di->kind == RTO_DIST_CENTROID) || (raw && di->kind == RTO_DIST_RAW))
-                    dists[ndists++] = di;
+                if (every || (cen && di->kind == RTO_DIST_CENTROID) || (raw && di->kind == RTO_DIST_RAW))
+                    add_dist(dists, &ndists, di);
             }
-        } else if (rto_dist_find(items[i])) {
-            dists[ndists++] = rto_dist_find(items[i]);
+        } else if (rto_dist_find(item)) {
+            add_dist(dists, &ndists, rto_dist_find(item));
         } else {
-            return cli_fail("suite", "--dists: unknown distribution '%s' (rtoracle keys --list)", items[i]);
+            return cli_fail("suite", "--dists %s: unknown distribution (rtoracle keys --list)", item);
         }
     }
-    rto_key_format formats[2];
-    size_t nformats = 0;
-    ni = split(formats_buf, items);
-    for (size_t i = 0; i < ni; i++)
-        if (nformats >= 2 || !cli_parse_format(items[i], &formats[nformats++]))
-            return cli_fail("suite", "--formats: '%s' is not u32 or u64 (at most two)", items[i]);
-    rto_sort_algo algos[2];
-    size_t nalgos = 0;
-    ni = split(algos_buf, items);
-    for (size_t i = 0; i < ni; i++)
-        if (nalgos >= 2 || !cli_parse_algo(items[i], &algos[nalgos++]))
-            return cli_fail("suite", "--algos: '%s' is not bitonic or radix (at most two)", items[i]);
+    rto_key_format formats[2] = {RTO_KEY_U32, RTO_KEY_U64};
+    size_t nformats = formats_opt.count ? formats_opt.count : 2;
+    for (size_t i = 0; i < formats_opt.count; i++)
+        formats[i] = (rto_key_format)formats_opt.value[i];
+    rto_sort_algo algos[2] = {RTO_SORT_BITONIC, RTO_SORT_RADIX};
+    size_t nalgos = algos_opt.count ? algos_opt.count : 2;
+    for (size_t i = 0; i < algos_opt.count; i++)
+        algos[i] = (rto_sort_algo)algos_opt.value[i];
 
     rto_msg msg = {{0}};
     rto_bundle *suite = NULL;
@@ -193,26 +147,26 @@ int cmd_suite(int argc, char **argv)
                         continue;
                     }
                     free(keys);
-                    keys = rto_alloc(n, rto_key_size(f));
+                    keys = cli_alloc(n, rto_key_size(f));
                     if (!keys) {
-                        s = rto_fail(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu keys", n);
+                        s = cli_error(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu keys", n);
                         break;
                     }
-                    s = rto_keys_generate(dist->name, f, (uint32_t)seed, n, keys, &msg);
+                    s = rto_keys_generate(dist->name, f, seed, n, keys, &msg);
                     char dir[256], id[256];
                     snprintf(dir, sizeof dir, "%s-%s-%s-n%zu", aname, fname, dist->name, n);
                     snprintf(id, sizeof id, "sort:%s:fmt=%s:dist=%s:n=%zu", aname, fname, dist->name, n);
                     size_t path_len = strlen(rto_bundle_tmpdir(suite)) + strlen(dir) + 2;
                     char *path = malloc(path_len);
                     if (!path) {
-                        s = rto_fail(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+                        s = cli_error(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
                         break;
                     }
                     snprintf(path, path_len, "%s/%s", rto_bundle_tmpdir(suite), dir);
                     sort_params p = base;
                     p.algo = algos[a];
                     p.checkpoints = n > 0 && rto_next_pow2(n) <= checkpoint_max;
-                    key_origin origin = {id, dist->name, (uint32_t)seed, NULL};
+                    key_origin origin = {id, dist->name, seed, NULL};
                     if (!s)
                         s = sort_bundle_write(path, f, keys, n, &p, &origin, &msg);
                     free(path);

@@ -85,13 +85,13 @@ rto_status layout_accept(layout_kind k, const rto_npy *npy, size_t *count, rto_m
             same = d->fields[i].type == want.fields[i].type && d->fields[i].count == want.fields[i].count &&
                    d->fields[i].offset == want.fields[i].offset;
         if (!same)
-            return rto_fail(msg, RTO_ERR_PARSE, "a structured dump must be 1-D with the %s layout (%zu bytes)",
+            return cli_error(msg, RTO_ERR_PARSE, "a structured dump must be 1-D with the %s layout (%zu bytes)",
                             layout_name(k), rec);
         *count = (size_t)d->shape[0];
         return RTO_OK;
     }
     if (d->dtype != RTO_DTYPE_U32 && d->dtype != RTO_DTYPE_F32)
-        return rto_fail(msg, RTO_ERR_PARSE, "expected %s records, a (count, %zu) or a flat uint32/float32 array",
+        return cli_error(msg, RTO_ERR_PARSE, "expected %s records, a (count, %zu) or a flat uint32/float32 array",
                         layout_name(k), words);
     if (d->ndim == 2 && d->shape[1] == words) {
         *count = (size_t)d->shape[0];
@@ -101,6 +101,6 @@ rto_status layout_accept(layout_kind k, const rto_npy *npy, size_t *count, rto_m
         *count = (size_t)(d->shape[0] / words);
         return RTO_OK;
     }
-    return rto_fail(msg, RTO_ERR_PARSE, "a raw %s dump must have shape (count, %zu) or a multiple of %zu words",
+    return cli_error(msg, RTO_ERR_PARSE, "a raw %s dump must have shape (count, %zu) or a multiple of %zu words",
                     layout_name(k), words, words);
 }

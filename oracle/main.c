@@ -28,6 +28,7 @@ static void usage(FILE *to)
 
 int main(int argc, char **argv)
 {
+    cli_cleanup_on_signals();
     if (argc < 2) {
         usage(stderr);
         return EXIT_BAD_INPUT;

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite: unit and command-line tests on an optimised build, again under AddressSanitizer +
 # UndefinedBehaviorSanitizer, and a determinism check that builds at -O0 (sanitized), -O2 and -O3 write
-# byte-identical bundles.
+# byte-identical bundles, and that `meson install` gives a library a user's program builds against via pkg-config.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/deps.sh
@@ -34,4 +34,6 @@ diff -r "$tmp/build" "$tmp/build-asan" >/dev/null && diff -r "$tmp/build" "$tmp/
     exit 1
 }
 echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases and 3 build bundles byte-identical at -O0/asan, -O2, -O3"
+echo "== install: a user's program built against the installed library through pkg-config"
+bash tests/install.sh build-release
 echo "== all tests passed"

@@ -9,6 +9,7 @@
  *     sort      rto_bitonic_sort (+ checkpoints) / rto_radix_sort         the canonical network and LSD radix (§4)
  *     check     rto_sort_check                                            sorted / permutation / stable / passes
  *     files     rto_npy_read / rto_npy_write, rto_bundle_*                .npy arrays and manifest.json (§8)
+ *               rto_file_write, rto_temporaries_remove                    atomic output, cleanup on SIGINT / SIGTERM
  *
  * Conventions (STYLE.md): fallible calls return rto_status and, when given a non-NULL rto_msg, write a one-line
  * reason into it; outputs are caller-allocated and sized by the documented bound; inputs first, outputs last;
@@ -564,7 +565,10 @@ rto_status rto_npy_descr(const rto_npy_desc *desc, char *buf, size_t cap);
 rto_status rto_npy_parse(const void *buf, size_t len, rto_npy *out, rto_msg *msg);
 /** Reads and parses path. */
 rto_status rto_npy_read(const char *path, rto_npy *out, rto_msg *msg);
-/** Serialises desc + data (rto_npy_count * itemsize bytes) as format 1.0 (2.0 if the header needs it). */
+/**
+ * Serialises desc + data (rto_npy_count * itemsize bytes) as format 1.0 (2.0 if the header needs it), atomically as
+ * rto_file_write does; a character device or FIFO (/dev/null, a pipe) is written through instead.
+ */
 rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void *data, rto_msg *msg);
 void rto_npy_free(rto_npy *npy);
 
@@ -581,9 +585,13 @@ rto_status rto_npy_as_keys(const rto_npy *npy, rto_key_format *f, size_t *n, rto
 typedef struct rto_bundle rto_bundle;
 
 /**
- * Starts a bundle that will become outdir: files go to a fresh temporary sibling directory. outdir must not exist,
- * be empty, or be a previous bundle (holding manifest.json), which rto_bundle_commit then replaces atomically.
- * kind is the manifest's "kind" ("sort", "keys", "suite").
+ * Starts a bundle that will become outdir: files go to a fresh temporary sibling directory `outdir.tmp.XXXXXX`,
+ * created with the process umask like mkdir(2) with 0777. outdir must not exist (its parent must), be an empty
+ * directory, or be a previous rtoracle bundle, which rto_bundle_commit then replaces atomically. A previous bundle
+ * is a directory whose manifest.json has this format name and version and lists every entry of the directory
+ * (files by name, suite cases by directory, each case itself such a bundle); anything else, a regular file
+ * included, is refused with RTO_ERR_IO before anything is written. A symbolic link is followed: the directory it
+ * names is what is replaced, and the link stays. kind is the manifest's "kind" ("sort", "build", "suite").
  */
 rto_status rto_bundle_begin(const char *outdir, const char *kind, rto_bundle **out, rto_msg *msg);
 /** Writes name (a plain file name) into the bundle and records role, dtype, shape, layout and sha256. */
@@ -593,12 +601,23 @@ rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role,
 rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case_id, rto_msg *msg);
 /** The temporary directory being filled (for nested bundles). */
 const char *rto_bundle_tmpdir(const rto_bundle *b);
-/** Manifest metadata: section is "" (top level) or an object name such as "input", "params", "stats". */
+/**
+ * Manifest metadata: section is "" (top level) or an object name such as "input", "params", "stats". A string that is
+ * not well-formed UTF-8 is written repaired by rto_utf8_repair (U+FFFD for each ill-formed part). A failure (out of
+ * memory, NULL arguments) is returned and also kept: rto_bundle_commit then fails with it, so a caller that ignores
+ * the return value still never gets a manifest with a field silently missing.
+ */
 rto_status rto_bundle_set_str(rto_bundle *b, const char *section, const char *key, const char *value);
 rto_status rto_bundle_set_int(rto_bundle *b, const char *section, const char *key, int64_t value);
-/** A real number, written with the shortest representation that round-trips (jansson's %.17g). */
+/**
+ * A real number, written with the shortest representation that round-trips (jansson's %.17g); JSON has no
+ * infinities or NaN, so those are written as the strings "inf", "-inf" and "nan".
+ */
 rto_status rto_bundle_set_real(rto_bundle *b, const char *section, const char *key, double value);
-/** Writes manifest.json and renames the directory into place. Frees b on success and failure. */
+/**
+ * Writes manifest.json and renames the directory into place (replacing a previous bundle, see rto_bundle_begin, only
+ * after checking it again). Frees b on success and failure; on failure nothing of the new bundle remains.
+ */
 rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg);
 /** Removes the temporary directory and frees b. NULL is fine. */
 void rto_bundle_abort(rto_bundle *b);
@@ -618,6 +637,32 @@ rto_status rto_bundle_read_name(rto_bundle_reader *r, const char *name, rto_npy 
 
 /** SHA-256 of a file as 64 lowercase hex digits plus NUL. */
 rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Output files: atomic writes, interrupted runs, text for JSON                                                     */
+
+/**
+ * Writes len bytes to path atomically: into a fresh `path.tmp.XXXXXX` (created with the umask like open(2) with
+ * 0666), then renamed over path, so a reader sees the old file or the whole new one and a failure leaves the old
+ * one intact. Only a regular file is replaced: a symbolic link is followed (the file it names is replaced, the link
+ * stays); a dangling link, a directory or any other kind of file is refused with RTO_ERR_IO, as is a path whose
+ * directory does not exist.
+ */
+rto_status rto_file_write(const char *path, const void *data, size_t len, rto_msg *msg);
+/**
+ * Removes every temporary file and directory that the writers of this library (rto_file_write, rto_npy_write,
+ * rto_bundle_*) have created and not yet renamed or removed. Async-signal-safe: call it from a SIGINT / SIGTERM
+ * handler, then re-raise the signal with its default action. The library blocks SIGINT, SIGTERM and SIGHUP for the
+ * moments in which it creates or renames a temporary, so a handler never sees one half-registered.
+ */
+void rto_temporaries_remove(void);
+/**
+ * Copies the NUL-terminated string in to out (capacity cap bytes, NUL included) as well-formed UTF-8, as JSON
+ * requires: each maximal ill-formed subsequence becomes U+FFFD (The Unicode Standard §3.9, substitution of maximal
+ * subparts), so a name cut inside a character ends in one U+FFFD. Only whole characters are written. Returns the
+ * length of the whole repaired string without its NUL (out was cut if the result >= cap); cap 0 only measures.
+ */
+size_t rto_utf8_repair(const char *in, char *out, size_t cap);
 
 #ifdef __cplusplus
 }

@@ -1,7 +1,11 @@
-/* Bundles: atomic replacement, refusal to clobber, sha256 verification, version refusal, determinism. */
+/* Bundles: atomic replacement, refusal to clobber, sha256 verification, version refusal, determinism; what -o may
+ * replace, temporaries removed on a signal, JSON that is valid whatever the values, every jansson failure reported. */
 #include "testutil.h"
 
 #include <dirent.h>
+#include <errno.h>
+#include <jansson.h>
+#include <math.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -145,9 +149,337 @@ static void test_same_input_same_bytes(void **state)
     assert_int_not_equal(system(cmd), 0); /* control: different data, different bytes */
 }
 
+static void put_file(const char *path, const char *text)
+{
+    FILE *fp = fopen(path, "w");
+    assert_non_null(fp);
+    fputs(text, fp);
+    fclose(fp);
+}
+
+static char *slurp(const char *path)
+{
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return NULL;
+    static char buf[1 << 16];
+    size_t n = fread(buf, 1, sizeof buf - 1, fp);
+    fclose(fp);
+    buf[n] = '\0';
+    return buf;
+}
+
+/* Unicode §3.9's own example (Table 3-8) and one case per rule of Table 3-7, with the expected bytes written out. */
+static void test_utf8_repair(void **state)
+{
+    (void)state;
+#define R "\xef\xbf\xbd"
+    static const struct {
+        const char *in, *out;
+    } cases[] = {
+        {"plain ascii", "plain ascii"},
+        {"", ""},
+        {"\x61\xF1\x80\x80\xE1\x80\xC2\x62\x80\x63\x80\xBF\x64", "a" R R R "b" R "c" R R "d"},
+        {"caf\xc3\xa9", "caf\xc3\xa9"},               /* valid two-byte */
+        {"\xf0\x9f\x98\x80!", "\xf0\x9f\x98\x80!"},   /* valid four-byte */
+        {"ab\xe2\x82", "ab" R},                       /* cut inside a three-byte character: one U+FFFD */
+        {"x\xc3", "x" R},                             /* cut inside a two-byte character */
+        {"\xc0\xaf", R R},                            /* overlong lead C0 */
+        {"\xe0\x80\x80", R R R},                      /* overlong three-byte */
+        {"\xed\xa0\x80", R R R},                      /* a surrogate */
+        {"\xf4\x90\x80\x80", R R R R},                /* above U+10FFFF */
+        {"\xf5\x80", R R},                            /* F5 never starts a character */
+        {"\xff" "a\xfe", R "a" R},
+        {"\xe2\x82\xac\xe2\x82", "\xe2\x82\xac" R},   /* euro sign, then a cut one */
+    };
+#undef R
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char out[64];
+        size_t n = rto_utf8_repair(cases[i].in, out, sizeof out);
+        assert_int_equal(n, strlen(cases[i].out));
+        assert_string_equal(out, cases[i].out);
+        assert_int_equal(rto_utf8_repair(cases[i].in, NULL, 0), n);
+    }
+    /* cut to capacity at a character boundary only: "éé" (4 bytes) in 4 bytes keeps one é */
+    char small[4];
+    assert_int_equal(rto_utf8_repair("\xc3\xa9\xc3\xa9", small, sizeof small), 4);
+    assert_string_equal(small, "\xc3\xa9");
+    assert_int_equal(rto_utf8_repair("\xc3\xa9\xc3\xa9", small, 1), 4);
+    assert_string_equal(small, "");
+}
+
+/* Non-finite reals and strings that are not UTF-8 are encoded, not dropped; the manifest stays valid JSON. */
+static void test_manifest_encodes_what_json_cannot_hold(void **state)
+{
+    (void)state;
+    char dir[300], path[320];
+    snprintf(dir, sizeof dir, "%s/enc", root);
+    rto_bundle *b = NULL;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_bundle_begin(dir, "test", &b, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_set_real(b, "stats", "pos", INFINITY), RTO_OK);
+    assert_int_equal(rto_bundle_set_real(b, "stats", "neg", -INFINITY), RTO_OK);
+    assert_int_equal(rto_bundle_set_real(b, "stats", "nan", NAN), RTO_OK);
+    assert_int_equal(rto_bundle_set_real(b, "stats", "fine", 0.25), RTO_OK);
+    assert_int_equal(rto_bundle_set_str(b, "", "scene", "bad\xffname \xce"), RTO_OK);
+    assert_int_equal(rto_bundle_commit(b, &msg), RTO_OK);
+
+    snprintf(path, sizeof path, "%s/manifest.json", dir);
+    json_error_t err;
+    json_t *j = json_load_file(path, JSON_REJECT_DUPLICATES, &err); /* jansson accepts only valid UTF-8 JSON */
+    assert_non_null(j);
+    json_t *stats = json_object_get(j, "stats");
+    assert_string_equal(json_string_value(json_object_get(stats, "pos")), "inf");
+    assert_string_equal(json_string_value(json_object_get(stats, "neg")), "-inf");
+    assert_string_equal(json_string_value(json_object_get(stats, "nan")), "nan");
+    assert_true(json_real_value(json_object_get(stats, "fine")) == 0.25);
+    assert_string_equal(json_string_value(json_object_get(j, "scene")), "bad\xef\xbf\xbdname \xef\xbf\xbd");
+    json_decref(j);
+}
+
+/* A failed setter is not lost when the caller ignores its status: commit fails with it and writes nothing. */
+static void test_setter_failure_fails_commit(void **state)
+{
+    (void)state;
+    char dir[300];
+    snprintf(dir, sizeof dir, "%s/sticky", root);
+    rto_bundle *b = NULL;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_bundle_begin(dir, "test", &b, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_set_str(b, "params", NULL, "x"), RTO_ERR_INVALID_ARGUMENT);
+    assert_int_equal(rto_bundle_set_int(b, "params", "n", 1), RTO_OK);
+    assert_int_equal(rto_bundle_commit(b, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "manifest.json"));
+    assert_int_equal(entries(root), 0);
+}
+
+/* jansson's allocation number g_json_budget (counting from 0) fails, the others succeed: each must give an error,
+ * never a manifest with something missing. The number grows until a bundle needs fewer allocations, so every
+ * allocation of every jansson call is made to fail once, with every call after it still working. */
+static long g_json_budget = -1;
+static void *budget_malloc(size_t n)
+{
+    if (g_json_budget >= 0 && g_json_budget-- == 0)
+        return NULL;
+    return malloc(n);
+}
+
+/* One bundle like write_bundle(…, 9), every status ignored: commit must still fail if any step did. */
+static rto_status write_ignoring_statuses(const char *dir, rto_msg *msg)
+{
+    uint32_t data[5] = {9, 2, 3, 4, 5};
+    rto_bundle *b = NULL;
+    rto_status s = rto_bundle_begin(dir, "test", &b, msg);
+    if (s)
+        return s;
+    rto_npy_desc d = rto_npy_desc_keys(RTO_KEY_U32, 5);
+    rto_bundle_add_npy(b, "a.npy", "things", NULL, &d, data, msg);
+    rto_bundle_set_str(b, "params", "algo", "bitonic");
+    rto_bundle_set_int(b, "params", "n", 5);
+    return rto_bundle_commit(b, msg);
+}
+
+static void test_every_jansson_failure_is_an_error(void **state)
+{
+    (void)state;
+    char ref[300], dir[300], prev[300], cmd[1000];
+    snprintf(ref, sizeof ref, "%s/ref", root);
+    snprintf(dir, sizeof dir, "%s/oom", root);
+    snprintf(prev, sizeof prev, "%s/prev", root);
+    write_bundle(ref, 9);
+    write_bundle(prev, 1);
+    json_set_alloc_funcs(budget_malloc, free);
+    long budget = 0;
+    for (; budget < 100000; budget++) {
+        int untouched = 1; /* no allocation failed: the budget is past the last one */
+        /* a fresh directory, then over a previous bundle (which also parses the old manifest) */
+        for (int over = 0; over < 2; over++) {
+            const char *target = over ? prev : dir;
+            rto_msg msg = {{0}};
+            g_json_budget = budget;
+            rto_status s = write_ignoring_statuses(target, &msg);
+            untouched &= g_json_budget >= 0;
+            g_json_budget = -1;
+            json_set_alloc_funcs(malloc, free);
+            if (s == RTO_OK) {
+                snprintf(cmd, sizeof cmd, "diff -r '%s' '%s' >/dev/null && rm -rf '%s'", ref, target, dir);
+                assert_int_equal(system(cmd), 0); /* complete, byte for byte */
+                if (over)
+                    write_bundle(prev, 1);
+            } else {
+                /* jansson reports some allocation failures while parsing as syntax errors ("invalid token"); the
+                 * previous bundle then is refused as not ours, which is safe: it is kept */
+                if (!(over && s == RTO_ERR_IO && strstr(msg.text, "refusing to replace")))
+                    assert_int_equal(s, RTO_ERR_OUT_OF_MEMORY);
+                assert_true(msg.text[0] != '\0');
+                assert_int_equal(access(dir, F_OK), -1); /* nothing written */
+                rto_bundle_reader *r = NULL;             /* the previous bundle is intact */
+                rto_npy a = {0};
+                assert_int_equal(rto_bundle_open(prev, &r, NULL), RTO_OK);
+                assert_int_equal(rto_bundle_read_role(r, "things", &a, NULL), RTO_OK);
+                assert_int_equal(((uint32_t *)a.data)[0], 1);
+                rto_npy_free(&a);
+                rto_bundle_close(r);
+            }
+            assert_int_equal(entries(root), 2); /* ref and prev: no temporaries, no half bundle */
+            json_set_alloc_funcs(budget_malloc, free);
+        }
+        if (untouched)
+            break;
+    }
+    json_set_alloc_funcs(malloc, free);
+    assert_true(budget > 10 && budget < 100000);
+}
+
+/* What rto_bundle_begin may replace: our bundles (nested suites included) and nothing with a file of the user's. */
+static void test_replaces_only_its_own_bundles(void **state)
+{
+    (void)state;
+    char dir[300], file[400], link[300];
+    rto_msg msg = {{0}};
+    rto_bundle *b = NULL;
+    /* the directory: an empty manifest.json and an index.html */
+    snprintf(dir, sizeof dir, "%s/site", root);
+    mkdir(dir, 0755);
+    snprintf(file, sizeof file, "%s/manifest.json", dir);
+    put_file(file, "{}");
+    snprintf(file, sizeof file, "%s/index.html", dir);
+    put_file(file, "x\n");
+    assert_int_equal(rto_bundle_begin(dir, "test", &b, &msg), RTO_ERR_IO);
+    assert_null(b);
+    assert_non_null(strstr(msg.text, "not an rtoracle bundle"));
+    assert_string_equal(slurp(file), "x\n");
+
+    /* a suite: a case is a listed subdirectory that is a bundle itself */
+    snprintf(dir, sizeof dir, "%s/suite", root);
+    for (int round = 0; round < 2; round++) {
+        assert_int_equal(rto_bundle_begin(dir, "suite", &b, &msg), RTO_OK);
+        char sub[400];
+        snprintf(sub, sizeof sub, "%s/case0", rto_bundle_tmpdir(b));
+        write_bundle(sub, 2);
+        assert_int_equal(rto_bundle_add_case(b, "case0", "test:0", &msg), RTO_OK);
+        assert_int_equal(rto_bundle_commit(b, &msg), RTO_OK); /* the second round replaces the first */
+    }
+    snprintf(file, sizeof file, "%s/case0/mine.txt", dir);
+    put_file(file, "mine");
+    assert_int_equal(rto_bundle_begin(dir, "suite", &b, &msg), RTO_ERR_IO);
+    assert_non_null(strstr(msg.text, "case0/mine.txt"));
+    assert_string_equal(slurp(file), "mine");
+    unlink(file);
+
+    /* a link is followed: the bundle it names is replaced, the link stays */
+    snprintf(dir, sizeof dir, "%s/real", root);
+    snprintf(link, sizeof link, "%s/link", root);
+    write_bundle(dir, 3);
+    assert_int_equal(symlink("real", link), 0);
+    write_bundle(link, 4);
+    struct stat st;
+    assert_int_equal(lstat(link, &st), 0);
+    assert_true(S_ISLNK(st.st_mode));
+    rto_bundle_reader *r = NULL;
+    rto_npy a = {0};
+    assert_int_equal(rto_bundle_open(dir, &r, NULL), RTO_OK);
+    assert_int_equal(rto_bundle_read_role(r, "things", &a, NULL), RTO_OK);
+    assert_int_equal(((uint32_t *)a.data)[0], 4);
+    rto_npy_free(&a);
+    rto_bundle_close(r);
+    /* a dangling link, a regular file, a missing parent: refused, nothing created */
+    snprintf(link, sizeof link, "%s/dangling", root);
+    assert_int_equal(symlink("nowhere", link), 0);
+    assert_int_equal(rto_bundle_begin(link, "test", &b, &msg), RTO_ERR_IO);
+    assert_non_null(strstr(msg.text, "symbolic link"));
+    snprintf(file, sizeof file, "%s/plain", root);
+    put_file(file, "data");
+    assert_int_equal(rto_bundle_begin(file, "test", &b, &msg), RTO_ERR_IO);
+    assert_string_equal(slurp(file), "data");
+    snprintf(file, sizeof file, "%s/missing/out", root);
+    assert_int_equal(rto_bundle_begin(file, "test", &b, &msg), RTO_ERR_IO);
+    assert_non_null(strstr(msg.text, "missing"));
+    snprintf(file, sizeof file, "%s/nowhere", root);
+    assert_int_equal(access(file, F_OK), -1);
+}
+
+/* rto_temporaries_remove (what a SIGINT handler calls) removes every temporary in progress, nested ones included,
+ * and nothing else; the writers then fail or abort cleanly. */
+static void test_temporaries_remove(void **state)
+{
+    (void)state;
+    char keep[300], dir[300], sub[400];
+    snprintf(keep, sizeof keep, "%s/keep", root);
+    write_bundle(keep, 5);
+    snprintf(dir, sizeof dir, "%s/out", root);
+    rto_bundle *outer = NULL, *inner = NULL;
+    assert_int_equal(rto_bundle_begin(dir, "suite", &outer, NULL), RTO_OK);
+    snprintf(sub, sizeof sub, "%s/case0", rto_bundle_tmpdir(outer));
+    write_bundle(sub, 1); /* a finished case inside the temporary */
+    snprintf(sub, sizeof sub, "%s/case1", rto_bundle_tmpdir(outer));
+    assert_int_equal(rto_bundle_begin(sub, "sort", &inner, NULL), RTO_OK);
+    uint32_t x = 1;
+    rto_npy_desc d = rto_npy_desc_keys(RTO_KEY_U32, 1);
+    assert_int_equal(rto_bundle_add_npy(inner, "x.npy", "x", NULL, &d, &x, NULL), RTO_OK);
+    assert_int_equal(entries(root), 2); /* keep, out.tmp.* */
+
+    rto_temporaries_remove();
+    assert_int_equal(entries(root), 1);
+    assert_int_equal(access(keep, F_OK), 0);
+    rto_msg msg = {{0}};
+    assert_int_not_equal(rto_bundle_commit(inner, &msg), RTO_OK);
+    rto_bundle_abort(outer);
+    assert_int_equal(entries(root), 1);
+    /* the registry's slots were released: another bundle is cleaned up as well */
+    for (int i = 0; i < 40; i++) {
+        assert_int_equal(rto_bundle_begin(dir, "test", &outer, NULL), RTO_OK);
+        if (i == 39) {
+            rto_temporaries_remove();
+            assert_int_equal(entries(root), 1);
+        }
+        rto_bundle_abort(outer);
+    }
+}
+
+/* rto_file_write: atomic, over a regular file only, a link followed; the umask decides the mode. */
+static void test_file_write(void **state)
+{
+    (void)state;
+    char path[300], link[300], fifo[300];
+    rto_msg msg = {{0}};
+    snprintf(path, sizeof path, "%s/report.json", root);
+    assert_int_equal(rto_file_write(path, "{}\n", 3, &msg), RTO_OK);
+    assert_string_equal(slurp(path), "{}\n");
+    mode_t old = umask(027);
+    assert_int_equal(rto_file_write(path, "[1]\n", 4, &msg), RTO_OK);
+    umask(old);
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    assert_int_equal(st.st_mode & 0777, 0640);
+    assert_string_equal(slurp(path), "[1]\n");
+    snprintf(link, sizeof link, "%s/link.json", root);
+    assert_int_equal(symlink("report.json", link), 0);
+    assert_int_equal(rto_file_write(link, "[2]\n", 4, &msg), RTO_OK);
+    assert_int_equal(lstat(link, &st), 0);
+    assert_true(S_ISLNK(st.st_mode));
+    assert_string_equal(slurp(path), "[2]\n");
+    snprintf(fifo, sizeof fifo, "%s/fifo.json", root);
+    assert_int_equal(mkfifo(fifo, 0644), 0);
+    assert_int_equal(rto_file_write(fifo, "x", 1, &msg), RTO_ERR_IO);
+    assert_non_null(strstr(msg.text, "not a regular file"));
+    assert_int_equal(rto_file_write(root, "x", 1, &msg), RTO_ERR_IO);
+    assert_non_null(strstr(msg.text, "directory"));
+    snprintf(path, sizeof path, "%s/no/such.json", root);
+    assert_int_equal(rto_file_write(path, "x", 1, &msg), RTO_ERR_IO);
+    assert_int_equal(entries(root), 3); /* report.json, link.json, fifo.json: no temporaries */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_utf8_repair),
+        cmocka_unit_test_setup_teardown(test_manifest_encodes_what_json_cannot_hold, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_setter_failure_fails_commit, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_every_jansson_failure_is_an_error, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_replaces_only_its_own_bundles, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_temporaries_remove, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_file_write, setup, teardown),
         cmocka_unit_test_setup_teardown(test_commit_abort_and_replace, setup, teardown),
         cmocka_unit_test_setup_teardown(test_refuses_foreign_directory_and_versions, setup, teardown),
         cmocka_unit_test_setup_teardown(test_same_input_same_bytes, setup, teardown),

@@ -4,8 +4,15 @@
 
 #include "rtoracle.h"
 
+#include <signal.h>
 #include <stdarg.h>
 #include <stdbool.h>
+#include <stdio.h>
+
+/* Everything declared below stays inside librtoracle.so: not part of the public API, not exported. */
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
 
 #if defined(__GNUC__)
 #define RTO_PRINTF(a, b) __attribute__((format(printf, a, b)))
@@ -47,7 +54,42 @@ static inline double rto_box_area(const float *mn, const float *mx)
     return 2 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0]);
 }
 
+/* Atomic output (io/atomic.c). */
+
+/** Creates `target.tmp.XXXXXX` (a directory with mode 0777, or a file with 0666 whose descriptor goes to *fd; the
+ * umask applies) and lists it for rto_temporaries_remove. *tmp is malloc'ed. */
+rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp, int *fd, rto_msg *msg);
+/** Takes a temporary off the list (after it was renamed into place or removed). */
+void rto_tmp_forget(const char *tmp);
+/** Blocks SIGINT, SIGTERM and SIGHUP in the calling thread while a temporary is created, renamed or removed. */
+void rto_signals_hold(sigset_t *old);
+void rto_signals_release(const sigset_t *old);
+/**
+ * Where output to path may go (*where, malloc'ed): path itself when absent (its directory must exist) or a regular
+ * file / directory (is_dir); the real path for a symbolic link or "." / ".."; path written through in place
+ * (*in_place) for a character device or FIFO when allow_special. Everything else is refused.
+ */
+rto_status rto_output_target(const char *path, bool is_dir, bool allow_special, char **where, bool *in_place,
+                             rto_msg *msg);
+
+/** A file being written atomically: fp writes to tmp, which rto_atomic_close renames to path. */
+typedef struct rto_atomic_file {
+    FILE *fp;
+    char *path;
+    char *tmp; /* NULL when written in place */
+    bool in_place;
+} rto_atomic_file;
+rto_status rto_atomic_open(rto_atomic_file *f, const char *path, bool allow_special, rto_msg *msg);
+/** Flushes, closes and renames into place; on any failure the temporary is removed. */
+rto_status rto_atomic_close(rto_atomic_file *f, rto_msg *msg);
+/** Closes and removes the temporary (a failed write). */
+void rto_atomic_discard(rto_atomic_file *f);
+
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
 void *rto_alloc(size_t count, size_t size);
+
+#if defined(__GNUC__)
+#pragma GCC visibility pop
+#endif
 
 #endif

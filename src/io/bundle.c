@@ -9,6 +9,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <ftw.h>
+#include <stdarg.h>
 #include <jansson.h>
 #include <math.h>
 #include <openssl/evp.h>
@@ -19,11 +20,15 @@
 #include <unistd.h>
 
 struct rto_bundle {
-    char *outdir;
+    char *name;   /* outdir as the caller gave it, for messages */
+    char *outdir; /* where the bundle goes: name, or the real path a symbolic link names */
     char *tmpdir;
     json_t *root;
     json_t *files;
     json_t *cases;
+    /* The first failure of a setter, kept so that rto_bundle_commit fails with it even when the caller ignored it. */
+    rto_status err;
+    rto_msg err_msg;
 };
 
 struct rto_bundle_reader {
@@ -81,35 +86,11 @@ static int rm_entry(const char *path, const struct stat *st, int flag, struct FT
     return remove(path);
 }
 
+/* Removes a temporary directory of our own making (nothing in it is the user's). */
 static void remove_tree(const char *path)
 {
     if (path)
         nftw(path, rm_entry, 16, FTW_DEPTH | FTW_PHYS);
-}
-
-/* 0: absent or empty, 1: a previous bundle, -1: something else that must not be replaced. */
-static int outdir_state(const char *outdir)
-{
-    struct stat st;
-    if (stat(outdir, &st) != 0)
-        return 0;
-    if (!S_ISDIR(st.st_mode))
-        return -1;
-    char *m = join(outdir, "manifest.json");
-    int has_manifest = m && access(m, F_OK) == 0;
-    free(m);
-    if (has_manifest)
-        return 1;
-    DIR *d = opendir(outdir);
-    if (!d)
-        return -1;
-    struct dirent *e;
-    int empty = 1;
-    while ((e = readdir(d)))
-        if (strcmp(e->d_name, ".") && strcmp(e->d_name, ".."))
-            empty = 0;
-    closedir(d);
-    return empty ? 0 : -1;
 }
 
 static int plain_name(const char *name)
@@ -117,44 +98,249 @@ static int plain_name(const char *name)
     return name && *name && !strchr(name, '/') && strcmp(name, ".") && strcmp(name, "..");
 }
 
+/* 1: an empty directory, 0: anything else (not empty, not a directory, unreadable). */
+static int empty_dir(const char *path)
+{
+    struct stat st;
+    if (lstat(path, &st) != 0 || !S_ISDIR(st.st_mode))
+        return 0;
+    DIR *d = opendir(path);
+    if (!d)
+        return 0;
+    int empty = 1;
+    for (struct dirent *e; empty && (e = readdir(d));)
+        empty = !strcmp(e->d_name, ".") || !strcmp(e->d_name, "..");
+    closedir(d);
+    return empty;
+}
+
+#define RTO_STR_(x) #x
+#define RTO_STR(x) RTO_STR_(x)
+
+/* A manifest larger than this is not one rtoracle wrote (a suite of every case lists ~1 MB). */
+#define MANIFEST_BYTES_MAX (64u << 20)
+/* Bundles nest one level (a suite's cases); the bound only stops a hostile tree. */
+#define BUNDLE_NEST_MAX 4
+
+/* The one refusal message of a directory that is not ours: "refusing to replace TOP: it is not an rtoracle bundle
+ * (REASON)". */
+static rto_status refuse(rto_msg *msg, const char *top, const char *fmt, ...) RTO_PRINTF(3, 4);
+static rto_status refuse(rto_msg *msg, const char *top, const char *fmt, ...)
+{
+    char reason[400];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(reason, sizeof reason, fmt, ap);
+    va_end(ap);
+    return rto_fail(msg, RTO_ERR_IO, "refusing to replace %s: it is not an rtoracle bundle (%s)", top, reason);
+}
+
+/* Loads dir/manifest.json if it is an rtoracle bundle manifest of this format version, else says why not. */
+static rto_status load_own_manifest(const char *dir, const char *top, json_t **out, rto_msg *msg)
+{
+    *out = NULL;
+    char *path = join(dir, "manifest.json");
+    if (!path)
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    struct stat st;
+    json_t *root = NULL;
+    json_error_t jerr;
+    rto_status s = RTO_OK;
+    if (lstat(path, &st) != 0 || !S_ISREG(st.st_mode))
+        s = refuse(msg, top, "%s holds no manifest.json", dir);
+    else if ((uint64_t)st.st_size > MANIFEST_BYTES_MAX)
+        s = refuse(msg, top, "%s has %lld bytes", path, (long long)st.st_size);
+    else if (!(root = json_load_file(path, JSON_REJECT_DUPLICATES, &jerr)))
+        s = json_error_code(&jerr) == json_error_out_of_memory
+                ? rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: out of memory reading %s", top, path)
+                : refuse(msg, top, "%s: %s", path, jerr.text);
+    if (root) {
+        const char *format = json_string_value(json_object_get(root, "format"));
+        json_t *version = json_object_get(root, "format_version");
+        const char *why = NULL;
+        if (!format || strcmp(format, "rtoracle-bundle") != 0)
+            why = "\"format\" is not \"rtoracle-bundle\"";
+        else if (!json_is_integer(version) || json_integer_value(version) != RTO_BUNDLE_FORMAT_VERSION)
+            why = "\"format_version\" is not " RTO_STR(RTO_BUNDLE_FORMAT_VERSION) ", the one this rtoracle writes";
+        else if (!json_is_array(json_object_get(root, "files")))
+            why = "no \"files\" list";
+        if (why) {
+            s = refuse(msg, top, "%s: %s", path, why);
+            json_decref(root);
+            root = NULL;
+        }
+    }
+    free(path);
+    *out = root;
+    return s;
+}
+
+/* What a manifest lists: file name -> true, suite case directory -> false. Refuses an entry that is not a plain
+ * name, names manifest.json, or is listed once as a file and once as a case. */
+static rto_status listed_entries(json_t *manifest, const char *dir, const char *top, json_t **out, rto_msg *msg)
+{
+    json_t *set = json_object();
+    *out = NULL;
+    if (!set)
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    static const struct {
+        const char *list, *field;
+        int is_file;
+    } kinds[] = {{"files", "name", 1}, {"cases", "dir", 0}};
+    for (size_t k = 0; k < 2; k++) {
+        json_t *arr = json_object_get(manifest, kinds[k].list), *e;
+        size_t i;
+        if (arr && !json_is_array(arr)) {
+            json_decref(set);
+            return refuse(msg, top, "%s/manifest.json: \"%s\" is not a list", dir, kinds[k].list);
+        }
+        json_array_foreach(arr, i, e)
+        {
+            const char *name = json_string_value(json_object_get(e, kinds[k].field));
+            json_t *prev = name ? json_object_get(set, name) : NULL;
+            if (!plain_name(name) || !strcmp(name, "manifest.json") ||
+                (prev && json_is_true(prev) != kinds[k].is_file)) {
+                json_decref(set);
+                return refuse(msg, top, "%s/manifest.json: %s entry %zu is not a plain name", dir, kinds[k].list, i);
+            }
+            if (json_object_set_new(set, name, json_boolean(kinds[k].is_file))) {
+                json_decref(set);
+                return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            }
+        }
+    }
+    *out = set;
+    return RTO_OK;
+}
+
+/*
+ * Whether dir is an rtoracle bundle that a new bundle may replace (the rules of rto_bundle_begin): a real directory
+ * (not a link), manifest.json ours, and every other entry listed in it — a file as a regular file, a suite case as a
+ * directory that passes the same test. A single entry the manifest does not list (a user's notes, an index.html)
+ * makes it not ours. With remove, it then deletes what it checked and only that, going by the manifest's list
+ * rather than by what the directory holds, so a file that appears meanwhile survives (and keeps its directory).
+ */
+static rto_status scan_bundle(const char *dir, const char *top, int depth, bool remove, rto_msg *msg)
+{
+    struct stat st;
+    if (lstat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
+        return refuse(msg, top, "%s is not a directory", dir);
+    json_t *manifest = NULL, *listed = NULL;
+    rto_status s = load_own_manifest(dir, top, &manifest, msg);
+    if (!s)
+        s = listed_entries(manifest, dir, top, &listed, msg);
+    json_decref(manifest);
+    if (s)
+        return s;
+    DIR *d = opendir(dir);
+    if (!d)
+        s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s: cannot list %s: %s", top, dir, strerror(errno));
+    for (struct dirent *e; !s && d && (e = readdir(d));) {
+        const char *name = e->d_name;
+        if (!strcmp(name, ".") || !strcmp(name, "..") || !strcmp(name, "manifest.json"))
+            continue;
+        json_t *kind = json_object_get(listed, name); /* NULL also for a name that is not UTF-8 */
+        char *path = join(dir, name);
+        if (!path)
+            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        else if (!kind)
+            s = refuse(msg, top, "%s is not listed in its manifest.json", path);
+        else if (lstat(path, &st) != 0)
+            s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s: %s: %s", top, path, strerror(errno));
+        else if (json_is_true(kind) && !S_ISREG(st.st_mode))
+            s = refuse(msg, top, "%s is listed as a file but is not a regular file", path);
+        else if (!json_is_true(kind) && depth + 1 >= BUNDLE_NEST_MAX)
+            s = refuse(msg, top, "bundles nested too deep at %s", path);
+        else if (!json_is_true(kind))
+            s = scan_bundle(path, top, depth + 1, false, msg);
+        free(path);
+    }
+    if (d)
+        closedir(d);
+    if (!s && remove) {
+        const char *name;
+        json_t *kind;
+        json_object_foreach(listed, name, kind)
+        {
+            char *path = join(dir, name);
+            if (path && json_is_true(kind))
+                unlink(path);
+            else if (path && lstat(path, &st) == 0)
+                scan_bundle(path, top, depth + 1, true, NULL);
+            free(path);
+        }
+        char *m = join(dir, "manifest.json");
+        if (m)
+            unlink(m);
+        free(m);
+        rmdir(dir); /* fails, keeping it, if anything unlisted appeared after the check */
+    }
+    json_decref(listed);
+    return s;
+}
+
+/* Whether outdir (already resolved) may become the new bundle: absent, an empty directory, or a bundle of ours. */
+static rto_status check_replaceable(const char *outdir, const char *top, rto_msg *msg)
+{
+    struct stat st;
+    if (lstat(outdir, &st) != 0 && errno == ENOENT)
+        return RTO_OK;
+    if (empty_dir(outdir))
+        return RTO_OK;
+    return scan_bundle(outdir, top, 0, false, msg);
+}
+
+/* Records the first failure of a setter or writer (see rto_bundle_set_str) for commit, and returns s. */
+static rto_status keep_error(rto_bundle *b, rto_status s, const rto_msg *why, const char *what, const char *section,
+                             const char *key)
+{
+    if (b && s && !b->err) {
+        b->err = s;
+        if (why && why->text[0])
+            b->err_msg = *why;
+        else
+            rto_fail(&b->err_msg, s, "%s: cannot record %s%s%s%s in manifest.json (%s)", b->name, what,
+                     section && *section ? section : "", section && *section ? "." : "", key ? key : "(NULL)",
+                     rto_status_string(s));
+    }
+    return s;
+}
+
 rto_status rto_bundle_begin(const char *outdir, const char *kind, rto_bundle **out, rto_msg *msg)
 {
     *out = NULL;
     if (!outdir || !*outdir || !kind)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no output directory given");
-    if (outdir_state(outdir) < 0)
-        return rto_fail(msg, RTO_ERR_IO,
-                        "refusing to replace %s: it exists and is not an rtoracle bundle (no manifest.json)", outdir);
     rto_bundle *b = calloc(1, sizeof *b);
     if (!b)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     size_t len = strlen(outdir);
     while (len > 1 && outdir[len - 1] == '/')
         len--;
-    b->outdir = strndup(outdir, len);
-    b->tmpdir = malloc(len + 16);
-    if (b->outdir && b->tmpdir) {
-        snprintf(b->tmpdir, len + 16, "%s.tmp.XXXXXX", b->outdir);
-        if (!mkdtemp(b->tmpdir)) {
-            rto_status s = rto_fail(msg, RTO_ERR_IO, "cannot create a temporary directory beside %s: %s", b->outdir,
-                                    strerror(errno));
-            free(b->tmpdir);
-            b->tmpdir = NULL;
-            rto_bundle_abort(b);
-            return s;
-        }
+    b->name = strndup(outdir, len);
+    bool in_place = false;
+    rto_status s = b->name ? rto_output_target(b->name, true, false, &b->outdir, &in_place, msg)
+                           : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    if (!s)
+        s = check_replaceable(b->outdir, b->name, msg);
+    if (!s)
+        s = rto_tmp_create(b->outdir, true, &b->tmpdir, NULL, msg);
+    if (!s) {
+        b->root = json_object();
+        b->files = json_array();
+        int bad = !b->root || !b->files;
+        bad |= json_object_set_new(b->root, "format", json_string("rtoracle-bundle"));
+        bad |= json_object_set_new(b->root, "format_version", json_integer(RTO_BUNDLE_FORMAT_VERSION));
+        bad |= json_object_set_new(b->root, "tool", json_string("rtoracle"));
+        bad |= json_object_set_new(b->root, "tool_version", json_string(RTO_VERSION_STRING));
+        bad |= json_object_set_new(b->root, "kind", json_string(kind));
+        if (bad)
+            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot start manifest.json (out of memory)", b->name);
     }
-    b->root = json_object();
-    b->files = json_array();
-    if (!b->outdir || !b->tmpdir || !b->root || !b->files) {
+    if (s) {
         rto_bundle_abort(b);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return s;
     }
-    json_object_set_new(b->root, "format", json_string("rtoracle-bundle"));
-    json_object_set_new(b->root, "format_version", json_integer(RTO_BUNDLE_FORMAT_VERSION));
-    json_object_set_new(b->root, "tool", json_string("rtoracle"));
-    json_object_set_new(b->root, "tool_version", json_string(RTO_VERSION_STRING));
-    json_object_set_new(b->root, "kind", json_string(kind));
     *out = b;
     return RTO_OK;
 }
@@ -168,132 +354,282 @@ static json_t *section_of(json_t *root, const char *section, int create)
     json_t *o = json_object_get(root, section);
     if (!o && create) {
         o = json_object();
-        json_object_set_new(root, section, o);
+        if (json_object_set_new(root, section, o))
+            return NULL;
     }
     return json_is_object(o) ? o : NULL;
 }
 
+/* Sets key in section to v (a new reference, NULL if making it failed); a failure is kept for commit. */
+static rto_status set_value(rto_bundle *b, const char *section, const char *key, json_t *v)
+{
+    if (!b) {
+        json_decref(v);
+        return RTO_ERR_INVALID_ARGUMENT;
+    }
+    json_t *o = key ? section_of(b->root, section, 1) : NULL;
+    if (!o) {
+        /* no key, or a section name already used by a value that is not an object; otherwise out of memory */
+        json_t *had = section && *section ? json_object_get(b->root, section) : b->root;
+        json_decref(v);
+        return keep_error(b, !key || (had && !json_is_object(had)) ? RTO_ERR_INVALID_ARGUMENT : RTO_ERR_OUT_OF_MEMORY,
+                          NULL, "", section, key);
+    }
+    if (!v || json_object_set_new(o, key, v))
+        return keep_error(b, RTO_ERR_OUT_OF_MEMORY, NULL, "", section, key);
+    return RTO_OK;
+}
+
+/* A JSON string of text repaired to well-formed UTF-8 (NULL if out of memory). */
+static json_t *utf8_string(const char *text)
+{
+    size_t len = rto_utf8_repair(text, NULL, 0);
+    char *buf = malloc(len + 1);
+    if (!buf)
+        return NULL;
+    rto_utf8_repair(text, buf, len + 1);
+    json_t *v = json_stringn(buf, len);
+    free(buf);
+    return v;
+}
+
+/* JSON has no infinities or NaN (RFC 8259 §6); they are written as strings rather than dropped. */
+static json_t *real_value(double value)
+{
+    if (isnan(value))
+        return json_string("nan");
+    if (isinf(value))
+        return json_string(value > 0 ? "inf" : "-inf");
+    return json_real(value);
+}
+
 rto_status rto_bundle_set_str(rto_bundle *b, const char *section, const char *key, const char *value)
 {
-    json_t *o = b ? section_of(b->root, section, 1) : NULL;
-    if (!o || !key || !value || json_object_set_new(o, key, json_string(value)))
-        return RTO_ERR_INVALID_ARGUMENT;
-    return RTO_OK;
+    if (b && !value)
+        return keep_error(b, RTO_ERR_INVALID_ARGUMENT, NULL, "", section, key);
+    return set_value(b, section, key, b ? utf8_string(value) : NULL);
 }
 
 rto_status rto_bundle_set_int(rto_bundle *b, const char *section, const char *key, int64_t value)
 {
-    json_t *o = b ? section_of(b->root, section, 1) : NULL;
-    if (!o || !key || json_object_set_new(o, key, json_integer((json_int_t)value)))
-        return RTO_ERR_INVALID_ARGUMENT;
-    return RTO_OK;
+    return set_value(b, section, key, b ? json_integer((json_int_t)value) : NULL);
 }
 
 rto_status rto_bundle_set_real(rto_bundle *b, const char *section, const char *key, double value)
 {
-    json_t *o = b ? section_of(b->root, section, 1) : NULL;
-    if (!o || !key || !isfinite(value) || json_object_set_new(o, key, json_real(value)))
-        return RTO_ERR_INVALID_ARGUMENT;
-    return RTO_OK;
+    return set_value(b, section, key, b ? real_value(value) : NULL);
 }
 
 rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role, const char *layout,
                               const rto_npy_desc *desc, const void *data, rto_msg *msg)
 {
-    if (!b || !plain_name(name) || !role || !desc)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
-    char *path = join(b->tmpdir, name);
-    if (!path)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    rto_msg why = {{0}};
     char hex[65], descr[1024];
-    rto_status s = rto_npy_write(path, desc, data, msg);
+    char *path = b && plain_name(name) && role && desc ? join(b->tmpdir, name) : NULL;
+    rto_status s = path ? rto_npy_write(path, desc, data, &why)
+                 : b && plain_name(name) && role && desc
+                     ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
+                     : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
     if (!s)
-        s = rto_sha256_file(path, hex, msg);
+        s = rto_sha256_file(path, hex, &why);
     if (!s)
         s = rto_npy_descr(desc, descr, sizeof descr);
     free(path);
-    if (s)
-        return s;
-    json_t *shape = json_array();
-    for (uint32_t i = 0; i < desc->ndim; i++)
-        json_array_append_new(shape, json_integer((json_int_t)desc->shape[i]));
-    json_t *e = json_object();
-    json_object_set_new(e, "name", json_string(name));
-    json_object_set_new(e, "role", json_string(role));
-    json_object_set_new(e, "dtype", json_string(descr));
-    json_object_set_new(e, "shape", shape);
-    json_object_set_new(e, "layout", layout ? json_string(layout) : json_null());
-    json_object_set_new(e, "sha256", json_string(hex));
-    json_array_append_new(b->files, e);
-    return RTO_OK;
+    if (!s) {
+        json_t *shape = json_array(), *e = json_object();
+        int bad = !shape;
+        for (uint32_t i = 0; i < desc->ndim; i++)
+            bad |= json_array_append_new(shape, json_integer((json_int_t)desc->shape[i]));
+        bad |= json_object_set_new(e, "name", json_string(name));
+        bad |= json_object_set_new(e, "role", json_string(role));
+        bad |= json_object_set_new(e, "dtype", json_string(descr));
+        bad |= json_object_set_new(e, "shape", shape);
+        bad |= json_object_set_new(e, "layout", layout ? json_string(layout) : json_null());
+        bad |= json_object_set_new(e, "sha256", json_string(hex));
+        bad |= json_array_append_new(b->files, e);
+        if (bad)
+            s = rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list %s in manifest.json (out of memory, or a name "
+                         "that is not UTF-8)", b->name, name);
+    }
+    if (s && msg)
+        *msg = why;
+    return keep_error(b, s, &why, "file ", "", name);
 }
 
 rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case_id, rto_msg *msg)
 {
-    if (!b || !plain_name(name) || !case_id)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "bad case '%s'", name ? name : "(null)");
-    char *dir = join(b->tmpdir, name), *m = dir ? join(dir, "manifest.json") : NULL;
+    rto_msg why = {{0}};
     char hex[65];
-    rto_status s = m ? rto_sha256_file(m, hex, msg) : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    bool valid = b && plain_name(name) && case_id;
+    char *dir = valid ? join(b->tmpdir, name) : NULL, *m = dir ? join(dir, "manifest.json") : NULL;
+    rto_status s = m       ? rto_sha256_file(m, hex, &why)
+                   : valid ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
+                           : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad case '%s'", name ? name : "(null)");
     free(dir);
     free(m);
-    if (s)
-        return s;
-    if (!b->cases) {
-        b->cases = json_array();
-        json_object_set_new(b->root, "cases", b->cases);
+    if (!s) {
+        int bad = 0;
+        if (!b->cases) {
+            b->cases = json_array();
+            bad |= json_object_set_new(b->root, "cases", b->cases);
+        }
+        json_t *e = json_object();
+        bad |= json_object_set_new(e, "case", json_string(case_id));
+        bad |= json_object_set_new(e, "dir", json_string(name));
+        bad |= json_object_set_new(e, "manifest_sha256", json_string(hex));
+        bad |= json_array_append_new(b->cases, e);
+        if (bad)
+            s = rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list case %s in manifest.json (out of memory, or a "
+                         "name that is not UTF-8)", b->name, name);
     }
-    json_t *e = json_object();
-    json_object_set_new(e, "case", json_string(case_id));
-    json_object_set_new(e, "dir", json_string(name));
-    json_object_set_new(e, "manifest_sha256", json_string(hex));
-    json_array_append_new(b->cases, e);
-    return RTO_OK;
+    if (s && msg)
+        *msg = why;
+    return keep_error(b, s, &why, "case ", "", name);
 }
 
 void rto_bundle_abort(rto_bundle *b)
 {
     if (!b)
         return;
-    remove_tree(b->tmpdir);
+    if (b->tmpdir) {
+        remove_tree(b->tmpdir);
+        rto_tmp_forget(b->tmpdir);
+    }
     json_decref(b->root);
     json_decref(b->files);
+    free(b->name);
     free(b->outdir);
     free(b->tmpdir);
     free(b);
+}
+
+/* Serialisation that cannot come out cut short. jansson's dump ignores its output callback's failure while writing an
+ * object's key (dump.c, do_dump: the result of dump_string for a key is not checked, 2.14 and later alike), so
+ * json_dumps can return text with a key cut off after one failed allocation. Here the output buffer is ours: once an
+ * append fails every later one fails too, so jansson's next write reports it, and the flag is checked anyway. */
+typedef struct dump_buffer {
+    char *text;
+    size_t len, cap;
+    bool failed;
+} dump_buffer;
+
+static int dump_append(const char *chunk, size_t n, void *data)
+{
+    dump_buffer *d = data;
+    if (!d->failed && n >= d->cap - d->len) {
+        size_t cap = d->cap ? d->cap : 4096;
+        while (cap - d->len <= n && cap < SIZE_MAX / 2)
+            cap *= 2;
+        char *p = cap - d->len > n ? realloc(d->text, cap) : NULL;
+        if (p) {
+            d->text = p;
+            d->cap = cap;
+        } else {
+            d->failed = true;
+        }
+    }
+    if (d->failed)
+        return -1;
+    memcpy(d->text + d->len, chunk, n);
+    d->len += n;
+    d->text[d->len] = '\0';
+    return 0;
+}
+
+/* json_dumps(j, flags) with a final newline, or NULL (out of memory). */
+static char *dump_text(const json_t *j, size_t flags)
+{
+    dump_buffer d = {NULL, 0, 0, false};
+    if (json_dump_callback(j, dump_append, &d, flags) != 0 || d.failed || dump_append("\n", 1, &d) != 0) {
+        free(d.text);
+        return NULL;
+    }
+    return d.text;
+}
+
+/* manifest.json into the temporary directory, in a file created 0666 (umask). */
+static rto_status write_manifest(rto_bundle *b, rto_msg *msg)
+{
+    if (json_object_set(b->root, "files", b->files))
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot assemble manifest.json (out of memory)", b->name);
+    char *text = dump_text(b->root, JSON_INDENT(2));
+    if (!text)
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot serialise manifest.json (out of memory)", b->name);
+    char *path = join(b->tmpdir, "manifest.json");
+    int fd = path ? open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666) : -1;
+    FILE *fp = fd >= 0 ? fdopen(fd, "wb") : NULL;
+    rto_status s = RTO_OK;
+    if (!fp) {
+        s = rto_fail(msg, path ? RTO_ERR_IO : RTO_ERR_OUT_OF_MEMORY, "cannot write %s: %s",
+                     path ? path : "manifest.json", strerror(errno));
+        if (fd >= 0)
+            close(fd);
+    } else {
+        errno = 0;
+        bool bad = fputs(text, fp) < 0 || fflush(fp) != 0;
+        int e = errno;
+        if (fclose(fp) != 0 && !bad) {
+            bad = true;
+            e = errno;
+        }
+        if (bad)
+            s = rto_fail(msg, RTO_ERR_IO, "cannot write %s: %s", path, strerror(e ? e : EIO));
+    }
+    free(path);
+    free(text);
+    return s;
+}
+
+/*
+ * Moves the finished temporary directory to outdir. An absent outdir is a rename. Anything else is exchanged with
+ * the temporary atomically (renameat2 RENAME_EXCHANGE), and what comes out is checked again — it may have changed
+ * since rto_bundle_begin looked — before it is deleted: if it is no longer an empty directory or a bundle of ours,
+ * the exchange is undone and nothing is deleted. Stop signals are held meanwhile, so the signal cleanup of the
+ * temporary name never deletes a previous bundle half-way, nor a directory that is about to go back into place.
+ */
+static rto_status install(rto_bundle *b, rto_msg *msg)
+{
+    rto_status s = RTO_OK;
+    sigset_t old;
+    rto_signals_hold(&old);
+    struct stat st;
+    if (lstat(b->outdir, &st) != 0 && errno == ENOENT) {
+        /* rename replaces nothing but an empty directory that appeared meanwhile */
+        if (rename(b->tmpdir, b->outdir) != 0)
+            s = rto_fail(msg, RTO_ERR_IO, "cannot rename %s to %s: %s", b->tmpdir, b->outdir, strerror(errno));
+    } else if (renameat2(AT_FDCWD, b->tmpdir, AT_FDCWD, b->outdir, RENAME_EXCHANGE) != 0) {
+        s = rto_fail(msg, RTO_ERR_IO, "cannot replace %s: %s", b->name, strerror(errno));
+    } else if (empty_dir(b->tmpdir)) {
+        rmdir(b->tmpdir);
+    } else if ((s = scan_bundle(b->tmpdir, b->name, 0, true, msg)) != RTO_OK &&
+               renameat2(AT_FDCWD, b->tmpdir, AT_FDCWD, b->outdir, RENAME_EXCHANGE) != 0) {
+        /* The new bundle stays at outdir; what was there is left untouched under the temporary name. */
+        rto_fail(msg, RTO_ERR_IO, "%s changed while the bundle was written and could not be put back: it is now %s",
+                 b->name, b->tmpdir);
+        rto_tmp_forget(b->tmpdir);
+        free(b->tmpdir);
+        b->tmpdir = NULL;
+    }
+    if (!s) {
+        rto_tmp_forget(b->tmpdir);
+        free(b->tmpdir);
+        b->tmpdir = NULL;
+    }
+    rto_signals_release(&old);
+    return s;
 }
 
 rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg)
 {
     if (!b)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle");
-    rto_status s = RTO_OK;
-    json_object_set(b->root, "files", b->files);
-    char *path = join(b->tmpdir, "manifest.json");
-    char *text = json_dumps(b->root, JSON_INDENT(2));
-    FILE *fp = path && text ? fopen(path, "wb") : NULL;
-    if (!fp) {
-        s = rto_fail(msg, RTO_ERR_IO, "cannot write %s: %s", path ? path : "manifest", strerror(errno));
-    } else {
-        int bad = fputs(text, fp) < 0 || fputc('\n', fp) == EOF;
-        if (fclose(fp) != 0 || bad)
-            s = rto_fail(msg, RTO_ERR_IO, "cannot write %s: %s", path, strerror(errno));
-    }
-    free(path);
-    free(text);
-    if (!s) {
-        int state = outdir_state(b->outdir);
-        if (state < 0) {
-            s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s: it is not an rtoracle bundle", b->outdir);
-        } else if (state == 0) {
-            rmdir(b->outdir); /* an empty directory may stand in the way */
-            if (rename(b->tmpdir, b->outdir) != 0)
-                s = rto_fail(msg, RTO_ERR_IO, "cannot rename %s to %s: %s", b->tmpdir, b->outdir, strerror(errno));
-        } else if (renameat2(AT_FDCWD, b->tmpdir, AT_FDCWD, b->outdir, RENAME_EXCHANGE) != 0) {
-            s = rto_fail(msg, RTO_ERR_IO, "cannot replace %s: %s", b->outdir, strerror(errno));
-        }
-        /* After the exchange the temporary name holds the previous bundle; abort removes it. */
-    }
+    rto_status s = b->err;
+    if (s && msg)
+        *msg = b->err_msg;
+    if (!s)
+        s = write_manifest(b, msg);
+    if (!s)
+        s = install(b, msg);
     rto_bundle_abort(b);
     return s;
 }

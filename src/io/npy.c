@@ -868,54 +868,19 @@ rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void 
     if (plen == 0)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "header for '%s' is too long", path);
 
-    /* A regular file (or a new one) is written to a temporary sibling and renamed over the path, so a reader never
-     * sees half a file and a failed write leaves the previous file intact. Anything else (/dev/null, a FIFO) is
-     * written in place and never unlinked. */
-    struct stat st;
-    bool in_place = stat(path, &st) == 0 && !S_ISREG(st.st_mode);
-    size_t plen_path = strlen(path);
-    char *tmp = in_place ? NULL : malloc(plen_path + 16);
-    FILE *fp = NULL;
-    if (in_place) {
-        fp = fopen(path, "wb");
-    } else if (tmp) {
-        snprintf(tmp, plen_path + 16, "%s.tmp.XXXXXX", path);
-        int fd = mkstemp(tmp);
-        if (fd >= 0) {
-            mode_t um = umask(0);
-            umask(um);
-            fchmod(fd, 0666 & ~um);
-            fp = fdopen(fd, "wb");
-            if (!fp) {
-                close(fd);
-                remove(tmp);
-            }
-        }
-    }
-    if (!fp) {
-        rto_status err = rto_fail(msg, tmp || in_place ? RTO_ERR_IO : RTO_ERR_OUT_OF_MEMORY,
-                                  "cannot create '%s': %s", path, strerror(errno));
-        free(tmp);
-        return err;
-    }
+    /* Atomically through a temporary sibling (io/atomic.c): a reader never sees half a file and a failed write
+     * leaves the previous file intact. /dev/null or a FIFO is written through and never unlinked. */
+    rto_atomic_file f;
+    s = rto_atomic_open(&f, path, true, msg);
+    if (s != RTO_OK)
+        return s;
     errno = 0;
-    bool failed = fwrite(pre, 1, plen, fp) != plen || (nbytes && fwrite(data, 1, nbytes, fp) != nbytes) ||
-                  fflush(fp) != 0;
-    int e = errno;
-    if (fclose(fp) != 0 && !failed) {
-        failed = true;
-        e = errno;
-    }
-    if (!failed && tmp && rename(tmp, path) != 0) {
-        failed = true;
-        e = errno;
-    }
-    if (failed && tmp)
-        remove(tmp);
-    free(tmp);
-    if (failed)
+    if (fwrite(pre, 1, plen, f.fp) != plen || (nbytes && fwrite(data, 1, nbytes, f.fp) != nbytes)) {
+        int e = errno;
+        rto_atomic_discard(&f);
         return rto_fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(e ? e : EIO));
-    return RTO_OK;
+    }
+    return rto_atomic_close(&f, msg);
 }
 
 rto_status rto_npy_as_keys(const rto_npy *npy, rto_key_format *f, size_t *n, rto_msg *msg)

@@ -5,6 +5,11 @@
 
 #include "rtoracle.h"
 
+/* Library-private (like internal.h): not exported from librtoracle.so. */
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -18,6 +23,10 @@ rto_status rto__gltf_load(const char *path, const rto_scene_load_desc *opts, rto
 
 #ifdef __cplusplus
 }
+#endif
+
+#if defined(__GNUC__)
+#pragma GCC visibility pop
 #endif
 
 #endif

@@ -20,65 +20,27 @@ void rto__load_desc_resolve(const rto_scene_load_desc *desc, rto_scene_load_desc
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* UTF-8                                                                                                            */
 
-/* Length of the valid UTF-8 sequence (RFC 3629: shortest form, no surrogates, at most U+10FFFF) at s, given n > 0
- * readable bytes; 0 if none starts there. */
-static size_t utf8_sequence(const unsigned char *s, size_t n)
-{
-    const unsigned c = s[0];
-    if (c < 0x80)
-        return 1;
-    size_t len;
-    unsigned lo = 0x80, hi = 0xBF; /* allowed range of the second byte */
-    if (c >= 0xC2 && c <= 0xDF)
-        len = 2;
-    else if (c >= 0xE0 && c <= 0xEF) {
-        len = 3;
-        if (c == 0xE0)
-            lo = 0xA0; /* overlong */
-        else if (c == 0xED)
-            hi = 0x9F; /* surrogates */
-    } else if (c >= 0xF0 && c <= 0xF4) {
-        len = 4;
-        if (c == 0xF0)
-            lo = 0x90; /* overlong */
-        else if (c == 0xF4)
-            hi = 0x8F; /* above U+10FFFF */
-    } else
-        return 0;
-    if (n < len || s[1] < lo || s[1] > hi)
-        return 0;
-    for (size_t k = 2; k < len; k++)
-        if (s[k] < 0x80 || s[k] > 0xBF)
-            return 0;
-    return len;
-}
-
 void rto__utf8_copy(char *dst, size_t cap, const char *src, size_t len)
 {
     if (!cap)
         return;
-    const unsigned char *s = (const unsigned char *)src;
-    size_t at = 0, i = 0;
-    while (i < len) {
-        size_t k = utf8_sequence(s + i, len - i);
-        /* Control characters would break the one-line-per-item text output; invalid bytes, the JSON writers. */
-        const int replace = k == 0 || (k == 1 && (s[i] < 0x20 || s[i] == 0x7F));
-        const size_t out = replace ? 1 : k;
-        if (at + out > cap - 1)
-            break; /* never cut a character: leave it out whole */
-        if (replace)
-            dst[at] = '?';
-        else
-            memmove(dst + at, s + i, k); /* memmove: rto__utf8_fix copies a string onto itself */
-        at += out;
-        i += replace ? 1 : k;
+    /* rto_utf8_repair writes at least one byte for every byte it reads, so no byte past the first cap + 3 can reach
+     * dst: a bounded copy of those, with control characters made '?', is all it needs to see. */
+    char tmp[RTO__UTF8_COPY_MAX + 4];
+    size_t n = len < cap + 3 ? len : cap + 3;
+    if (n > RTO__UTF8_COPY_MAX + 3)
+        n = RTO__UTF8_COPY_MAX + 3;
+    for (size_t i = 0; i < n; i++) {
+        const unsigned char c = (unsigned char)src[i];
+        tmp[i] = c < 0x20 || c == 0x7F ? '?' : (char)c;
     }
-    dst[at] = '\0';
+    tmp[n] = '\0';
+    rto_utf8_repair(tmp, dst, cap < RTO__UTF8_COPY_MAX ? cap : RTO__UTF8_COPY_MAX);
 }
 
-void rto__utf8_fix(char *s)
+void rto__utf8_fix(char *s, size_t cap)
 {
-    rto__utf8_copy(s, strlen(s) + 1, s, strlen(s));
+    rto__utf8_copy(s, cap, s, strlen(s));
 }
 
 rto_camera rto_camera_default(void)
@@ -107,25 +69,11 @@ void rto__scene_warn(rto_scene *scene, const char *fmt, ...)
         vsnprintf(w, sizeof scene->warnings[0], fmt, ap);
         va_end(ap);
         /* One line each, valid UTF-8: a warning quoting file content must not break the CLI's line-per-warning
-         * output, and vsnprintf or a "%.60s" may have cut a character; what that cut leaves is dropped or '?'. */
+         * output, and vsnprintf or a "%.60s" may have cut a character. */
         for (char *p = w; *p; p++)
             if (*p == '\n' || *p == '\r' || *p == '\t')
                 *p = ' ';
-        size_t n = strlen(w);
-        const unsigned char *u = (const unsigned char *)w;
-        /* A sequence cut by the end of the buffer is left out rather than replaced. */
-        for (size_t back = 1; back <= 3 && back <= n; back++) {
-            const unsigned char c = u[n - back];
-            if (c < 0x80)
-                break;
-            if (c >= 0xC0) {
-                const size_t need = c >= 0xF0 ? 4 : c >= 0xE0 ? 3 : 2;
-                if (need > back)
-                    w[n - back] = '\0';
-                break;
-            }
-        }
-        rto__utf8_fix(w);
+        rto__utf8_fix(w, sizeof scene->warnings[0]);
     }
     if (scene->warning_count < UINT32_MAX)
         scene->warning_count++;

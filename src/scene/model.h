@@ -6,6 +6,11 @@
 
 #include "rtoracle.h"
 
+/* Library-private (like internal.h): not exported from librtoracle.so. */
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -28,22 +33,25 @@ extern "C" {
 void rto__load_desc_resolve(const rto_scene_load_desc *desc, rto_scene_load_desc *out);
 
 /** Records a warning: counts it and keeps the text of the first RTO_SCENE_MAX_WARNINGS (one line, valid UTF-8,
- * truncated at a character boundary). */
+ * cut at a character boundary). */
 void rto__scene_warn(rto_scene *scene, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 2, 3)))
 #endif
     ;
 
+/* The largest cap rto__utf8_copy fills (the scene's text arrays and rto_msg are smaller). */
+#define RTO__UTF8_COPY_MAX 1024
+
 /**
- * Copies len bytes of src into dst (cap bytes, always terminated) as valid UTF-8: a byte that starts no valid
- * sequence, and a control character, becomes '?'; a character that does not fit whole is left out rather than cut.
- * Scene names and warnings go to JSON writers, which refuse invalid UTF-8.
+ * Copies len bytes of src into dst (cap bytes, always terminated) as valid UTF-8: control characters become '?'
+ * (one line per item in the text output), ill-formed parts U+FFFD (rto_utf8_repair), and a character that does not
+ * fit whole is left out rather than cut. Scene names, warnings and messages go to JSON writers and one-line outputs.
  */
 void rto__utf8_copy(char *dst, size_t cap, const char *src, size_t len);
 
-/** rto__utf8_copy of a C string onto itself (the result is never longer). */
-void rto__utf8_fix(char *s);
+/** rto__utf8_copy of the string in s (an array of cap bytes) onto itself. */
+void rto__utf8_fix(char *s, size_t cap);
 
 /** The box through m: the 8 corners of box through rto_mat34_point, in a fixed order; empty stays empty. */
 rto_aabb rto__aabb_transform(const rto_mat34 *m, const rto_aabb *box);
@@ -57,6 +65,10 @@ rto_status rto__scene_validate(const rto_scene *scene, rto_msg *msg);
 
 #ifdef __cplusplus
 }
+#endif
+
+#if defined(__GNUC__)
+#pragma GCC visibility pop
 #endif
 
 #endif

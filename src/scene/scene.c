@@ -63,7 +63,7 @@ rto_status rto_scene_load_ex(const char *spec, const rto_scene_load_desc *desc, 
         else
             rto_fail(msg, st, "%s", why.text);
         if (msg)
-            rto__utf8_fix(msg->text);
+            rto__utf8_fix(msg->text, sizeof msg->text);
         return st;
     }
     *out = s;

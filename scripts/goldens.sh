@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Writes the committed golden bundles (fixtures/golden/) into OUTDIR with the given rtoracle binary:
+#   bash scripts/goldens.sh RTORACLE OUTDIR
+# One line per bundle below; later stages append theirs. Paths are relative to the repository root (the manifests
+# record them), so run this from the root. Used by scripts/update-goldens.sh (on purpose) and tests/golden.sh (CI).
+set -euo pipefail
+rto=$1
+out=$2
+mkdir -p "$out"
+# Sort: every centroid distribution at a small, a checkpointed tile-crossing size and a larger one, bitonic and radix (u32),
+# and the u64 format at one size.
+"$rto" suite sort --dists centroid --sizes 3,257,4097 --formats u32 --algos bitonic,radix \
+    --checkpoint-max 512 -o "$out/sort-u32" >/dev/null
+"$rto" suite sort --dists centroid --sizes 257 --formats u64 --algos bitonic --checkpoint-max 512 \
+    -o "$out/sort-u64" >/dev/null
+# Builds: the procedural scenes, both TLAS layouts, and the small and large fixture scenes.
+"$rto" build triangle -o "$out/build-triangle" 2>/dev/null
+"$rto" build rtstress:2 -o "$out/build-rtstress-2" 2>/dev/null
+"$rto" build rtstress:2 --tlas karras -o "$out/build-rtstress-2-karras" 2>/dev/null
+"$rto" build fixtures/Box/glTF/Box.gltf -o "$out/build-Box" 2>/dev/null
+"$rto" build fixtures/SimpleMeshes/glTF/SimpleMeshes.gltf -o "$out/build-SimpleMeshes" 2>/dev/null
+"$rto" build fixtures/StanfordBunny/bunny.gltf -o "$out/build-bunny" 2>/dev/null

@@ -1,0 +1,393 @@
+/* Atomic output (DESIGN.md §8): every file or bundle directory is written under a temporary sibling name
+ * (`TARGET.tmp.XXXXXX`) and renamed into place, so a reader never sees half an output and a failed run never leaves
+ * one behind. This file owns the three rules every writer shares:
+ *
+ *  - Temporary names are created with mkdir(0777) / open(0666), so the process umask (and a default ACL) applies
+ *    exactly as it would to a plain `mkdir` or `>` redirection; mkdtemp / mkstemp would force 0700 / 0600.
+ *  - Every temporary in existence is listed in a fixed-size registry that a SIGINT / SIGTERM handler can walk with
+ *    async-signal-safe calls only (rto_temporaries_remove), so an interrupted run leaves no `*.tmp.*` behind.
+ *    Creation + registration and rename + deregistration run with those signals blocked, so the handler never sees
+ *    a temporary that is not listed, nor a listed name that already holds the finished output.
+ *  - A target that is not a regular file is never replaced: a symbolic link is followed (its target is replaced,
+ *    the link stays), a directory or device is refused. */
+#define _GNU_SOURCE /* O_DIRECTORY, O_NOFOLLOW, O_CLOEXEC, SYS_getdents64 */
+#include "internal.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/syscall.h>
+#include <time.h>
+#include <unistd.h>
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* The registry. Slots hold the path itself (no pointer a handler could find freed). A slot is FREE, being FILLED,
+ * or LIVE; only LIVE slots are removed by the handler. 32 slots cover the deepest nesting a writer uses (suite
+ * directory, case directory, one .npy) many times over; a temporary that finds no slot is still written and
+ * renamed as usual, it just is not cleaned up on a signal. */
+
+#define TMP_SLOTS 32
+enum { SLOT_FREE, SLOT_FILLING, SLOT_LIVE };
+
+static struct {
+    atomic_int state;
+    char path[PATH_MAX];
+} g_slots[TMP_SLOTS];
+
+/* Slots are keyed by the path as the writer names it; the handler removes the absolute path kept beside it, so a
+ * later chdir by the program does not point it at the wrong place. */
+static char g_keys[TMP_SLOTS][PATH_MAX];
+
+static void registry_add(const char *path)
+{
+    size_t len = strlen(path), pre = 0;
+    char cwd[PATH_MAX];
+    if (path[0] != '/') {
+        if (!getcwd(cwd, sizeof cwd))
+            return;
+        pre = strlen(cwd) + 1;
+    }
+    if (len >= PATH_MAX || pre + len >= PATH_MAX)
+        return;
+    for (int i = 0; i < TMP_SLOTS; i++) {
+        int expected = SLOT_FREE;
+        if (atomic_compare_exchange_strong(&g_slots[i].state, &expected, SLOT_FILLING)) {
+            if (pre) {
+                memcpy(g_slots[i].path, cwd, pre - 1);
+                g_slots[i].path[pre - 1] = '/';
+            }
+            memcpy(g_slots[i].path + pre, path, len + 1);
+            memcpy(g_keys[i], path, len + 1);
+            atomic_store(&g_slots[i].state, SLOT_LIVE);
+            return;
+        }
+    }
+}
+
+static void registry_remove(const char *path)
+{
+    for (int i = 0; i < TMP_SLOTS; i++) {
+        int expected = SLOT_LIVE;
+        if (atomic_load(&g_slots[i].state) == SLOT_LIVE && strcmp(g_keys[i], path) == 0 &&
+            atomic_compare_exchange_strong(&g_slots[i].state, &expected, SLOT_FILLING)) {
+            atomic_store(&g_slots[i].state, SLOT_FREE);
+            return;
+        }
+    }
+}
+
+/* The signals whose default action ends the process and that a user sends to stop a run. */
+static void stop_signals(sigset_t *set)
+{
+    sigemptyset(set);
+    sigaddset(set, SIGINT);
+    sigaddset(set, SIGTERM);
+    sigaddset(set, SIGHUP);
+}
+
+void rto_signals_hold(sigset_t *old)
+{
+    sigset_t set;
+    stop_signals(&set);
+    /* Per thread on Linux; a process-directed signal goes to a thread that does not block it, which on Linux is
+     * the main thread whenever it can take it, i.e. the one writing. */
+    sigprocmask(SIG_BLOCK, &set, old);
+}
+
+void rto_signals_release(const sigset_t *old) { sigprocmask(SIG_SETMASK, old, NULL); }
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Removal from a signal handler: openat / getdents64 / unlinkat / close only (no opendir, no malloc, no stdio). */
+
+struct dirent64_raw {
+    uint64_t d_ino;
+    int64_t d_off;
+    unsigned short d_reclen;
+    unsigned char d_type;
+    char d_name[];
+};
+
+/* Our temporaries nest three deep at most (suite / case / file); the limit only bounds the stack. */
+#define REMOVE_DEPTH_MAX 8
+
+static void remove_at(int parent, const char *name, int depth)
+{
+    if (unlinkat(parent, name, 0) == 0 || errno == ENOENT)
+        return;
+    if (depth >= REMOVE_DEPTH_MAX)
+        return;
+    int fd = openat(parent, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0)
+        return;
+    /* Entries are removed while the directory is read; a second sweep from the start catches any a filesystem's
+     * readdir cursor skipped. */
+    for (int sweep = 0; sweep < 3; sweep++) {
+        _Alignas(8) char buf[2048];
+        long got;
+        while ((got = syscall(SYS_getdents64, fd, buf, sizeof buf)) > 0) {
+            for (long off = 0; off < got;) {
+                const struct dirent64_raw *e = (const struct dirent64_raw *)(buf + off);
+                off += e->d_reclen;
+                if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0)
+                    remove_at(fd, e->d_name, depth + 1);
+            }
+        }
+        if (unlinkat(parent, name, AT_REMOVEDIR) == 0 || errno != ENOTEMPTY)
+            break;
+        lseek(fd, 0, SEEK_SET);
+    }
+    close(fd);
+}
+
+void rto_temporaries_remove(void)
+{
+    int saved = errno;
+    for (int i = 0; i < TMP_SLOTS; i++)
+        if (atomic_load(&g_slots[i].state) == SLOT_LIVE)
+            remove_at(AT_FDCWD, g_slots[i].path, 0);
+    errno = saved;
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+
+/* Six characters of [0-9A-Za-z] from a counter, the pid and the clock: names differ between tries and processes;
+ * O_EXCL, not the name, is what makes creation safe. */
+static void random_suffix(char out[7])
+{
+    static const char alphabet[] = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz";
+    static atomic_uint counter;
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    uint32_t x = rto_hash32(atomic_fetch_add(&counter, 1) ^ rto_hash32((uint32_t)getpid()) ^
+                            rto_hash32((uint32_t)ts.tv_nsec ^ (uint32_t)ts.tv_sec));
+    uint32_t y = rto_hash32(x ^ 0x9e3779b9u);
+    for (int i = 0; i < 6; i++) {
+        out[i] = alphabet[(i < 3 ? x : y) % 62];
+        if (i < 3)
+            x /= 62;
+        else
+            y /= 62;
+    }
+    out[6] = '\0';
+}
+
+rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp_out, int *fd_out, rto_msg *msg)
+{
+    *tmp_out = NULL;
+    if (fd_out)
+        *fd_out = -1;
+    size_t len = strlen(target);
+    char *tmp = malloc(len + 12);
+    if (!tmp)
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    int err = EEXIST;
+    for (int attempt = 0; attempt < 100 && err == EEXIST; attempt++) {
+        char suffix[7];
+        random_suffix(suffix);
+        snprintf(tmp, len + 12, "%s.tmp.%s", target, suffix);
+        sigset_t old;
+        rto_signals_hold(&old);
+        int fd = -1, ok;
+        if (is_dir)
+            ok = mkdir(tmp, 0777) == 0;
+        else
+            ok = (fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666)) >= 0;
+        err = ok ? 0 : errno;
+        if (ok)
+            registry_add(tmp);
+        rto_signals_release(&old);
+        if (ok) {
+            *tmp_out = tmp;
+            if (fd_out)
+                *fd_out = fd;
+            return RTO_OK;
+        }
+    }
+    free(tmp);
+    return rto_fail(msg, RTO_ERR_IO, "cannot create a temporary %s beside %s: %s", is_dir ? "directory" : "file",
+                    target, strerror(err));
+}
+
+void rto_tmp_forget(const char *tmp)
+{
+    if (tmp)
+        registry_remove(tmp);
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+
+/* Refuses a path whose directory does not exist, with a message that says so rather than ENOENT on a temporary. */
+static rto_status check_parent(const char *path, const char *what, rto_msg *msg)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash)
+        return RTO_OK;
+    size_t n = slash == path ? 1 : (size_t)(slash - path);
+    char *parent = strndup(path, n);
+    if (!parent)
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    struct stat st;
+    rto_status s = RTO_OK;
+    if (stat(parent, &st) != 0)
+        s = rto_fail(msg, RTO_ERR_IO, "cannot write %s %s: directory %s: %s", what, path, parent, strerror(errno));
+    else if (!S_ISDIR(st.st_mode))
+        s = rto_fail(msg, RTO_ERR_IO, "cannot write %s %s: %s is not a directory", what, path, parent);
+    free(parent);
+    return s;
+}
+
+rto_status rto_output_target(const char *path, bool is_dir, bool allow_special, char **where, bool *in_place,
+                             rto_msg *msg)
+{
+    *where = NULL;
+    *in_place = false;
+    const char *what = is_dir ? "bundle" : "file";
+    struct stat st;
+    if (lstat(path, &st) != 0) {
+        if (errno != ENOENT)
+            return rto_fail(msg, RTO_ERR_IO, "cannot write %s %s: %s", what, path, strerror(errno));
+        rto_status s = check_parent(path, what, msg);
+        if (s)
+            return s;
+        *where = strdup(path);
+        return *where ? RTO_OK : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    /* A link is followed to what it names (the link stays a link), and "." / ".." are named by their real path, so
+     * the temporary sibling and the rename happen where the output really is. */
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    char *real = NULL;
+    if (S_ISLNK(st.st_mode) || !strcmp(base, ".") || !strcmp(base, "..") || !*base) {
+        real = realpath(path, NULL);
+        if (!real && errno == ENOMEM)
+            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        if (!real)
+            return rto_fail(msg, RTO_ERR_IO, "refusing to write %s %s: it is a symbolic link to a missing path (%s)",
+                            what, path, strerror(errno));
+        if (stat(real, &st) != 0) {
+            rto_status s = rto_fail(msg, RTO_ERR_IO, "cannot write %s %s: %s", what, real, strerror(errno));
+            free(real);
+            return s;
+        }
+    }
+    const char *arrow = real ? " -> " : "", *shown = real ? real : "";
+    rto_status s = RTO_OK;
+    if (is_dir && !S_ISDIR(st.st_mode))
+        s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s%s%s: it exists and is not a directory", path, arrow,
+                     shown);
+    else if (!is_dir && S_ISDIR(st.st_mode))
+        s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s%s%s: it is a directory", path, arrow, shown);
+    else if (!is_dir && !S_ISREG(st.st_mode) && !(allow_special && (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode))))
+        s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s%s%s: it is not a regular file", path, arrow, shown);
+    else if (!is_dir && !S_ISREG(st.st_mode))
+        *in_place = true; /* /dev/null, a pipe: written through the name as given, never unlinked */
+    if (!s) {
+        if (*in_place || !real) {
+            free(real);
+            real = strdup(path);
+        }
+        *where = real;
+        real = NULL;
+        if (!*where)
+            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    free(real);
+    return s;
+}
+
+rto_status rto_atomic_open(rto_atomic_file *f, const char *path, bool allow_special, rto_msg *msg)
+{
+    memset(f, 0, sizeof *f);
+    rto_status s = rto_output_target(path, false, allow_special, &f->path, &f->in_place, msg);
+    if (s)
+        return s;
+    int fd = -1;
+    if (f->in_place) {
+        fd = open(f->path, O_WRONLY | O_CLOEXEC);
+        if (fd < 0)
+            s = rto_fail(msg, RTO_ERR_IO, "cannot open %s: %s", path, strerror(errno));
+    } else {
+        s = rto_tmp_create(f->path, false, &f->tmp, &fd, msg);
+    }
+    if (!s) {
+        f->fp = fdopen(fd, "wb");
+        if (!f->fp) {
+            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot open a stream on %s: %s", path, strerror(errno));
+            close(fd);
+        }
+    }
+    if (s)
+        rto_atomic_discard(f);
+    return s;
+}
+
+rto_status rto_atomic_close(rto_atomic_file *f, rto_msg *msg)
+{
+    rto_status s = RTO_OK;
+    errno = 0;
+    if (f->fp) {
+        bool bad = fflush(f->fp) != 0 || ferror(f->fp);
+        int e = errno;
+        if (fclose(f->fp) != 0 && !bad) {
+            bad = true;
+            e = errno;
+        }
+        f->fp = NULL;
+        if (bad)
+            s = rto_fail(msg, RTO_ERR_IO, "writing %s: %s", f->path, strerror(e ? e : EIO));
+    }
+    if (!s && f->tmp) {
+        sigset_t old;
+        rto_signals_hold(&old);
+        if (rename(f->tmp, f->path) != 0) {
+            s = rto_fail(msg, RTO_ERR_IO, "cannot rename %s to %s: %s", f->tmp, f->path, strerror(errno));
+        } else {
+            rto_tmp_forget(f->tmp);
+            free(f->tmp);
+            f->tmp = NULL;
+        }
+        rto_signals_release(&old);
+    }
+    rto_atomic_discard(f);
+    return s;
+}
+
+void rto_atomic_discard(rto_atomic_file *f)
+{
+    if (f->fp)
+        fclose(f->fp);
+    if (f->tmp) {
+        sigset_t old;
+        rto_signals_hold(&old);
+        unlink(f->tmp);
+        rto_tmp_forget(f->tmp);
+        rto_signals_release(&old);
+    }
+    free(f->tmp);
+    free(f->path);
+    memset(f, 0, sizeof *f);
+}
+
+rto_status rto_file_write(const char *path, const void *data, size_t len, rto_msg *msg)
+{
+    if (!path || (!data && len))
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path or data");
+    rto_atomic_file f;
+    rto_status s = rto_atomic_open(&f, path, false, msg);
+    if (s)
+        return s;
+    errno = 0;
+    bool ok = fwrite(data, 1, len, f.fp) == len;
+    if (!ok) {
+        int e = errno;
+        rto_atomic_discard(&f);
+        return rto_fail(msg, RTO_ERR_IO, "writing %s: %s", path, strerror(e ? e : EIO));
+    }
+    return rto_atomic_close(&f, msg);
+}

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# `meson install` of a build into a scratch prefix, then a user's program (tests/install_consumer.c) built against the
+# installed copy through pkg-config — as C, as C++, and statically — and run.
+#   bash tests/install.sh BUILDDIR
+set -u
+B=$1
+. "$(dirname "$0")/cli_lib.sh"
+SRC=$(cd "$(dirname "$0")" && pwd)
+meson install -C "$B" --destdir "$T/root" --no-rebuild --quiet >"$T/install.log" 2>&1 ||
+    { fail "meson install"; sed 's/^/    | /' "$T/install.log" | tail; finish ""; }
+prefix=$(meson introspect "$B" --buildoptions | python3 -c 'import json,sys; print([o["value"] for o in json.load(sys.stdin) if o["name"]=="prefix"][0])')
+root=$T/root$prefix
+pc=$(find "$root" -name rtoracle.pc | head -1)
+[ -n "$pc" ] || { fail "rtoracle.pc not installed"; finish ""; }
+[ -x "$root/bin/rtoracle" ] || fail "rtoracle command not installed"
+[ -f "$root/include/rtoracle.h" ] || fail "rtoracle.h not installed"
+export PKG_CONFIG_PATH=$(dirname "$pc")
+pcf() { pkg-config --define-variable=prefix="$root" "$@" rtoracle; }
+libdir=$(pcf --variable=libdir)
+run 0 cc -std=c11 -Wall -Werror $(pcf --cflags) "$SRC/install_consumer.c" -o "$T/c" $(pcf --libs) &&
+    LD_LIBRARY_PATH=$libdir run 0 "$T/c" && has "fault order at slot 100" out
+run 0 c++ -x c++ -std=c++17 -Wall -Werror $(pcf --cflags) "$SRC/install_consumer.c" -o "$T/cxx" $(pcf --libs) &&
+    LD_LIBRARY_PATH=$libdir run 0 "$T/cxx"
+run 0 cc -std=c11 $(pcf --cflags) "$SRC/install_consumer.c" -o "$T/static" \
+    "$libdir/librtoracle.a" $(pcf --static --libs-only-l | sed 's/-lrtoracle//') && run 0 "$T/static"
+# The shared library exports the public API only.
+nm -D --defined-only "$libdir/librtoracle.so" | awk '{print $3}' | grep -v '^rto_' | head -5 >"$T/extra"
+[ -s "$T/extra" ] && fail "librtoracle.so exports non-rto_ symbols: $(tr '\n' ' ' <"$T/extra")"
+LD_LIBRARY_PATH=$libdir run 0 "$root/bin/rtoracle" --version && has rtoracle out
+finish "install: rtoracle, librtoracle (.so, .a), rtoracle.h and rtoracle.pc installed; a pkg-config build links and runs"
