@@ -1,16 +1,29 @@
-/* Acceleration-structure benchmarks: the oracle's BLAS build (BLAS keys, bitonic sort, Karras tree, boxes) of the
- * Stanford bunny and of 2CylinderEngine, and its sweep TLAS over 65,536 instances, each as Mprims/s beside Embree's
- * rtcCommitScene on the same geometry in the same process (median of RUNS runs). Embree runs with one thread, like
- * the oracle, and at two build qualities: LOW (its Morton builder, the closest relative of an LBVH) and MEDIUM (its
- * default binned-SAH builder). Usage: bench_bvh [bunny.gltf] [2CylinderEngine.glb]. */
+/* Acceleration-structure benchmark: the oracle's build (rto_accel_build: boxes, keys, radix sort, trees, statistics;
+ * one thread) beside Embree's two builders on the same geometry in the same process, median of RUNS runs each:
+ *   - LOW: Embree's Morton builder, the closest relative of an LBVH. Embree picks it only when both the scene
+ *     (rtcSetSceneBuildQuality, which selects the two-level builder) and the geometry (rtcSetGeometryBuildQuality,
+ *     which selects Morton for that geometry) ask for RTC_BUILD_QUALITY_LOW;
+ *   - MEDIUM: its default binned-SAH builder;
+ * each on a device with "threads=1" and on one with the default thread count (every hardware thread).
+ * Cases: the BLAS of every mesh of the bunny and of 2CylinderEngine (one Embree scene per mesh, as the oracle builds
+ * one BLAS per mesh; vertex and index buffers are filled before the clock starts, as the oracle's scene is loaded
+ * before it), and the TLAS of instances:uniform:65536, where Embree's timed region includes creating the 65,536
+ * instance geometries, as the oracle's includes its instance-box pass (the commit alone is printed beside it), and,
+ * as a second Embree TLAS, one user geometry of 65,536 boxes whose bounds callback transforms the instanced mesh's
+ * box as the oracle's instance-box pass does (no geometry object per instance). The oracle's timed region is the whole
+ * rto_accel_build, so the BLAS cases include its TLAS over the scene's few instances, and the TLAS case the one
+ * 12-triangle BLAS of the box.
+ * Usage: bench_bvh [bunny.gltf] [2CylinderEngine.glb]. RTO_BENCH_EMBREE_CONFIG is appended to both devices' config
+ * (e.g. "verbose=2" prints the builder Embree picked). */
+#define _GNU_SOURCE
 #include "rtoracle.h"
 #include "bench_util.h"
 
 #include <embree3/rtcore.h>
+#include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 static void die(const char *what, const rto_msg *msg)
 {
@@ -18,25 +31,47 @@ static void die(const char *what, const rto_msg *msg)
     exit(1);
 }
 
-/* The oracle's BLAS build of one mesh; returns seconds. */
-static double oracle_blas(const rto_mesh *m)
+/* The Embree configurations, in print order. */
+typedef struct econf {
+    const char *name;
+    enum RTCBuildQuality q;
+    int dev; /* 0: threads=1, 1: default thread count */
+} econf;
+
+static const econf confs[] = {
+    {"embree LOW (Morton)", RTC_BUILD_QUALITY_LOW, 0},
+    {"embree LOW (Morton)", RTC_BUILD_QUALITY_LOW, 1},
+    {"embree MEDIUM (SAH)", RTC_BUILD_QUALITY_MEDIUM, 0},
+    {"embree MEDIUM (SAH)", RTC_BUILD_QUALITY_MEDIUM, 1},
+};
+#define NCONF (sizeof confs / sizeof confs[0])
+
+static RTCDevice devices[2];
+static int hw_threads;
+
+static RTCDevice new_device(const char *base)
 {
-    size_t n = m->triangle_count, np = rto_next_pow2(n);
-    uint64_t *keys = malloc(n * 8), *sorted = malloc(np * 8);
-    rto_aabb *boxes = malloc(n * sizeof *boxes);
-    rto_bvh_node *nodes = malloc((n ? n : 1) * sizeof *nodes);
+    const char *extra = getenv("RTO_BENCH_EMBREE_CONFIG");
+    char cfg[256];
+    snprintf(cfg, sizeof cfg, "%s%s%s", base, *base && extra ? "," : "", extra ? extra : "");
+    RTCDevice d = rtcNewDevice(cfg);
+    if (!d || rtcGetDeviceError(d) != RTC_ERROR_NONE) {
+        fprintf(stderr, "bench_bvh: rtcNewDevice(\"%s\") failed\n", cfg);
+        exit(1);
+    }
+    return d;
+}
+
+/* The oracle: the whole build the command and the tracer run. Returns seconds. */
+static double oracle_build(const rto_scene *s)
+{
     rto_msg msg = {{0}};
+    rto_accel *acc = NULL;
     double t0 = now();
-    for (size_t t = 0; t < n; t++)
-        boxes[t] = rto_mesh_triangle_aabb(m, (uint32_t)t);
-    if (rto_mesh_keys(m, keys, &msg) || rto_bitonic_sort(RTO_KEY_U64, keys, n, sorted, NULL, NULL, &msg) ||
-        rto_karras_build(RTO_KEY_U64, sorted, n, boxes, nodes, &msg))
-        die("oracle BLAS", &msg);
+    if (rto_accel_build(s, NULL, &acc, &msg))
+        die("rto_accel_build", &msg);
     double t = now() - t0;
-    free(keys);
-    free(sorted);
-    free(boxes);
-    free(nodes);
+    rto_accel_destroy(acc);
     return t;
 }
 
@@ -45,6 +80,7 @@ static RTCScene embree_mesh_scene(RTCDevice dev, const rto_mesh *m, enum RTCBuil
     RTCScene sc = rtcNewScene(dev);
     rtcSetSceneBuildQuality(sc, q);
     RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(g, q);
     float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, m->vertex_count);
     unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, m->triangle_count);
     memcpy(vb, m->positions, (size_t)m->vertex_count * 12);
@@ -55,12 +91,14 @@ static RTCScene embree_mesh_scene(RTCDevice dev, const rto_mesh *m, enum RTCBuil
     return sc;
 }
 
-/* Embree's rtcCommitScene over every mesh of a scene, one scene per mesh as the oracle builds one BLAS each. */
-static double embree_blas(RTCDevice dev, const rto_scene *s, enum RTCBuildQuality q)
+/* rtcCommitScene of one scene per mesh (empty meshes have no BLAS to build). Returns seconds. */
+static double embree_blas(const rto_scene *s, const econf *c)
 {
     double total = 0;
     for (uint32_t m = 0; m < s->mesh_count; m++) {
-        RTCScene sc = embree_mesh_scene(dev, &s->meshes[m], q);
+        if (!s->meshes[m].triangle_count)
+            continue;
+        RTCScene sc = embree_mesh_scene(devices[c->dev], &s->meshes[m], c->q);
         double t0 = now();
         rtcCommitScene(sc);
         total += now() - t0;
@@ -69,7 +107,94 @@ static double embree_blas(RTCDevice dev, const rto_scene *s, enum RTCBuildQualit
     return total;
 }
 
-static void bench_blas(RTCDevice dev, const char *path)
+/* Instance creation and rtcCommitScene of the top-level scene over a committed BLAS. Returns seconds, and the
+ * commit's alone in *commit. */
+static double embree_tlas(const rto_scene *s, RTCScene blas, const econf *c, double *commit)
+{
+    RTCDevice dev = devices[c->dev];
+    double t0 = now();
+    RTCScene top = rtcNewScene(dev);
+    rtcSetSceneBuildQuality(top, c->q);
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
+        rtcSetGeometryBuildQuality(g, c->q);
+        rtcSetGeometryInstancedScene(g, blas);
+        rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, s->instances[i].obj_to_world.m);
+        rtcCommitGeometry(g);
+        rtcAttachGeometry(top, g);
+        rtcReleaseGeometry(g);
+    }
+    double t1 = now();
+    rtcCommitScene(top);
+    double t = now() - t0;
+    *commit = now() - t1;
+    rtcReleaseScene(top);
+    return t;
+}
+
+typedef struct user_tlas {
+    const rto_scene *scene;
+    rto_aabb mesh_box; /* object-space box of the one instanced mesh */
+} user_tlas;
+
+/* Embree's bounds callback: the instance's world box, the mesh box through objToWorld as the oracle computes it. */
+static void user_bounds(const struct RTCBoundsFunctionArguments *args)
+{
+    const user_tlas *u = args->geometryUserPtr;
+    rto_aabb w = rto_aabb_transform(&u->scene->instances[args->primID].obj_to_world, &u->mesh_box);
+    args->bounds_o->lower_x = w.min.x;
+    args->bounds_o->lower_y = w.min.y;
+    args->bounds_o->lower_z = w.min.z;
+    args->bounds_o->upper_x = w.max.x;
+    args->bounds_o->upper_y = w.max.y;
+    args->bounds_o->upper_z = w.max.z;
+}
+
+/* One user geometry of instance_count boxes and rtcCommitScene. Returns seconds. */
+static double embree_user_tlas(const user_tlas *u, const econf *c)
+{
+    RTCDevice dev = devices[c->dev];
+    double t0 = now();
+    RTCScene top = rtcNewScene(dev);
+    rtcSetSceneBuildQuality(top, c->q);
+    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_USER);
+    rtcSetGeometryBuildQuality(g, c->q);
+    rtcSetGeometryUserPrimitiveCount(g, u->scene->instance_count);
+    rtcSetGeometryUserData(g, (void *)(uintptr_t)u);
+    rtcSetGeometryBoundsFunction(g, user_bounds, NULL);
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(top, g);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(top);
+    double t = now() - t0;
+    rtcReleaseScene(top);
+    return t;
+}
+
+/* The oracle's row, then one per Embree configuration (suffix: "" or " user"; note: NULL or one per row). */
+static void print_rows(const char *label, uint64_t prims, double oracle, const double *embree, const char *suffix,
+                       const double *note)
+{
+    if (label)
+        printf("%-36s %8llu  %-24s %7s %9.2f %9.2f %12s\n", label, (unsigned long long)prims,
+               "oracle rto_accel_build", "1", oracle * 1e3, (double)prims / oracle * 1e-6, "1.00");
+    for (size_t c = 0; c < NCONF; c++) {
+        char name[64], extra[64] = "";
+        snprintf(name, sizeof name, "%s%s", confs[c].name, suffix);
+        if (note)
+            snprintf(extra, sizeof extra, "  (commit alone %.2f ms)", note[c] * 1e3);
+        char threads[16], ratio[16];
+        if (confs[c].dev)
+            snprintf(threads, sizeof threads, "all(%d)", hw_threads);
+        else
+            snprintf(threads, sizeof threads, "1");
+        snprintf(ratio, sizeof ratio, "%.2f", oracle / embree[c]);
+        printf("%-36s %8s  %-24s %7s %9.2f %9.2f %12s%s\n", "", "", name, threads, embree[c] * 1e3,
+               (double)prims / embree[c] * 1e-6, ratio, extra);
+    }
+}
+
+static void bench_blas(const char *path)
 {
     rto_msg msg = {{0}};
     rto_scene *s = NULL;
@@ -80,85 +205,85 @@ static void bench_blas(RTCDevice dev, const char *path)
     uint64_t tris = 0;
     for (uint32_t m = 0; m < s->mesh_count; m++)
         tris += s->meshes[m].triangle_count;
-    double to[RUNS], tl[RUNS], tm[RUNS];
+    double to[RUNS], te[NCONF][RUNS], me[NCONF];
     for (int r = 0; r < RUNS; r++) {
-        to[r] = 0;
-        for (uint32_t m = 0; m < s->mesh_count; m++)
-            to[r] += oracle_blas(&s->meshes[m]);
-        tl[r] = embree_blas(dev, s, RTC_BUILD_QUALITY_LOW);
-        tm[r] = embree_blas(dev, s, RTC_BUILD_QUALITY_MEDIUM);
+        to[r] = oracle_build(s);
+        for (size_t c = 0; c < NCONF; c++)
+            te[c][r] = embree_blas(s, &confs[c]);
     }
-    double o = median(to), l = median(tl), md = median(tm);
+    for (size_t c = 0; c < NCONF; c++)
+        me[c] = median(te[c]);
     const char *base = strrchr(path, '/');
-    printf("BLAS %-22s %8llu tris %3u meshes | oracle %8.2f ms %7.2f Mprims/s | embree LOW %7.2f ms %7.2f Mprims/s"
-           " | MEDIUM %7.2f ms %7.2f Mprims/s | oracle/LOW %5.1fx oracle/MEDIUM %5.1fx\n",
-           base ? base + 1 : path, (unsigned long long)tris, s->mesh_count, o * 1e3, (double)tris / o * 1e-6,
-           l * 1e3, (double)tris / l * 1e-6, md * 1e3, (double)tris / md * 1e-6, o / l, o / md);
+    char label[128];
+    snprintf(label, sizeof label, "BLAS %s (%u meshes)", base ? base + 1 : path, s->mesh_count);
+    print_rows(label, tris, median(to), me, "", NULL);
     rto_scene_destroy(s);
 }
 
-static void bench_tlas(RTCDevice dev, const char *spec)
+static void bench_tlas(const char *spec)
 {
     rto_msg msg = {{0}};
     rto_scene *s = NULL;
     if (rto_scene_load(spec, &s, &msg))
         die(spec, &msg);
-    const size_t n = s->instance_count, np = rto_next_pow2(n);
-    rto_aabb *boxes = malloc(n * sizeof *boxes);
-    uint32_t *keys = malloc(n * 4), *sorted = malloc(np * 4);
-    rto_tlas_node *nodes = malloc(rto_tlas_sweep_node_count(n) * sizeof *nodes);
-    RTCScene blas = embree_mesh_scene(dev, &s->meshes[0], RTC_BUILD_QUALITY_MEDIUM);
-    rtcCommitScene(blas);
-    double to[RUNS], te[2][RUNS];
+    RTCScene blas[2];
+    for (int d = 0; d < 2; d++) {
+        blas[d] = embree_mesh_scene(devices[d], &s->meshes[0], RTC_BUILD_QUALITY_MEDIUM);
+        rtcCommitScene(blas[d]);
+    }
+    user_tlas u = {s, rto_mesh_aabb(&s->meshes[0])};
+    double to[RUNS], te[NCONF][RUNS], tc[NCONF][RUNS], tu[NCONF][RUNS], me[NCONF], mc[NCONF], mu[NCONF];
     for (int r = 0; r < RUNS; r++) {
-        double t0 = now();
-        for (size_t i = 0; i < n; i++)
-            boxes[i] = rto_instance_aabb(s, (uint32_t)i);
-        if (rto_tlas_build_sweep(boxes, n, keys, sorted, nodes, &msg))
-            die("oracle TLAS", &msg);
-        to[r] = now() - t0;
-        for (int q = 0; q < 2; q++) {
-            RTCScene top = rtcNewScene(dev);
-            rtcSetSceneBuildQuality(top, q ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_LOW);
-            for (size_t i = 0; i < n; i++) {
-                RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
-                rtcSetGeometryInstancedScene(g, blas);
-                rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, s->instances[i].obj_to_world.m);
-                rtcCommitGeometry(g);
-                rtcAttachGeometry(top, g);
-                rtcReleaseGeometry(g);
-            }
-            double t1 = now();
-            rtcCommitScene(top);
-            te[q][r] = now() - t1;
-            rtcReleaseScene(top);
+        to[r] = oracle_build(s);
+        for (size_t c = 0; c < NCONF; c++) {
+            te[c][r] = embree_tlas(s, blas[confs[c].dev], &confs[c], &tc[c][r]);
+            tu[c][r] = embree_user_tlas(&u, &confs[c]);
         }
     }
-    double o = median(to), l = median(te[0]), md = median(te[1]);
-    printf("TLAS %-22s %8zu inst            | oracle %8.2f ms %7.2f Mprims/s | embree LOW %7.2f ms %7.2f Mprims/s"
-           " | MEDIUM %7.2f ms %7.2f Mprims/s | oracle/LOW %5.1fx oracle/MEDIUM %5.1fx\n",
-           spec, n, o * 1e3, (double)n / o * 1e-6, l * 1e3, (double)n / l * 1e-6, md * 1e3, (double)n / md * 1e-6,
-           o / l, o / md);
-    rtcReleaseScene(blas);
-    free(boxes);
-    free(keys);
-    free(sorted);
-    free(nodes);
+    for (size_t c = 0; c < NCONF; c++) {
+        me[c] = median(te[c]);
+        mc[c] = median(tc[c]);
+        mu[c] = median(tu[c]);
+    }
+    char label[128];
+    snprintf(label, sizeof label, "TLAS %s", spec);
+    double o = median(to);
+    print_rows(label, s->instance_count, o, me, " inst", mc);
+    print_rows(NULL, s->instance_count, o, mu, " user", NULL);
+    for (int d = 0; d < 2; d++)
+        rtcReleaseScene(blas[d]);
     rto_scene_destroy(s);
+}
+
+static void print_load(const char *when)
+{
+    FILE *f = fopen("/proc/loadavg", "r");
+    char line[128] = "?";
+    if (f) {
+        if (!fgets(line, sizeof line, f))
+            snprintf(line, sizeof line, "?\n");
+        fclose(f);
+    }
+    printf("load average %s: %s", when, line);
 }
 
 int main(int argc, char **argv)
 {
-    RTCDevice dev = rtcNewDevice("threads=1");
-    if (!dev) {
-        fprintf(stderr, "bench_bvh: rtcNewDevice failed\n");
-        return 1;
-    }
+    cpu_set_t set;
+    hw_threads = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 0;
+    devices[0] = new_device("threads=1");
+    devices[1] = new_device("");
+    print_load("before");
+    printf("%-36s %8s  %-24s %7s %9s %9s %12s\n", "case", "prims", "builder", "threads", "ms", "Mprims/s",
+           "oracle/this");
     for (int i = 1; i < argc; i++)
-        bench_blas(dev, argv[i]);
-    bench_tlas(dev, "instances:uniform:65536");
-    printf("median of %d runs each; Embree %d.%d.%d with threads=1; ratios are time(oracle) / time(embree)\n", RUNS,
-           RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH);
-    rtcReleaseDevice(dev);
+        bench_blas(argv[i]);
+    bench_tlas("instances:uniform:65536");
+    printf("median of %d runs each, interleaved; Embree %d.%d.%d; oracle/this = time(oracle) / time(that builder), "
+           "> 1 means the oracle is slower\n",
+           RUNS, RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH);
+    print_load("after");
+    rtcReleaseDevice(devices[0]);
+    rtcReleaseDevice(devices[1]);
     return 0;
 }

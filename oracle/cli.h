@@ -78,14 +78,6 @@ typedef struct key_origin {
 rto_status sort_bundle_write(const char *outdir, rto_key_format f, const void *keys, size_t n, const sort_params *p,
                              const key_origin *origin, rto_msg *msg);
 
-/** GPU struct layouts of DESIGN.md §5 as .npy structured dtypes. */
-typedef enum layout_kind { LAYOUT_TLAS_NODE, LAYOUT_BVH_NODE, LAYOUT_AABB, LAYOUT_INSTANCE } layout_kind;
-rto_npy_desc layout_desc(layout_kind k, uint64_t n);
-const char *layout_name(layout_kind k);
-size_t layout_size(layout_kind k);
-/** Accepts a GPU dump of records of layout k (structured, (count, words) or flat words); sets count. */
-rto_status layout_accept(layout_kind k, const rto_npy *npy, size_t *count, rto_msg *msg);
-
 int cmd_keys(int argc, char **argv);
 int cmd_sort(int argc, char **argv);
 int cmd_check_sort(int argc, char **argv);

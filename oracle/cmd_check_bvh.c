@@ -76,8 +76,8 @@ int cmd_check_bvh(int argc, char **argv)
         goto out;
     }
     const int sweep = blas < 0 && !strcmp(tlas_mode, "sweep");
-    const layout_kind lk = sweep ? LAYOUT_TLAS_NODE : LAYOUT_BVH_NODE;
-    char name[96], what[64];
+    const rto_layout lk = sweep ? RTO_LAYOUT_TLAS_NODE : RTO_LAYOUT_BLAS_NODE;
+    char name[RTO_BUNDLE_FILE_NAME_MAX], what[64];
     if (blas >= 0)
         snprintf(what, sizeof what, "BLAS %lld", (long long)blas);
     else
@@ -87,21 +87,16 @@ int cmd_check_bvh(int argc, char **argv)
         goto out;
     }
     size_t count = 0;
-    if (layout_accept(lk, &g, &count, &msg)) {
+    if (rto_layout_accept(lk, &g, &count, &msg)) {
         rc = cli_fail("check-bvh", "--gpu %s: %s", gpu, msg.text);
         goto out;
     }
     /* expected nodes and primitive boxes */
-    if (blas < 0)
-        snprintf(name, sizeof name, "tlas_nodes.npy");
-    else
-        snprintf(name, sizeof name, "blas_%lld_nodes.npy", (long long)blas);
+    rto_bundle_file_name(blas < 0 ? RTO_FILE_TLAS_NODES : RTO_FILE_BLAS_NODES, (uint32_t)blas, name, sizeof name);
     if ((rc = load_bundle_file(b, name, &exp, expected)))
         goto out;
-    if (blas < 0)
-        snprintf(name, sizeof name, "instance_aabbs.npy");
-    else
-        snprintf(name, sizeof name, "blas_%lld_prim_aabbs.npy", (long long)blas);
+    rto_bundle_file_name(blas < 0 ? RTO_FILE_INSTANCE_AABBS : RTO_FILE_BLAS_PRIM_AABBS, (uint32_t)blas, name,
+                         sizeof name);
     if ((rc = load_bundle_file(b, name, &boxes, expected)))
         goto out;
     const size_t n = (size_t)boxes.desc.shape[0], exp_count = (size_t)exp.desc.shape[0];
@@ -126,12 +121,13 @@ int cmd_check_bvh(int argc, char **argv)
                     goto out;
                 }
         } else if (blas >= 0) {
-            snprintf(name, sizeof name, "blas_%lld_order.npy", (long long)blas);
+            rto_bundle_file_name(RTO_FILE_BLAS_ORDER, (uint32_t)blas, name, sizeof name);
             if ((rc = load_bundle_file(b, name, &order, expected)))
                 goto out;
             prims = order.data;
         } else {
-            if ((rc = load_bundle_file(b, "tlas_sorted_keys.npy", &keys, expected)))
+            rto_bundle_file_name(RTO_FILE_TLAS_SORTED_KEYS, 0, name, sizeof name);
+            if ((rc = load_bundle_file(b, name, &keys, expected)))
                 goto out;
             prims = malloc((n ? n : 1) * sizeof *prims);
             if (!prims) {

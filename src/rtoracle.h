@@ -5,11 +5,33 @@
  * Every stage of a wavefront GPU tracer is re-implemented here in deterministic scalar C, and its output is written
  * as the expected value a GPU harness compares against (DESIGN.md §1):
  *
- *     keys      rto_keys_generate / rto_tlas_keys / rto_blas_keys        Morton keys and named distributions (§3)
- *     sort      rto_bitonic_sort (+ checkpoints) / rto_radix_sort         the canonical network and LSD radix (§4)
- *     check     rto_sort_check                                            sorted / permutation / stable / passes
- *     files     rto_npy_read / rto_npy_write, rto_bundle_*                .npy arrays and manifest.json (§8)
- *               rto_file_write, rto_temporaries_remove                    atomic output, cleanup on SIGINT / SIGTERM
+ *     keys      rto_keys_generate / rto_tlas_keys / rto_blas_keys          Morton keys and named distributions (§3)
+ *               rto_tlas_keys_from_boxes / rto_mesh_keys                   keys of instance and triangle boxes
+ *     sort      rto_bitonic_sort (+ checkpoints) / rto_radix_sort          the canonical network and LSD radix (§4)
+ *               rto_fast_radix_sort                                        the sort builds use for real keys
+ *     check     rto_sort_check                                             sorted / permutation / stable / passes
+ *     scene     rto_scene_load / rto_scene_destroy                         glTF and procedural scenes (§5)
+ *     build     rto_accel_build / rto_accel_destroy                        every tree of a scene (§5), read through
+ *               rto_accel_get_tlas / rto_accel_get_blas                    views of its arrays, counts and stats
+ *               rto_tlas_build_sweep / rto_karras_build                    one tree from sorted keys
+ *     check     rto_accel_check, rto_tlas_check / rto_karras_check         tree validators
+ *     layouts   rto_layout_desc / rto_layout_accept                        GPU structs as .npy dtypes (§5-§7)
+ *     files     rto_npy_read / rto_npy_write, rto_bundle_*                 .npy arrays and manifest.json (§8)
+ *               rto_accel_write_bundle                                     a build bundle (rto_bundle_file names)
+ *               rto_file_write, rto_temporaries_remove                     atomic output, cleanup on SIGINT / SIGTERM
+ *
+ * A build, start to end:
+ *
+ *     rto_msg msg = {{0}};
+ *     rto_scene *scene = NULL;
+ *     rto_accel *accel = NULL;
+ *     rto_accel_desc desc = {RTO_TLAS_SWEEP};                     // zero-initialised = the defaults
+ *     if (rto_scene_load("bunny.gltf", &scene, &msg) || rto_accel_build(scene, &desc, &accel, &msg))
+ *         fprintf(stderr, "%s\n", msg.text);                      // ... and stop
+ *     const rto_accel_tlas *tlas = rto_accel_get_tlas(accel);     // tlas->sweep_nodes[0 .. tlas->node_count - 1]
+ *     const rto_accel_blas *blas = rto_accel_get_blas(accel, 0);  // blas->nodes, blas->order, ...
+ *     rto_accel_destroy(accel);                                   // before the scene it borrows
+ *     rto_scene_destroy(scene);
  *
  * Conventions (STYLE.md): fallible calls return rto_status and, when given a non-NULL rto_msg, write a one-line
  * reason into it; outputs are caller-allocated and sized by the documented bound; inputs first, outputs last;
@@ -29,6 +51,13 @@ extern "C" {
 #define RTO_VERSION_STRING "0.1.0"
 /* Bundle layout version written into every manifest.json; readers refuse any other value (§8). */
 #define RTO_BUNDLE_FORMAT_VERSION 1
+
+/* Compile-time checks of the GPU struct layouts, in C11 and in C++ alike. */
+#ifdef __cplusplus
+#define RTO_STATIC_ASSERT(cond, what) static_assert(cond, what)
+#else
+#define RTO_STATIC_ASSERT(cond, what) _Static_assert(cond, what)
+#endif
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Status                                                                                                           */
@@ -81,6 +110,16 @@ typedef struct rto_vec3 {
     float x, y, z;
 } rto_vec3;
 
+/** An axis-aligned box. The empty box is (+inf, -inf) on every axis, the identity of the union. */
+typedef struct rto_aabb {
+    rto_vec3 min, max;
+} rto_aabb;
+RTO_STATIC_ASSERT(sizeof(rto_aabb) == 24, "Aabb is 24 bytes");
+
+/** A triangle mesh of a scene and a row-major 3x4 transform (defined with the scenes below). */
+typedef struct rto_mesh rto_mesh;
+typedef struct rto_mat34 rto_mat34;
+
 /** Bytes per key of a format (4 or 8). */
 size_t rto_key_size(rto_key_format f);
 /** The padding sentinel of a format, widened to 64 bits. */
@@ -98,6 +137,34 @@ uint32_t rto_morton30(uint32_t qx, uint32_t qy, uint32_t qz);
 rto_status rto_tlas_keys(const rto_vec3 *centroids, size_t n, uint32_t *keys, rto_msg *msg);
 /** BLAS keys from triangle centroids: (morton30 << 32) | index, 10 bits per axis. n < 2^32; finite centroids. */
 rto_status rto_blas_keys(const rto_vec3 *centroids, size_t n, uint64_t *keys, rto_msg *msg);
+/** Primitive index of a sorted key: the low 16 bits of a TLAS key, the low 32 bits of a BLAS key. */
+uint32_t rto_key_prim(rto_key_format f, uint64_t key);
+
+/* Keys of scene boxes (docs/bvh.md "Primitive boxes"): what the builders key their trees by. */
+
+/** The point a key is built from: the box centroid (min + max) * 0.5 in binary32. */
+rto_vec3 rto_aabb_centroid(const rto_aabb *box);
+/** 1 if min > max on some axis (an empty box, such as the world box of an instance of an empty BLAS), else 0. */
+int rto_aabb_is_empty(const rto_aabb *box);
+/** Bounds of triangle t of a mesh (exact min / max of its three vertices). t < triangle_count. */
+rto_aabb rto_mesh_triangle_aabb(const rto_mesh *mesh, uint32_t t);
+/**
+ * A box through a transform: its 8 corners through rto_mat34_point (corner c takes max on axis a when bit a of c is
+ * set, c = 0 .. 7), then min / max; a box that is empty (or NaN) stays the empty box. An instance's world box is its
+ * mesh's rto_mesh_aabb through objToWorld: the same bytes as rto_instance_aabb.
+ */
+rto_aabb rto_aabb_transform(const rto_mat34 *m, const rto_aabb *box);
+/** BLAS keys of n primitive boxes: rto_blas_keys of their centroids. keys holds n entries. */
+rto_status rto_blas_keys_from_boxes(const rto_aabb *boxes, size_t n, uint64_t *keys, rto_msg *msg);
+/** BLAS keys of a mesh: (morton30 << 32) | triangle, from each triangle's box centroid. keys: triangle_count. */
+rto_status rto_mesh_keys(const rto_mesh *mesh, uint64_t *keys, rto_msg *msg);
+/**
+ * TLAS keys of n instance world boxes (DESIGN.md §3, §5). An empty box gets no key; the others get
+ * (morton15 << 16) | instance index, quantised over the bounds of the non-empty boxes' centroids. keys (n entries of
+ * room) receives them in instance order, *key_count their number. n <= RTO_TLAS_MAX_INSTANCES.
+ */
+rto_status rto_tlas_keys_from_boxes(const rto_aabb *boxes, size_t n, uint32_t *keys, size_t *key_count,
+                                    rto_msg *msg);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Distributions and size classes (DESIGN.md §3)                                                                    */
@@ -181,6 +248,15 @@ typedef struct rto_radix_trace {
  */
 rto_status rto_radix_sort(rto_key_format f, const void *keys, size_t n, uint32_t bits, uint32_t tile, void *sorted,
                           uint32_t *perm, const rto_radix_trace *trace, rto_msg *msg);
+
+/**
+ * Sorts n keys ascending into sorted (n keys, no sentinel tail; must not overlap keys) with a fast LSD radix sort:
+ * the sort the builds use for real TLAS / BLAS keys (§4: they are unique, so any correct sort gives the same array as
+ * the canonical network). Correct for any keys; fastest for keys whose low index field (16 bits of a u32 key, 32 of a
+ * u64 key) grows with the input position, as rto_tlas_keys / rto_blas_keys make them: only the bits above it are
+ * sorted. No permutation or checkpoints: use rto_bitonic_sort / rto_radix_sort where those are outputs.
+ */
+rto_status rto_fast_radix_sort(rto_key_format f, const void *keys, size_t n, void *sorted, rto_msg *msg);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Sort validation (DESIGN.md §4, §9)                                                                                */
@@ -266,10 +342,6 @@ rto_status rto_sort_check(const rto_sort_check_desc *desc, rto_sort_report *repo
 typedef struct rto_mat34 {
     float m[3][4];
 } rto_mat34;
-
-typedef struct rto_aabb {
-    rto_vec3 min, max;
-} rto_aabb;
 
 /** A triangle mesh in object space: one BLAS. Arrays are owned by the scene. */
 typedef struct rto_mesh {
@@ -399,6 +471,8 @@ typedef struct rto_tlas_node {
     float max[3];
     uint32_t pad;
 } rto_tlas_node;
+RTO_STATIC_ASSERT(sizeof(rto_tlas_node) == 32, "TlasNode is 32 bytes");
+RTO_STATIC_ASSERT(offsetof(rto_tlas_node, item) == 12 && offsetof(rto_tlas_node, max) == 16, "TlasNode fields");
 
 /** struct BlasNode { lmin, left, lmax, right, rmin, parent, rmax, pad } (64 bytes): one internal Karras node with
  * both child boxes. Used for BLAS trees and for the Karras TLAS. */
@@ -412,28 +486,21 @@ typedef struct rto_bvh_node {
     float rmax[3];
     uint32_t pad;
 } rto_bvh_node;
-
-/** The box a key is built from: centroid (min + max) * 0.5 in binary32. */
-rto_vec3 rto_aabb_centroid(const rto_aabb *box);
+RTO_STATIC_ASSERT(sizeof(rto_bvh_node) == 64, "BlasNode is 64 bytes");
+RTO_STATIC_ASSERT(offsetof(rto_bvh_node, left) == 12 && offsetof(rto_bvh_node, right) == 28 &&
+                      offsetof(rto_bvh_node, parent) == 44 && offsetof(rto_bvh_node, rmax) == 48,
+                  "BlasNode fields");
 
 /** Nodes of a sweep tree over n leaves: 2 * n_padded - 1, and 1 (one EMPTY root) for n = 0. */
 size_t rto_tlas_sweep_node_count(size_t n);
 
-/** TLAS keys of the n box centroids (keys, instance order) and their canonical bitonic sort (sorted, n_padded). */
-rto_status rto_tlas_sorted_keys(const rto_aabb *boxes, size_t n, uint32_t *keys, uint32_t *sorted, rto_msg *msg);
-
 /**
- * Builds the TLAS sweep tree (§5) over n instance boxes: TLAS keys of the box centroids, the canonical bitonic sort,
- * then the heap-ordered tree bottom-up by AABB union.
- *   keys        n TLAS keys in instance order
- *   sorted      n_padded sorted keys (sentinel tail)
- *   nodes       rto_tlas_sweep_node_count(n) nodes
+ * Builds the TLAS sweep tree (§5) over n sorted, distinct TLAS keys (rto_tlas_keys_from_boxes, then a sort): leaf j
+ * holds the instance of sorted key j with its box from boxes (indexed by instance), leaves n .. n_padded-1 are EMPTY,
+ * internal nodes the union of their children. nodes holds rto_tlas_sweep_node_count(n) nodes.
  */
-rto_status rto_tlas_build_sweep(const rto_aabb *boxes, size_t n, uint32_t *keys, uint32_t *sorted,
-                                rto_tlas_node *nodes, rto_msg *msg);
-
-/** Primitive index of a sorted key: the low 16 bits of a TLAS key, the low 32 bits of a BLAS key. */
-uint32_t rto_key_prim(rto_key_format f, uint64_t key);
+rto_status rto_tlas_build_sweep(const uint32_t *sorted_keys, size_t n, const rto_aabb *boxes, rto_tlas_node *nodes,
+                                rto_msg *msg);
 
 /**
  * Karras 2012 radix tree over n sorted, distinct keys (§5): n - 1 internal nodes (none for n <= 1) whose child
@@ -441,11 +508,6 @@ uint32_t rto_key_prim(rto_key_format f, uint64_t key);
  */
 rto_status rto_karras_build(rto_key_format f, const void *sorted_keys, size_t n, const rto_aabb *prim_boxes,
                             rto_bvh_node *nodes, rto_msg *msg);
-
-/** BLAS keys of a mesh: (morton30 << 32) | triangle, from each triangle's box centroid. keys: triangle_count. */
-rto_status rto_mesh_keys(const rto_mesh *mesh, uint64_t *keys, rto_msg *msg);
-/** Bounds of triangle t of a mesh (exact min / max of its three vertices). */
-rto_aabb rto_mesh_triangle_aabb(const rto_mesh *mesh, uint32_t t);
 
 /** Tree statistics: depth of the deepest leaf (root at 0) and the SAH cost sum(SA(node)) / SA(root) over
  * internal nodes and leaves (traversal and intersection cost 1). */
@@ -580,6 +642,90 @@ rto_npy_desc rto_npy_desc_array(rto_dtype t, uint32_t ndim, uint64_t d0, uint64_
 rto_status rto_npy_as_keys(const rto_npy *npy, rto_key_format *f, size_t *n, rto_msg *msg);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
+/* GPU layouts (DESIGN.md §5-§7): the structs a GPU reads and writes, and their .npy structured dtypes               */
+
+/** InstanceRecord (128 bytes): both transforms as row-major 3x4, then blas, customIndex, mask, sbtOffset, flags. */
+typedef struct rto_instance_record {
+    float obj_to_world[3][4];
+    float world_to_obj[3][4];
+    uint32_t blas;
+    uint32_t custom_index;
+    uint32_t mask;
+    uint32_t sbt_offset;
+    uint32_t flags;
+    uint32_t pad[3];
+} rto_instance_record;
+RTO_STATIC_ASSERT(sizeof(rto_instance_record) == 128, "InstanceRecord is 128 bytes");
+RTO_STATIC_ASSERT(offsetof(rto_instance_record, world_to_obj) == 48 && offsetof(rto_instance_record, blas) == 96,
+                  "InstanceRecord fields");
+
+/**
+ * HitRecord, the GPU's HitResult (96 bytes, DESIGN.md §6). obj_to_world is WGSL's column-major mat4x3<f32>: column c
+ * is obj_to_world[c][0..2] and obj_to_world[c][3] is the padding that rounds each vec3 column up to 16 bytes (0).
+ * A miss: miss_flag 1, t = tMax, instance_id / prim_id / hit_group / custom_index 0xFFFFFFFF, bary and matrix 0.
+ */
+typedef struct rto_hit_record {
+    float t;
+    uint32_t instance_id;
+    uint32_t prim_id;
+    uint32_t hit_group;
+    float bary[2];
+    uint32_t custom_index;
+    uint32_t miss_flag;
+    float obj_to_world[4][4];
+} rto_hit_record;
+RTO_STATIC_ASSERT(sizeof(rto_hit_record) == 96, "HitRecord is 96 bytes");
+RTO_STATIC_ASSERT(offsetof(rto_hit_record, bary) == 16 && offsetof(rto_hit_record, custom_index) == 24 &&
+                      offsetof(rto_hit_record, obj_to_world) == 32,
+                  "HitRecord fields (vec2 at 8-byte, mat4x3 at 16-byte alignment)");
+
+/** WfRay (64 bytes, DESIGN.md §7): one ray of a wavefront queue. */
+typedef struct rto_wf_ray {
+    float origin[3];
+    float t_min;
+    float dir[3];
+    float t_max;
+    uint32_t pixel;
+    uint32_t flags;
+    uint32_t cull_mask;
+    uint32_t miss_index;
+    uint32_t sbt_offset;
+    uint32_t payload_slot;
+    uint32_t kind;
+    uint32_t pad;
+} rto_wf_ray;
+RTO_STATIC_ASSERT(sizeof(rto_wf_ray) == 64, "WfRay is 64 bytes");
+RTO_STATIC_ASSERT(offsetof(rto_wf_ray, dir) == 16 && offsetof(rto_wf_ray, t_max) == 28 &&
+                      offsetof(rto_wf_ray, pixel) == 32 && offsetof(rto_wf_ray, kind) == 56,
+                  "WfRay fields");
+
+/** The GPU structs by name. Values never change; new layouts are appended. */
+typedef enum rto_layout {
+    RTO_LAYOUT_TLAS_NODE = 0,  /* "TlasNode", rto_tlas_node, 32 bytes */
+    RTO_LAYOUT_BLAS_NODE = 1,  /* "BlasNode", rto_bvh_node, 64 bytes (BLAS and the Karras TLAS) */
+    RTO_LAYOUT_AABB = 2,       /* "Aabb", rto_aabb, 24 bytes */
+    RTO_LAYOUT_INSTANCE = 3,   /* "InstanceRecord", rto_instance_record, 128 bytes */
+    RTO_LAYOUT_HIT_RECORD = 4, /* "HitRecord", rto_hit_record, 96 bytes; objToWorld as 16 floats (4 padded columns) */
+    RTO_LAYOUT_WF_RAY = 5      /* "WfRay", rto_wf_ray, 64 bytes */
+} rto_layout;
+#define RTO_LAYOUT_COUNT 6
+
+/** The layout's name as written into manifests ("TlasNode", ...); NULL for an unknown value. */
+const char *rto_layout_name(rto_layout layout);
+/** Bytes of one record (the C struct's sizeof); 0 for an unknown value. */
+size_t rto_layout_size(rto_layout layout);
+/** A 1-D array of n records as a .npy structured dtype (fields in declaration order, packed, named as in WGSL). */
+rto_npy_desc rto_layout_desc(rto_layout layout, uint64_t n);
+/**
+ * Accepts a GPU dump of records of a layout and sets *count: the structured dtype itself (field names may differ;
+ * types, counts and offsets must match), a 2-D uint32 / float32 array (count, words), or a flat uint32 / float32
+ * buffer of count * words. RTO_ERR_PARSE (msg says why) otherwise.
+ */
+rto_status rto_layout_accept(rto_layout layout, const rto_npy *npy, size_t *count, rto_msg *msg);
+/** The InstanceRecord of a scene instance. */
+rto_instance_record rto_instance_record_make(const rto_instance *instance);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
 /* Bundles: a directory of .npy files plus manifest.json, written atomically (DESIGN.md §8)                           */
 
 typedef struct rto_bundle rto_bundle;
@@ -637,6 +783,104 @@ rto_status rto_bundle_read_name(rto_bundle_reader *r, const char *name, rto_npy 
 
 /** SHA-256 of a file as 64 lowercase hex digits plus NUL. */
 rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg);
+
+/** The files of a build bundle, named once here for writers and readers. Values never change. */
+typedef enum rto_bundle_file {
+    RTO_FILE_INSTANCES = 0,        /* instances.npy           role "instances"        InstanceRecord */
+    RTO_FILE_INSTANCE_AABBS = 1,   /* instance_aabbs.npy      role "instance-aabbs"   Aabb, instance world boxes */
+    RTO_FILE_TLAS_KEYS = 2,        /* tlas_keys.npy           role "tlas-keys"        u32, one per keyed instance */
+    RTO_FILE_TLAS_SORTED_KEYS = 3, /* tlas_sorted_keys.npy    role "tlas-sorted-keys" u32, n_padded (sentinel tail) */
+    RTO_FILE_TLAS_NODES = 4,       /* tlas_nodes.npy          role "tlas-nodes"       TlasNode, or BlasNode (Karras) */
+    RTO_FILE_BLAS_SORTED_KEYS = 5, /* blas_M_sorted_keys.npy  role "blas-sorted-keys" u64, one per triangle */
+    RTO_FILE_BLAS_ORDER = 6,       /* blas_M_order.npy        role "blas-order"       u32, triangle of each leaf */
+    RTO_FILE_BLAS_NODES = 7,       /* blas_M_nodes.npy        role "blas-nodes"       BlasNode */
+    RTO_FILE_BLAS_PRIM_AABBS = 8   /* blas_M_prim_aabbs.npy   role "blas-prim-aabbs"  Aabb, triangle boxes */
+} rto_bundle_file;
+#define RTO_BUNDLE_FILE_COUNT 9
+/** Room for any bundle file name, NUL included. */
+#define RTO_BUNDLE_FILE_NAME_MAX 64
+
+/** Writes the file name of f into name (cap bytes); per-BLAS files take the mesh index M, others ignore it. */
+rto_status rto_bundle_file_name(rto_bundle_file f, uint32_t mesh, char *name, size_t cap);
+/** The manifest role of f ("tlas-nodes", ...); NULL for an unknown value. */
+const char *rto_bundle_file_role(rto_bundle_file f);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Acceleration-structure object (DESIGN.md §5): every tree of a scene, built once, read by the tracer and bundles  */
+
+typedef enum rto_tlas_kind {
+    RTO_TLAS_SWEEP = 0, /* the seeds' implicit heap tree (TlasNode) */
+    RTO_TLAS_KARRAS = 1 /* a Karras radix tree over the TLAS keys (BlasNode), the seeds' "later refinement" */
+} rto_tlas_kind;
+
+/** How to build. Zero-initialised (or a NULL pointer) means the defaults. */
+typedef struct rto_accel_desc {
+    rto_tlas_kind tlas; /* default RTO_TLAS_SWEEP */
+} rto_accel_desc;
+
+typedef struct rto_accel rto_accel;
+
+/**
+ * The TLAS of an accel. Arrays are owned by the accel and live until rto_accel_destroy. An instance whose world box
+ * is empty (its BLAS has no triangles) has no key and no leaf: keys, sorted keys and nodes cover the other
+ * key_count instances, whose keys still hold the real instance index.
+ */
+typedef struct rto_accel_tlas {
+    rto_tlas_kind kind;
+    uint32_t instance_count;          /* instances of the scene */
+    uint32_t key_count;               /* instances with a non-empty world box: keys and leaves */
+    uint32_t n_padded;                /* rto_next_pow2(key_count) */
+    const rto_aabb *instance_aabbs;   /* instance_count world boxes, instance order (empty ones (+inf, -inf)) */
+    const uint32_t *keys;             /* key_count TLAS keys, instance order */
+    const uint32_t *sorted_keys;      /* n_padded: the sorted keys, then sentinels */
+    const rto_tlas_node *sweep_nodes; /* kind SWEEP: node_count nodes (2 n_padded - 1; 1 EMPTY root if no key) */
+    const rto_bvh_node *karras_nodes; /* kind KARRAS: node_count = key_count - 1 nodes (none for key_count <= 1) */
+    size_t node_count;
+    rto_bvh_stats stats;              /* depth, SAH cost, leaves (= key_count) */
+} rto_accel_tlas;
+
+/** The BLAS of one mesh, owned by the accel. A mesh without triangles has an empty BLAS: every array is empty. */
+typedef struct rto_accel_blas {
+    uint32_t mesh;               /* mesh index (= BLAS index) */
+    uint32_t triangle_count;     /* leaves */
+    const uint64_t *sorted_keys; /* triangle_count sorted BLAS keys */
+    const uint32_t *order;       /* triangle_count: the triangle of each sorted leaf */
+    const rto_aabb *prim_aabbs;  /* triangle_count triangle boxes, triangle order */
+    const rto_bvh_node *nodes;   /* node_count = triangle_count - 1 internal nodes (none for <= 1 triangle) */
+    size_t node_count;
+    rto_aabb bounds;             /* object-space bounds of the mesh (rto_mesh_aabb) */
+    rto_bvh_stats stats;         /* depth, SAH cost, leaves (= triangle_count) */
+} rto_accel_blas;
+
+/**
+ * Builds every tree of a scene: instance world boxes, TLAS keys, their radix sort and the TLAS (sweep or Karras);
+ * per mesh, triangle boxes, BLAS keys, their radix sort, the leaf order and the Karras BLAS; depth and SAH of each.
+ * The accel borrows the scene: keep it alive and unchanged until rto_accel_destroy. Deterministic: the same scene
+ * gives the same bytes. The build does not validate its own trees: rto_accel_check does (`rtoracle build` runs it
+ * before writing a bundle). At most RTO_TLAS_MAX_INSTANCES instances.
+ */
+rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, rto_accel **out, rto_msg *msg);
+/** Frees an accel. NULL is fine. */
+void rto_accel_destroy(rto_accel *accel);
+/** The scene an accel was built from. */
+const rto_scene *rto_accel_scene(const rto_accel *accel);
+/** The TLAS (never NULL for a built accel). */
+const rto_accel_tlas *rto_accel_get_tlas(const rto_accel *accel);
+/** Number of BLAS (= the scene's mesh count). */
+uint32_t rto_accel_blas_count(const rto_accel *accel);
+/** The BLAS of a mesh; NULL if mesh >= rto_accel_blas_count. */
+const rto_accel_blas *rto_accel_get_blas(const rto_accel *accel, uint32_t mesh);
+/**
+ * Self-check of every tree with the structural validators (rto_tlas_check, rto_karras_check): each keyed instance
+ * and each triangle in exactly one leaf, links, parents, items, EMPTY handling, unions and leaf boxes. RTO_OK, or
+ * RTO_ERR_MISMATCH with report filled and msg naming the tree ("the BLAS of mesh 3: ...").
+ */
+rto_status rto_accel_check(const rto_accel *accel, rto_bvh_report *report, rto_msg *msg);
+/**
+ * Adds the build bundle's files (rto_bundle_file) and manifest fields (scene, counts, params.tlas, tlas, blas_M) of an
+ * accel to a bundle begun by the caller, who commits or aborts it.
+ */
+rto_status rto_accel_write_bundle(const rto_accel *accel, rto_bundle *bundle, rto_msg *msg);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Output files: atomic writes, interrupted runs, text for JSON                                                     */

@@ -53,6 +53,32 @@ run 2 "$RTO" check-bvh --expected "$T/rs" --gpu "$T/rs/tlas_keys.npy" && has "Tl
 run 2 "$RTO" check-bvh --expected "$T/rs" --gpu "$T/rs/tlas_nodes.npy" --blas 7 && has "meshes" err
 run 2 "$RTO" check-bvh --expected "$T/rs" && has "required" err
 
+# a mesh without triangles is an empty BLAS (files of shape (0,)); its instance (node 1) gets no TLAS key or leaf
+cat >"$T/empty.gltf" <<'EOF'
+{"asset":{"version":"2.0"},"buffers":[{"byteLength":44,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="}],
+ "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
+ "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+  {"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"},{"bufferView":1,"componentType":5123,"count":0,"type":"SCALAR"}],
+ "meshes":[{"name":"tri","primitives":[{"attributes":{"POSITION":0},"indices":1}]},
+  {"name":"empty","primitives":[{"attributes":{"POSITION":0},"indices":2}]}],
+ "nodes":[{"mesh":0},{"mesh":1,"translation":[40,0,40]},{"mesh":0,"translation":[0,3,0]}],"scenes":[{"nodes":[0,1,2]}],"scene":0}
+EOF
+for t in sweep karras; do
+    run 0 "$RTO" build "$T/empty.gltf" --tlas $t -o "$T/e_$t" || continue
+    grep -q '"keyed_instances": 2' "$T/e_$t/manifest.json" || fail "$t: manifest should count 2 keyed instances"
+    for f in blas_1_sorted_keys blas_1_order blas_1_nodes blas_1_prim_aabbs; do
+        grep -aq "'shape': (0,)" "$T/e_$t/$f.npy" || fail "$t: $f.npy should have shape (0,)"
+    done
+    grep -aq "'shape': (3,)" "$T/e_$t/instance_aabbs.npy" || fail "$t: every instance keeps its world box"
+    # the keys of instances 0 and 2 only, quantised over their own centroids (only y differs: q = (0, 31, 0))
+    [ "$(tail -c 8 "$T/e_$t/tlas_keys.npy" | od -An -tx4 | tr -s ' ')" = " 00000000 24920002" ] ||
+        fail "$t: tlas_keys.npy should hold 0x00000000 0x24920002"
+    cmp -s "$T/e_$t/tlas_keys.npy" "$T/e_$t/tlas_sorted_keys.npy" || fail "$t: two keys already in order, no padding"
+    run 0 "$RTO" check-bvh --expected "$T/e_$t" --blas 1 --gpu "$T/e_$t/blas_1_nodes.npy"
+done
+grep -aq "'shape': (3,)" "$T/e_sweep/tlas_nodes.npy" || fail "sweep TLAS over 2 keyed instances has 3 nodes"
+grep -aq "'shape': (1,)" "$T/e_karras/tlas_nodes.npy" || fail "Karras TLAS over 2 keyed instances has 1 node"
+
 # refusals: bad specs and broken files exit 2 with one line and leave nothing behind
 for spec in rtstress:0 rtstress:41 instances:random:5 instances:uniform:65537 nonsense.txt "$T/missing.gltf"; do
     run 2 "$RTO" build "$spec" -o "$T/bad" && [ "$(wc -l <"$T/err")" = 1 ] || fail "$spec: stderr not one line"

@@ -1,5 +1,6 @@
 /* TLAS sweep tree and Karras trees against independent references (a top-down radix split computed bit by bit,
- * brute-force unions), and mutation tests for the tree validators. */
+ * brute-force unions, qsort), the acceleration-structure object against the step-by-step pipeline with the canonical
+ * network, empty meshes, and mutation tests for the tree validators. */
 #include "testutil.h"
 
 #include <math.h>
@@ -36,8 +37,12 @@ static void sweep_make(sweep *s, const char *dist, size_t n)
     s->sorted = malloc((s->np ? s->np : 1) * 4);
     s->nodes = malloc(s->count * sizeof *s->nodes);
     rto_msg msg = {{0}};
-    if (rto_tlas_build_sweep(s->boxes, n, s->keys, s->sorted, s->nodes, &msg))
+    size_t m = 0;
+    if (rto_tlas_keys_from_boxes(s->boxes, n, s->keys, &m, &msg) ||
+        rto_fast_radix_sort(RTO_KEY_U32, s->keys, n, s->sorted, &msg) ||
+        rto_tlas_build_sweep(s->sorted, n, s->boxes, s->nodes, &msg))
         fail_msg("sweep %s n=%zu: %s", dist, n, msg.text);
+    assert_int_equal(m, n); /* no empty box */
 }
 
 static void sweep_free(sweep *s)
@@ -357,69 +362,117 @@ static void test_karras_mutations(void **state)
 /* ------------------------------------------------------------------------------------------------------------------ */
 /* Trees of real scenes: every fixture, rtstress:1..40, instances:DIST:N                                               */
 
-/* Builds the sweep TLAS, the Karras TLAS and every BLAS of a scene and checks them: each instance / triangle in
- * exactly one leaf (counted here) and the validators' structure checks. */
+/* The pipeline written out step by step with the canonical bitonic network, as the builds ran it before they sorted
+ * with rto_fast_radix_sort: the accel must give the same bytes (§4: real keys are unique). */
+static void reference_tlas(const rto_scene *sc, rto_tlas_kind kind, const rto_accel_tlas *t, const char *spec)
+{
+    const size_t n = sc->instance_count, np = rto_next_pow2(n);
+    rto_aabb *boxes = malloc((n ? n : 1) * sizeof *boxes);
+    rto_vec3 *c = malloc((n ? n : 1) * sizeof *c);
+    uint32_t *keys = malloc((n ? n : 1) * 4), *sorted = malloc((np ? np : 1) * 4);
+    for (size_t i = 0; i < n; i++) {
+        boxes[i] = rto_instance_aabb(sc, (uint32_t)i);
+        c[i] = rto_aabb_centroid(&boxes[i]);
+    }
+    assert_int_equal(rto_tlas_keys(c, n, keys, NULL), RTO_OK);
+    assert_int_equal(rto_bitonic_sort(RTO_KEY_U32, keys, n, sorted, NULL, NULL, NULL), RTO_OK);
+    assert_int_equal(t->instance_count, n);
+    assert_int_equal(t->key_count, n);
+    assert_int_equal(t->n_padded, np);
+    if (memcmp(t->instance_aabbs, boxes, n * sizeof *boxes) || memcmp(t->keys, keys, n * 4) ||
+        memcmp(t->sorted_keys, sorted, np * 4))
+        fail_msg("%s: TLAS boxes or keys differ from the step-by-step pipeline", spec);
+    if (kind == RTO_TLAS_SWEEP) {
+        rto_tlas_node *nodes = malloc(rto_tlas_sweep_node_count(n) * sizeof *nodes);
+        assert_int_equal(rto_tlas_build_sweep(sorted, n, boxes, nodes, NULL), RTO_OK);
+        assert_int_equal(t->node_count, rto_tlas_sweep_node_count(n));
+        assert_null(t->karras_nodes);
+        if (memcmp(t->sweep_nodes, nodes, t->node_count * sizeof *nodes))
+            fail_msg("%s: sweep TLAS differs from the step-by-step pipeline", spec);
+        free(nodes);
+    } else {
+        rto_bvh_node *nodes = malloc((n ? n : 1) * sizeof *nodes);
+        assert_int_equal(rto_karras_build(RTO_KEY_U32, sorted, n, boxes, nodes, NULL), RTO_OK);
+        assert_int_equal(t->node_count, n >= 2 ? n - 1 : 0);
+        assert_null(t->sweep_nodes);
+        if (memcmp(t->karras_nodes, nodes, t->node_count * sizeof *nodes))
+            fail_msg("%s: Karras TLAS differs from the step-by-step pipeline", spec);
+        free(nodes);
+    }
+    free(boxes);
+    free(c);
+    free(keys);
+    free(sorted);
+}
+
+static void reference_blas(const rto_mesh *mesh, const rto_accel_blas *b, const char *spec)
+{
+    const size_t t = mesh->triangle_count, tp = rto_next_pow2(t);
+    uint64_t *bk = malloc((t ? t : 1) * 8), *bs = malloc((tp ? tp : 1) * 8);
+    rto_aabb *tb = malloc((t ? t : 1) * sizeof *tb);
+    rto_bvh_node *bn = malloc((t ? t : 1) * sizeof *bn);
+    uint32_t *order = malloc((t ? t : 1) * 4);
+    for (size_t i = 0; i < t; i++)
+        tb[i] = rto_mesh_triangle_aabb(mesh, (uint32_t)i);
+    assert_int_equal(rto_mesh_keys(mesh, bk, NULL), RTO_OK);
+    assert_int_equal(rto_bitonic_sort(RTO_KEY_U64, bk, t, bs, NULL, NULL, NULL), RTO_OK);
+    for (size_t j = 0; j < t; j++)
+        order[j] = (uint32_t)bs[j]; /* the low word of a BLAS key is the triangle */
+    assert_int_equal(rto_karras_build(RTO_KEY_U64, bs, t, tb, bn, NULL), RTO_OK);
+    assert_int_equal(b->triangle_count, t);
+    assert_int_equal(b->node_count, t >= 2 ? t - 1 : 0);
+    rto_aabb bounds = rto_mesh_aabb(mesh); /* the accel takes it as the union of the triangle boxes */
+    if (memcmp(&b->bounds, &bounds, sizeof bounds))
+        fail_msg("%s BLAS %u: bounds differ from rto_mesh_aabb", spec, b->mesh);
+    if (memcmp(b->sorted_keys, bs, t * 8) || memcmp(b->order, order, t * 4) || memcmp(b->prim_aabbs, tb, t * sizeof *tb) ||
+        memcmp(b->nodes, bn, b->node_count * sizeof *bn))
+        fail_msg("%s BLAS %u: differs from the step-by-step pipeline", spec, b->mesh);
+    free(bk);
+    free(bs);
+    free(tb);
+    free(bn);
+    free(order);
+}
+
+/* Builds both accels of a scene (sweep and Karras TLAS) and checks them: the same bytes as the step-by-step
+ * pipeline with the canonical network, each instance / triangle in exactly one leaf (counted here), and the
+ * validators' structure checks through rto_accel_check. */
 static void check_scene_trees(const char *spec)
 {
     rto_scene *sc = NULL;
     rto_msg msg = {{0}};
     if (rto_scene_load(spec, &sc, &msg))
         fail_msg("%s: %s", spec, msg.text);
-    const size_t n = sc->instance_count, np = rto_next_pow2(n);
-    rto_aabb *boxes = malloc((n ? n : 1) * sizeof *boxes);
-    uint32_t *keys = malloc((n ? n : 1) * 4), *sorted = malloc((np ? np : 1) * 4), *prims = malloc((n ? n : 1) * 4);
-    rto_tlas_node *sw = malloc(rto_tlas_sweep_node_count(n) * sizeof *sw);
-    rto_bvh_node *kt = malloc((n ? n : 1) * sizeof *kt);
-    unsigned char *seen = calloc(n ? n : 1, 1);
-    for (size_t i = 0; i < n; i++)
-        boxes[i] = rto_instance_aabb(sc, (uint32_t)i);
-    assert_int_equal(rto_tlas_build_sweep(boxes, n, keys, sorted, sw, &msg), RTO_OK);
-    for (size_t j = 0; j < np; j++) {
-        uint32_t it = sw[np - 1 + j].item;
-        if (j < n) {
-            assert_true(it < n && !seen[it]);
-            seen[it] = 1;
-        } else {
-            assert_int_equal(it, RTO_TLAS_EMPTY);
+    for (int kind = 0; kind < 2; kind++) {
+        rto_accel_desc desc = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+        rto_accel *acc = NULL;
+        if (rto_accel_build(sc, &desc, &acc, &msg))
+            fail_msg("%s: %s", spec, msg.text);
+        const rto_accel_tlas *t = rto_accel_get_tlas(acc);
+        reference_tlas(sc, desc.tlas, t, spec);
+        const size_t n = t->instance_count, np = t->n_padded;
+        unsigned char *seen = calloc(n ? n : 1, 1);
+        if (desc.tlas == RTO_TLAS_SWEEP) {
+            for (size_t j = 0; j < np; j++) {
+                uint32_t it = t->sweep_nodes[np - 1 + j].item;
+                if (j < n) {
+                    assert_true(it < n && !seen[it]);
+                    seen[it] = 1;
+                } else {
+                    assert_int_equal(it, RTO_TLAS_EMPTY);
+                }
+            }
         }
+        assert_int_equal(rto_accel_blas_count(acc), sc->mesh_count);
+        for (uint32_t m = 0; m < sc->mesh_count; m++)
+            reference_blas(&sc->meshes[m], rto_accel_get_blas(acc, m), spec);
+        assert_null(rto_accel_get_blas(acc, sc->mesh_count));
+        rto_bvh_report r;
+        if (rto_accel_check(acc, &r, &msg) != RTO_OK)
+            fail_msg("%s %s: %s", spec, kind ? "karras" : "sweep", msg.text);
+        free(seen);
+        rto_accel_destroy(acc);
     }
-    rto_bvh_report r;
-    if (rto_tlas_check(sw, rto_tlas_sweep_node_count(n), NULL, boxes, n, &r, &msg) != RTO_OK)
-        fail_msg("%s sweep: %s", spec, r.summary);
-    for (size_t j = 0; j < n; j++)
-        prims[j] = rto_key_prim(RTO_KEY_U32, sorted[j]);
-    assert_int_equal(rto_karras_build(RTO_KEY_U32, sorted, n, boxes, kt, &msg), RTO_OK);
-    if (rto_karras_check(kt, n >= 2 ? n - 1 : 0, NULL, prims, boxes, n, 0, &r, &msg) != RTO_OK)
-        fail_msg("%s karras TLAS: %s", spec, r.summary);
-    for (uint32_t m = 0; m < sc->mesh_count; m++) {
-        const rto_mesh *mesh = &sc->meshes[m];
-        size_t t = mesh->triangle_count, tp = rto_next_pow2(t);
-        uint64_t *bk = malloc((t ? t : 1) * 8), *bs = malloc((tp ? tp : 1) * 8);
-        uint32_t *order = malloc((t ? t : 1) * 4);
-        rto_aabb *tb = malloc((t ? t : 1) * sizeof *tb);
-        rto_bvh_node *bn = malloc((t ? t : 1) * sizeof *bn);
-        for (size_t i = 0; i < t; i++)
-            tb[i] = rto_mesh_triangle_aabb(mesh, (uint32_t)i);
-        assert_int_equal(rto_mesh_keys(mesh, bk, &msg), RTO_OK);
-        assert_int_equal(rto_bitonic_sort(RTO_KEY_U64, bk, t, bs, NULL, NULL, &msg), RTO_OK);
-        for (size_t j = 0; j < t; j++)
-            order[j] = rto_key_prim(RTO_KEY_U64, bs[j]);
-        assert_int_equal(rto_karras_build(RTO_KEY_U64, bs, t, tb, bn, &msg), RTO_OK);
-        if (rto_karras_check(bn, t >= 2 ? t - 1 : 0, NULL, order, tb, t, 0, &r, &msg) != RTO_OK)
-            fail_msg("%s BLAS %u: %s", spec, m, r.summary);
-        free(bk);
-        free(bs);
-        free(order);
-        free(tb);
-        free(bn);
-    }
-    free(boxes);
-    free(keys);
-    free(sorted);
-    free(prims);
-    free(sw);
-    free(kt);
-    free(seen);
     rto_scene_destroy(sc);
 }
 
@@ -459,6 +512,265 @@ static void test_fixture_trees(void **state)
     }
 }
 
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* Empty meshes (DESIGN.md §5): an empty BLAS, and no TLAS key or leaf for its instances                              */
+
+/* A scene assembled by hand: mesh 0 a unit quad (two triangles), mesh 1 empty; instances of mesh (i % 2) translated
+ * by offsets[i]. The arrays are static: the scene is never passed to rto_scene_destroy. */
+typedef struct hand_scene {
+    rto_scene sc;
+    rto_mesh meshes[2];
+    rto_instance inst[8];
+} hand_scene;
+
+static float quad_pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+static uint32_t quad_idx[] = {0, 1, 2, 0, 2, 3};
+static float empty_pos[] = {7, 7, 7};
+
+static void hand_scene_make(hand_scene *h, const uint32_t *blas, const float (*offsets)[3], uint32_t n)
+{
+    memset(h, 0, sizeof *h);
+    snprintf(h->sc.source, sizeof h->sc.source, "hand-made");
+    snprintf(h->meshes[0].name, sizeof h->meshes[0].name, "quad");
+    h->meshes[0].vertex_count = 4;
+    h->meshes[0].positions = quad_pos;
+    h->meshes[0].triangle_count = 2;
+    h->meshes[0].indices = quad_idx;
+    h->meshes[0].material = -1;
+    snprintf(h->meshes[1].name, sizeof h->meshes[1].name, "empty");
+    h->meshes[1].vertex_count = 1; /* vertices but no triangle, as a glTF primitive with no indices left */
+    h->meshes[1].positions = empty_pos;
+    h->meshes[1].material = -1;
+    for (uint32_t i = 0; i < n; i++) {
+        const double m[3][4] = {{1, 0, 0, offsets[i][0]}, {0, 1, 0, offsets[i][1]}, {0, 0, 1, offsets[i][2]}};
+        assert_int_equal(rto_instance_set_transform(&h->inst[i], m, NULL), RTO_OK);
+        h->inst[i].blas = blas[i];
+        h->inst[i].mask = 0xFF;
+    }
+    h->sc.meshes = h->meshes;
+    h->sc.mesh_count = 2;
+    h->sc.instances = h->inst;
+    h->sc.instance_count = n;
+}
+
+static void test_empty_mesh_builds_an_empty_blas(void **state)
+{
+    (void)state;
+    /* instances 1 and 3 are of the empty mesh, and far away: were they keyed, the x and z quantisation would move */
+    const uint32_t blas[] = {0, 1, 0, 1};
+    const float off[][3] = {{0, 0, 0}, {50, 0, 50}, {0, 3, 0}, {-40, 9, 9}};
+    hand_scene h;
+    hand_scene_make(&h, blas, off, 4);
+    for (int kind = 0; kind < 2; kind++) {
+        rto_accel_desc desc = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+        rto_accel *acc = NULL;
+        rto_msg msg = {{0}};
+        if (rto_accel_build(&h.sc, &desc, &acc, &msg))
+            fail_msg("empty mesh scene: %s", msg.text);
+        const rto_accel_tlas *t = rto_accel_get_tlas(acc);
+        assert_int_equal(t->instance_count, 4);
+        assert_int_equal(t->key_count, 2);
+        assert_int_equal(t->n_padded, 2);
+        /* Pinned: centroids (0.5, 0.5, 0) and (0.5, 3.5, 0); only y varies, so instance 2 gets q = (0, 31, 0) and
+         * morton15 = 0x2492; the keys keep the real instance indices 0 and 2. */
+        assert_int_equal(t->keys[0], 0x00000000u);
+        assert_int_equal(t->keys[1], 0x24920002u);
+        assert_int_equal(t->sorted_keys[0], 0x00000000u);
+        assert_int_equal(t->sorted_keys[1], 0x24920002u);
+        for (int i = 1; i < 4; i += 2) { /* the empty instances' world boxes are (+inf, -inf) */
+            assert_true(rto_aabb_is_empty(&t->instance_aabbs[i]));
+            assert_true(t->instance_aabbs[i].min.x == INFINITY && t->instance_aabbs[i].max.y == -INFINITY);
+        }
+        if (desc.tlas == RTO_TLAS_SWEEP) {
+            assert_int_equal(t->node_count, 3);
+            assert_int_equal(t->sweep_nodes[1].item, 0);
+            assert_int_equal(t->sweep_nodes[2].item, 2);
+            assert_int_equal(t->sweep_nodes[0].item, RTO_TLAS_INTERNAL);
+            assert_true(t->sweep_nodes[0].min[1] == 0.0f && t->sweep_nodes[0].max[1] == 4.0f);
+        } else {
+            assert_int_equal(t->node_count, 1);
+            assert_int_equal(t->karras_nodes[0].left, RTO_BVH_LEAF_BIT | 0u);
+            assert_int_equal(t->karras_nodes[0].right, RTO_BVH_LEAF_BIT | 1u);
+            assert_true(t->karras_nodes[0].rmin[1] == 3.0f && t->karras_nodes[0].rmax[1] == 4.0f);
+        }
+        assert_int_equal(t->stats.leaves, 2);
+        const rto_accel_blas *e = rto_accel_get_blas(acc, 1);
+        assert_non_null(e);
+        assert_int_equal(e->mesh, 1);
+        assert_int_equal(e->triangle_count, 0);
+        assert_int_equal(e->node_count, 0);
+        assert_int_equal(e->stats.depth, 0);
+        assert_int_equal(rto_accel_get_blas(acc, 0)->node_count, 1);
+        rto_bvh_report r;
+        if (rto_accel_check(acc, &r, &msg))
+            fail_msg("self-check: %s", msg.text);
+        rto_accel_destroy(acc);
+    }
+    /* only empty instances: no key; the sweep TLAS is one EMPTY root, the Karras TLAS has no node */
+    const uint32_t blas2[] = {1, 1};
+    hand_scene_make(&h, blas2, off, 2);
+    for (int kind = 0; kind < 2; kind++) {
+        rto_accel_desc desc = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+        rto_accel *acc = NULL;
+        assert_int_equal(rto_accel_build(&h.sc, &desc, &acc, NULL), RTO_OK);
+        const rto_accel_tlas *t = rto_accel_get_tlas(acc);
+        assert_int_equal(t->key_count, 0);
+        assert_int_equal(t->n_padded, 0);
+        assert_int_equal(t->node_count, kind ? 0u : 1u);
+        if (!kind)
+            assert_int_equal(t->sweep_nodes[0].item, RTO_TLAS_EMPTY);
+        rto_bvh_report r;
+        assert_int_equal(rto_accel_check(acc, &r, NULL), RTO_OK);
+        rto_accel_destroy(acc);
+    }
+}
+
+/* rto_tlas_keys_from_boxes against rto_tlas_keys (tested in test_keys) of the non-empty boxes alone: the same Morton
+ * bits, with the real box index in the low 16 bits. */
+static void test_tlas_keys_skip_empty_boxes(void **state)
+{
+    (void)state;
+    for (uint32_t seed = 1; seed <= 20; seed++) {
+        const size_t n = 1 + rto_rng(seed, 0) % 3000;
+        rto_aabb *boxes = make_boxes("uniform", n, 1e-3f, seed);
+        rto_vec3 *c = malloc(n * sizeof *c);
+        uint32_t *index = malloc(n * 4), *keys = malloc(n * 4), *ref = malloc(n * 4);
+        size_t m = 0;
+        for (size_t i = 0; i < n; i++) {
+            if (rto_rng(seed, (uint32_t)i + 1) % 4 == 0) { /* a quarter of the boxes are empty */
+                boxes[i].min = (rto_vec3){INFINITY, INFINITY, INFINITY};
+                boxes[i].max = (rto_vec3){-INFINITY, -INFINITY, -INFINITY};
+                continue;
+            }
+            c[m] = rto_aabb_centroid(&boxes[i]);
+            index[m++] = (uint32_t)i;
+        }
+        size_t got = SIZE_MAX;
+        assert_int_equal(rto_tlas_keys_from_boxes(boxes, n, keys, &got, NULL), RTO_OK);
+        assert_int_equal(got, m);
+        assert_int_equal(rto_tlas_keys(c, m, ref, NULL), RTO_OK);
+        for (size_t k = 0; k < m; k++)
+            if (keys[k] != ((ref[k] & 0xFFFF0000u) | index[k]))
+                fail_msg("seed %u: key %zu is %08x, want %08x", seed, k, keys[k], (ref[k] & 0xFFFF0000u) | index[k]);
+        free(boxes);
+        free(c);
+        free(index);
+        free(keys);
+        free(ref);
+    }
+    /* an empty or NaN box through a transform stays the empty box */
+    rto_mat34 xf = {{{1, 0, 0, 1}, {0, 1, 0, 2}, {0, 0, 1, 3}}};
+    rto_aabb none = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    rto_aabb nan_box = {{NAN, 0, 0}, {1, 1, 1}};
+    rto_aabb t1 = rto_aabb_transform(&xf, &none), t2 = rto_aabb_transform(&xf, &nan_box);
+    assert_memory_equal(&t1, &none, sizeof none);
+    assert_memory_equal(&t2, &none, sizeof none);
+    /* a NaN bound is not empty: it is refused, naming the box */
+    rto_aabb b[2] = {{{0, 0, 0}, {1, 1, 1}}, {{NAN, 0, 0}, {1, 1, 1}}};
+    uint32_t k[2];
+    size_t m = 9;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_tlas_keys_from_boxes(b, 2, k, &m, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "centroid 1"));
+    assert_int_equal(m, 0);
+}
+
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* The accel API contract                                                                                              */
+
+static void test_accel_contract(void **state)
+{
+    (void)state;
+    rto_accel_destroy(NULL);
+    assert_null(rto_accel_get_tlas(NULL));
+    assert_null(rto_accel_get_blas(NULL, 0));
+    assert_null(rto_accel_scene(NULL));
+    assert_int_equal(rto_accel_blas_count(NULL), 0);
+    rto_accel *acc = (rto_accel *)&acc; /* must be reset to NULL on failure */
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_accel_build(NULL, NULL, &acc, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_null(acc);
+    rto_scene *sc = NULL;
+    assert_int_equal(rto_scene_load("rtstress:3", &sc, &msg), RTO_OK);
+    assert_int_equal(rto_accel_build(sc, NULL, NULL, &msg), RTO_ERR_INVALID_ARGUMENT);
+    rto_accel_desc bad = {(rto_tlas_kind)7};
+    assert_int_equal(rto_accel_build(sc, &bad, &acc, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "TLAS kind"));
+    /* NULL and a zero-initialised description both mean the sweep TLAS, with identical bytes */
+    rto_accel *a = NULL, *z = NULL;
+    rto_accel_desc zero;
+    memset(&zero, 0, sizeof zero);
+    assert_int_equal(rto_accel_build(sc, NULL, &a, &msg), RTO_OK);
+    assert_int_equal(rto_accel_build(sc, &zero, &z, &msg), RTO_OK);
+    const rto_accel_tlas *ta = rto_accel_get_tlas(a), *tz = rto_accel_get_tlas(z);
+    assert_int_equal(ta->kind, RTO_TLAS_SWEEP);
+    assert_int_equal(ta->node_count, tz->node_count);
+    assert_memory_equal(ta->sweep_nodes, tz->sweep_nodes, ta->node_count * sizeof(rto_tlas_node));
+    assert_ptr_equal(rto_accel_scene(a), sc);
+    assert_int_equal(ta->node_count, 2 * 32 - 1); /* 27 instances, n_padded 32 */
+    rto_accel_destroy(a);
+    rto_accel_destroy(z);
+    /* a scene assembled by hand is checked before anything is read through it */
+    uint32_t saved = sc->meshes[0].indices[4];
+    sc->meshes[0].indices[4] = sc->meshes[0].vertex_count;
+    assert_int_equal(rto_accel_build(sc, NULL, &acc, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "mesh 0"));
+    sc->meshes[0].indices[4] = saved;
+    sc->instances[5].blas = 3;
+    assert_int_equal(rto_accel_build(sc, NULL, &acc, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "instance 5"));
+    assert_null(acc);
+    rto_scene_destroy(sc);
+}
+
+/* rto_accel_check names the tree and the fault of a damaged accel. The views are const for readers; the test casts
+ * that away on purpose to damage one tree at a time. */
+static void test_accel_check_names_the_tree(void **state)
+{
+    (void)state;
+    rto_scene *sc = NULL;
+    rto_msg msg = {{0}};
+    rto_bvh_report r;
+    assert_int_equal(rto_scene_load("rtstress:4", &sc, &msg), RTO_OK);
+    rto_accel *acc = NULL;
+    assert_int_equal(rto_accel_build(sc, NULL, &acc, &msg), RTO_OK);
+    const rto_accel_tlas *t = rto_accel_get_tlas(acc);
+    rto_tlas_node *leaves = (rto_tlas_node *)(uintptr_t)(t->sweep_nodes + t->n_padded - 1);
+    uint32_t item = leaves[3].item;
+    leaves[3].item = leaves[4].item; /* an instance twice, another in no leaf */
+    assert_int_equal(rto_accel_check(acc, &r, &msg), RTO_ERR_MISMATCH);
+    assert_int_equal(r.fault, RTO_BVH_ITEM);
+    assert_non_null(strstr(msg.text, "the sweep TLAS: item"));
+    leaves[3].item = item;
+    assert_int_equal(rto_accel_check(acc, &r, &msg), RTO_OK);
+    rto_bvh_node *bn = (rto_bvh_node *)(uintptr_t)rto_accel_get_blas(acc, 0)->nodes;
+    bn[2].lmax[1] = nextafterf(bn[2].lmax[1], INFINITY);
+    assert_int_equal(rto_accel_check(acc, &r, &msg), RTO_ERR_MISMATCH);
+    assert_int_equal(r.fault, RTO_BVH_BOX);
+    assert_int_equal(r.node, 2);
+    assert_non_null(strstr(msg.text, "the BLAS of mesh 0: box"));
+    rto_accel_destroy(acc);
+    rto_scene_destroy(sc);
+
+    /* with empty instances: a leaf that holds an instance of the empty mesh is caught */
+    const uint32_t blas[] = {0, 1, 0, 0};
+    const float off[][3] = {{0, 0, 0}, {50, 0, 50}, {0, 3, 0}, {4, 0, 0}};
+    hand_scene h;
+    hand_scene_make(&h, blas, off, 4);
+    assert_int_equal(rto_accel_build(&h.sc, NULL, &acc, &msg), RTO_OK);
+    t = rto_accel_get_tlas(acc);
+    assert_int_equal(t->key_count, 3);
+    leaves = (rto_tlas_node *)(uintptr_t)(t->sweep_nodes + t->n_padded - 1);
+    assert_int_equal(rto_accel_check(acc, &r, &msg), RTO_OK);
+    item = leaves[0].item;
+    leaves[0].item = 1;
+    assert_int_equal(rto_accel_check(acc, &r, &msg), RTO_ERR_MISMATCH);
+    assert_int_equal(r.fault, RTO_BVH_DROPPED_LEAF);
+    assert_int_equal(r.leaf, item); /* the real instance index, not its rank among the keyed ones */
+    assert_non_null(strstr(msg.text, "the sweep TLAS"));
+    rto_accel_destroy(acc);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -468,6 +780,10 @@ int main(void)
         cmocka_unit_test(test_karras_mutations),
         cmocka_unit_test(test_procedural_scene_trees),
         cmocka_unit_test(test_fixture_trees),
+        cmocka_unit_test(test_empty_mesh_builds_an_empty_blas),
+        cmocka_unit_test(test_tlas_keys_skip_empty_boxes),
+        cmocka_unit_test(test_accel_contract),
+        cmocka_unit_test(test_accel_check_names_the_tree),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

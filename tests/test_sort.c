@@ -75,6 +75,10 @@ static void test_sorts_equal_qsort_everywhere(void **state)
                     uint64_t src = perm[i] < n ? tu_get(f, keys, perm[i]) : sentinel;
                     assert_true(src == tu_get(f, out, i));
                 }
+                assert_int_equal(rto_fast_radix_sort(f, keys, n, out, NULL), RTO_OK);
+                for (size_t i = 0; i < n; i++)
+                    if (tu_get(f, out, i) != e[i])
+                        fail_msg("fast radix %s n=%zu %s seed=%u: slot %zu", di->name, n, fi ? "u64" : "u32", seed, i);
                 assert_int_equal(rto_radix_sort(f, keys, n, 8, 256, out, perm, NULL, NULL), RTO_OK);
                 for (size_t i = 0; i < n; i++) {
                     if (tu_get(f, out, i) != e[i])
@@ -92,7 +96,7 @@ static void test_sorts_equal_qsort_everywhere(void **state)
             }
         }
     }
-    print_message("bitonic and radix matched qsort on %zu distribution x size x format cases\n", cases);
+    print_message("bitonic, radix and fast radix matched qsort on %zu distribution x size x format cases\n", cases);
     assert_true(cases > 2000);
 }
 
@@ -195,6 +199,64 @@ static void test_radix_intermediates(void **state)
                 }
 }
 
+/* Key shapes that steer the fast radix sort down each of its paths: an index field in input order (strictly, or with
+ * repeats), one out of order, differences only inside the index field, constant high bits of ones, all 64 bits
+ * random, a single differing bit. Each result equals qsort and the canonical network's first n slots. */
+static uint64_t shaped_key(int shape, rto_key_format f, uint32_t seed, size_t i, size_t n)
+{
+    const int w = f == RTO_KEY_U32 ? 16 : 32; /* index field width */
+    uint64_t r = rto_rng(seed, (uint32_t)i), r2 = rto_rng(seed ^ 0x5bd1e995u, (uint32_t)i);
+    uint64_t idx = (uint64_t)i;
+    switch (shape) {
+    case 0: return ((r & (f == RTO_KEY_U32 ? 0x7FFFu : 0x3FFFFFFFu)) << w) | idx; /* rto_tlas_keys / rto_blas_keys */
+    case 1: return ((r & 0xFFu) << w) | (idx / 3);                                  /* index repeats, in order */
+    case 2: return ((r & 0xFFu) << w) | (i == n / 2 ? (idx + 1) : i == n / 2 + 1 ? (idx - 1) : idx); /* one swap */
+    case 3: return (UINT64_C(5) << w) | (uint64_t)(n - 1 - i);                     /* only the index differs, reversed */
+    case 4: return (UINT64_C(5) << w) | idx;                                        /* already sorted */
+    case 5: return (f == RTO_KEY_U32 ? 0xFFFF0000u : UINT64_C(0xFFFFFFFF00000000)) | (r & 0x3FFu); /* high ones */
+    case 6: return (r << 32) | r2;                                                  /* every bit random */
+    case 7: return (r & 1u) << (f == RTO_KEY_U32 ? 31 : 63);                        /* only the top bit differs */
+    default: return r & 1u;                                                         /* only bit 0 differs */
+    }
+}
+
+static void test_fast_radix_sort_paths(void **state)
+{
+    (void)state;
+    const size_t sizes[] = {0, 1, 2, 3, 7, 64, 255, 256, 257, 1000, 4097, 65536, 100003};
+    size_t cases = 0;
+    for (int fi = 0; fi < 2; fi++) {
+        rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+        const size_t ksz = rto_key_size(f);
+        for (int shape = 0; shape <= 8; shape++)
+            for (size_t z = 0; z < sizeof sizes / sizeof sizes[0]; z++) {
+                size_t n = sizes[z];
+                if (f == RTO_KEY_U32 && (shape == 0 || shape == 4 || shape == 3) && n > 65536)
+                    continue; /* a 16-bit index field holds 65,536 positions */
+                uint32_t seed = (uint32_t)(77 + 1000 * shape + 10 * z + fi);
+                void *keys = malloc((n ? n : 1) * ksz), *out = malloc((n ? n : 1) * ksz);
+                void *net = malloc((rto_next_pow2(n) ? rto_next_pow2(n) : 1) * ksz);
+                for (size_t i = 0; i < n; i++)
+                    tu_put(f, keys, i, shaped_key(shape, f, seed, i, n));
+                uint64_t *e = tu_qsorted(f, keys, n);
+                rto_msg msg = {{0}};
+                if (rto_fast_radix_sort(f, keys, n, out, &msg))
+                    fail_msg("shape %d n=%zu seed=%u: %s", shape, n, seed, msg.text);
+                assert_int_equal(rto_bitonic_sort(f, keys, n, net, NULL, NULL, NULL), RTO_OK);
+                for (size_t i = 0; i < n; i++)
+                    if (tu_get(f, out, i) != e[i] || tu_get(f, net, i) != e[i])
+                        fail_msg("fast radix %s shape %d n=%zu seed=%u: slot %zu is %llx, qsort %llx", fi ? "u64" : "u32",
+                                 shape, n, seed, i, (unsigned long long)tu_get(f, out, i), (unsigned long long)e[i]);
+                free(keys);
+                free(out);
+                free(net);
+                free(e);
+                cases++;
+            }
+    }
+    print_message("fast radix matched qsort and the network on %zu shaped cases\n", cases);
+}
+
 static void test_sort_refuses_bad_arguments(void **state)
 {
     (void)state;
@@ -207,6 +269,12 @@ static void test_sort_refuses_bad_arguments(void **state)
     assert_int_equal(rto_bitonic_sort(RTO_KEY_U32, k, (size_t)RTO_MAX_KEYS + 1, o, NULL, NULL, &msg),
                      RTO_ERR_INVALID_ARGUMENT);
     assert_int_equal(rto_bitonic_sort((rto_key_format)9, k, 4, o, NULL, NULL, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_int_equal(rto_fast_radix_sort((rto_key_format)9, k, 4, o, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_int_equal(rto_fast_radix_sort(RTO_KEY_U32, NULL, 4, o, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_int_equal(rto_fast_radix_sort(RTO_KEY_U32, k, (size_t)RTO_MAX_KEYS + 1, o, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_int_equal(rto_fast_radix_sort(RTO_KEY_U32, k, 4, k + 1, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "overlap"));
+    assert_int_equal(rto_fast_radix_sort(RTO_KEY_U32, NULL, 0, NULL, &msg), RTO_OK);
 }
 
 int main(void)
@@ -216,6 +284,7 @@ int main(void)
         cmocka_unit_test(test_sorts_equal_qsort_everywhere),
         cmocka_unit_test(test_checkpoints_follow_the_schedule),
         cmocka_unit_test(test_radix_intermediates),
+        cmocka_unit_test(test_fast_radix_sort_paths),
         cmocka_unit_test(test_sort_refuses_bad_arguments),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -126,39 +126,6 @@ rto_status rto_karras_build(rto_key_format f, const void *sorted_keys, size_t n,
     return RTO_OK;
 }
 
-rto_aabb rto_mesh_triangle_aabb(const rto_mesh *m, uint32_t t)
-{
-    rto_aabb b;
-    const float *p0 = &m->positions[3 * (size_t)m->indices[3 * (size_t)t]];
-    b.min.x = b.max.x = p0[0];
-    b.min.y = b.max.y = p0[1];
-    b.min.z = b.max.z = p0[2];
-    for (int v = 1; v < 3; v++) {
-        const float *p = &m->positions[3 * (size_t)m->indices[3 * (size_t)t + (size_t)v]];
-        b.min.x = rto_minf(b.min.x, p[0]);
-        b.min.y = rto_minf(b.min.y, p[1]);
-        b.min.z = rto_minf(b.min.z, p[2]);
-        b.max.x = rto_maxf(b.max.x, p[0]);
-        b.max.y = rto_maxf(b.max.y, p[1]);
-        b.max.z = rto_maxf(b.max.z, p[2]);
-    }
-    return b;
-}
-
-rto_status rto_mesh_keys(const rto_mesh *mesh, uint64_t *keys, rto_msg *msg)
-{
-    rto_vec3 *c = rto_alloc(mesh->triangle_count, sizeof *c);
-    if (!c)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-    for (uint32_t t = 0; t < mesh->triangle_count; t++) {
-        rto_aabb b = rto_mesh_triangle_aabb(mesh, t);
-        c[t] = rto_aabb_centroid(&b);
-    }
-    rto_status s = rto_blas_keys(c, mesh->triangle_count, keys, msg);
-    free(c);
-    return s;
-}
-
 rto_bvh_stats rto_karras_stats(const rto_bvh_node *nodes, size_t n, const rto_aabb *root_box)
 {
     rto_bvh_stats st = {0, 0, (uint32_t)n};

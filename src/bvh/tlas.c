@@ -1,17 +1,12 @@
 /* The TLAS sweep tree of DESIGN.md §5: the seeds' implicit heap over N_PADDED sorted leaves, built bottom-up by
- * AABB union. Children of node i are 2i+1 and 2i+2; leaf j (sorted position j) is node N_PADDED - 1 + j. EMPTY boxes
- * are (+inf, -inf), the identity of the union, so an internal node's box is the plain union of both children. */
+ * AABB union from already sorted TLAS keys (the keys and their sort live in src/keys and src/sort). Children of node
+ * i are 2i+1 and 2i+2; leaf j (sorted position j) is node N_PADDED - 1 + j. EMPTY boxes are (+inf, -inf), the
+ * identity of the union, so an internal node's box is the plain union of both children. */
 #include "internal.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-rto_vec3 rto_aabb_centroid(const rto_aabb *b)
-{
-    rto_vec3 c = {(b->min.x + b->max.x) * 0.5f, (b->min.y + b->max.y) * 0.5f, (b->min.z + b->max.z) * 0.5f};
-    return c;
-}
 
 size_t rto_tlas_sweep_node_count(size_t n)
 {
@@ -27,31 +22,17 @@ static void set_empty(rto_tlas_node *t)
     t->item = RTO_TLAS_EMPTY;
 }
 
-rto_status rto_tlas_sorted_keys(const rto_aabb *boxes, size_t n, uint32_t *keys, uint32_t *sorted, rto_msg *msg)
-{
-    if (n && (!boxes || !keys || !sorted))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL boxes or keys");
-    rto_vec3 *c = rto_alloc(n, sizeof *c);
-    if (!c)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-    for (size_t i = 0; i < n; i++)
-        c[i] = rto_aabb_centroid(&boxes[i]);
-    rto_status s = rto_tlas_keys(c, n, keys, msg);
-    free(c);
-    return s ? s : rto_bitonic_sort(RTO_KEY_U32, keys, n, sorted, NULL, NULL, msg);
-}
-
-rto_status rto_tlas_build_sweep(const rto_aabb *boxes, size_t n, uint32_t *keys, uint32_t *sorted,
-                                rto_tlas_node *nodes, rto_msg *msg)
+rto_status rto_tlas_build_sweep(const uint32_t *sorted_keys, size_t n, const rto_aabb *boxes, rto_tlas_node *nodes,
+                                rto_msg *msg)
 {
     if (n > RTO_TLAS_MAX_INSTANCES)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu instances: the sweep TLAS holds at most %u", n,
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu leaves: the sweep TLAS holds at most %u", n,
                         RTO_TLAS_MAX_INSTANCES);
-    if ((n && (!boxes || !keys || !sorted)) || !nodes)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL boxes, keys or nodes");
-    rto_status s = rto_tlas_sorted_keys(boxes, n, keys, sorted, msg);
-    if (s)
-        return s;
+    if ((n && (!sorted_keys || !boxes)) || !nodes)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys, boxes or nodes");
+    for (size_t i = 1; i < n; i++)
+        if (sorted_keys[i - 1] >= sorted_keys[i])
+            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys are not sorted and distinct at %zu", i);
     const size_t np = rto_next_pow2(n);
     if (np == 0) {
         set_empty(&nodes[0]);
@@ -63,7 +44,7 @@ rto_status rto_tlas_build_sweep(const rto_aabb *boxes, size_t n, uint32_t *keys,
             set_empty(t);
             continue;
         }
-        uint32_t inst = rto_key_prim(RTO_KEY_U32, sorted[j]);
+        uint32_t inst = rto_key_prim(RTO_KEY_U32, sorted_keys[j]);
         memset(t, 0, sizeof *t);
         t->min[0] = boxes[inst].min.x;
         t->min[1] = boxes[inst].min.y;
@@ -84,11 +65,6 @@ rto_status rto_tlas_build_sweep(const rto_aabb *boxes, size_t n, uint32_t *keys,
         t->item = (l->item == RTO_TLAS_EMPTY && r->item == RTO_TLAS_EMPTY) ? RTO_TLAS_EMPTY : RTO_TLAS_INTERNAL;
     }
     return RTO_OK;
-}
-
-uint32_t rto_key_prim(rto_key_format f, uint64_t key)
-{
-    return f == RTO_KEY_U32 ? (uint32_t)(key & 0xFFFFu) : (uint32_t)key;
 }
 
 rto_bvh_stats rto_tlas_stats(const rto_tlas_node *nodes, size_t n)

@@ -54,6 +54,11 @@ static inline double rto_box_area(const float *mn, const float *mx)
     return 2 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0]);
 }
 
+/** TLAS keys whose index field is index[i] (the instance a centroid belongs to) instead of i: the keys of a subset
+ * of instances, quantised over that subset's bounds. index == NULL means index[i] = i (rto_tlas_keys). */
+rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *index, size_t n, uint32_t *keys,
+                                 rto_msg *msg);
+
 /* Atomic output (io/atomic.c). */
 
 /** Creates `target.tmp.XXXXXX` (a directory with mode 0777, or a file with 0666 whose descriptor goes to *fd; the

@@ -1555,7 +1555,7 @@ struct Loader {
                 refuse(RTO_ERR_PARSE, "node %zu: %s", n, m.text);
             in.blas = blas(n, node.mesh, int(p));
             // What the build computes from this instance (DESIGN.md §3: centroids and their span) must stay finite.
-            const rto_aabb wb = rto__aabb_transform(&in.obj_to_world, &meshes[in.blas].box);
+            const rto_aabb wb = rto_aabb_transform(&in.obj_to_world, &meshes[in.blas].box);
             if (!rto__aabb_in_range(&wb))
                 refuse(RTO_ERR_UNSUPPORTED, "%s: world bounds (%g, %g, %g) .. (%g, %g, %g) reach beyond +-%g (box "
                        "centroids would overflow binary32)", node_mesh(n, node.mesh).c_str(), double(wb.min.x),

@@ -197,21 +197,6 @@ rto_aabb rto_mesh_aabb(const rto_mesh *mesh)
     return b;
 }
 
-rto_aabb rto__aabb_transform(const rto_mat34 *m, const rto_aabb *box)
-{
-    rto_aabb w = aabb_empty();
-    if (aabb_is_empty(box))
-        return w; /* +-inf corners would give NaN through the matrix */
-    /* Corner c takes max on axis a when bit a of c is set: a fixed order, so the result is the same bytes
-     * everywhere. */
-    for (int c = 0; c < 8; c++) {
-        rto_vec3 p = {(c & 1) ? box->max.x : box->min.x, (c & 2) ? box->max.y : box->min.y,
-                      (c & 4) ? box->max.z : box->min.z};
-        aabb_grow(&w, rto_mat34_point(m, p));
-    }
-    return w;
-}
-
 static int coord_ok(float v)
 {
     return fabsf(v) <= RTO_SCENE_MAX_COORD; /* false for NaN */
@@ -237,7 +222,7 @@ rto_aabb rto_instance_aabb(const rto_scene *scene, uint32_t instance)
         return aabb_empty();
     const rto_instance *in = &scene->instances[instance];
     rto_aabb ob = rto_mesh_aabb(&scene->meshes[in->blas]);
-    return rto__aabb_transform(&in->obj_to_world, &ob);
+    return rto_aabb_transform(&in->obj_to_world, &ob);
 }
 
 rto_aabb rto_scene_aabb(const rto_scene *scene)
@@ -254,7 +239,7 @@ rto_aabb rto_scene_aabb(const rto_scene *scene)
         if (in->blas >= scene->mesh_count)
             continue;
         rto_aabb mb = ob ? ob[in->blas] : rto_mesh_aabb(&scene->meshes[in->blas]);
-        rto_aabb w = rto__aabb_transform(&in->obj_to_world, &mb);
+        rto_aabb w = rto_aabb_transform(&in->obj_to_world, &mb);
         if (aabb_is_empty(&w))
             continue;
         aabb_grow(&b, w.min);
@@ -357,7 +342,7 @@ rto_status rto__scene_validate(const rto_scene *s, rto_msg *msg)
         ob[m] = rto_mesh_aabb(&s->meshes[m]);
     for (uint32_t i = 0; i < s->instance_count; i++) {
         const rto_instance *in = &s->instances[i];
-        const rto_aabb w = rto__aabb_transform(&in->obj_to_world, &ob[in->blas]);
+        const rto_aabb w = rto_aabb_transform(&in->obj_to_world, &ob[in->blas]);
         if (!rto__aabb_in_range(&w)) {
             const uint32_t m = in->blas;
             free(ob);

@@ -53,9 +53,6 @@ void rto__utf8_copy(char *dst, size_t cap, const char *src, size_t len);
 /** rto__utf8_copy of the string in s (an array of cap bytes) onto itself. */
 void rto__utf8_fix(char *s, size_t cap);
 
-/** The box through m: the 8 corners of box through rto_mat34_point, in a fixed order; empty stays empty. */
-rto_aabb rto__aabb_transform(const rto_mat34 *m, const rto_aabb *box);
-
 /** 1 if every coordinate of a non-empty box lies within +-RTO_SCENE_MAX_COORD (an empty box passes). */
 int rto__aabb_in_range(const rto_aabb *box);
 

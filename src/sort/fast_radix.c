@@ -1,0 +1,125 @@
+/* The sort the builds use (DESIGN.md §4): TLAS and BLAS keys are unique, so every correct sort gives the same array
+ * and the builds need not run the canonical network, whose O(n log² n) compare-exchanges dominated a BLAS build.
+ * This is a plain LSD radix sort tuned for those keys:
+ *   - only the bits where the keys differ are sorted: [lowest differing bit, highest differing bit];
+ *   - keys made by rto_tlas_keys / rto_blas_keys carry an index in their low 16 / 32 bits that grows with the input
+ *     position. When that field never decreases along the input, the input is already sorted by it, and a stable
+ *     sort by the bits above it alone gives the fully sorted array (ties keep input order, which is index order);
+ *   - the remaining bits are split into the fewest passes of at most 11 bits (2048 counters, within L1), all
+ *     histograms are counted in one read of the input, and a pass whose digit is the same in every key is skipped.
+ * A sorted array is unique whatever the algorithm, so the output bytes equal the bitonic network's. */
+#include "internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_DIGIT_BITS 11u
+#define MAX_PASSES 6u /* ceil(64 / 11) */
+
+typedef struct plan {
+    uint32_t lo;                   /* first bit sorted */
+    uint32_t width;                /* bits per digit */
+    uint32_t passes;               /* digits counted */
+    uint32_t (*hist)[1u << MAX_DIGIT_BITS];
+} plan;
+
+static uint32_t bitlen64(uint64_t v) { return v ? 64u - (uint32_t)__builtin_clzll(v) : 0u; }
+static uint32_t ctz64(uint64_t v) { return v ? (uint32_t)__builtin_ctzll(v) : 64u; }
+
+/* Generates the sort for one key type: KEY the C type, NAME the suffix, IDX_BITS the width of the index field. */
+#define DEFINE_SORT(KEY, NAME, IDX_BITS)                                                                               \
+    static void make_plan_##NAME(const KEY *k, size_t n, plan *p)                                                      \
+    {                                                                                                                  \
+        KEY diff = 0;                                                                                                  \
+        int ordered_index = 1;                                                                                         \
+        const KEY idx_mask = (KEY)((((KEY)1) << (IDX_BITS)) - 1);                                                      \
+        for (size_t i = 1; i < n; i++) {                                                                               \
+            diff |= k[i] ^ k[0];                                                                                       \
+            ordered_index &= (k[i] & idx_mask) >= (k[i - 1] & idx_mask);                                               \
+        }                                                                                                              \
+        uint32_t lo = ctz64(diff), hi = bitlen64(diff);                                                                \
+        if (ordered_index && lo < (IDX_BITS))                                                                          \
+            lo = (IDX_BITS);                                                                                           \
+        p->lo = lo;                                                                                                    \
+        p->passes = lo < hi ? (hi - lo + MAX_DIGIT_BITS - 1) / MAX_DIGIT_BITS : 0;                                     \
+        p->width = p->passes ? (hi - lo + p->passes - 1) / p->passes : 0;                                              \
+    }                                                                                                                  \
+                                                                                                                       \
+    static void sort_##NAME(const KEY *in, size_t n, KEY *out, KEY *tmp, const plan *p)                                \
+    {                                                                                                                  \
+        const uint32_t radix = 1u << p->width;                                                                         \
+        const KEY mask = (KEY)(radix - 1);                                                                             \
+        for (size_t i = 0; i < n; i++)                                                                                 \
+            for (uint32_t q = 0; q < p->passes; q++)                                                                   \
+                p->hist[q][(in[i] >> (p->lo + q * p->width)) & mask]++;                                                \
+        uint32_t active[MAX_PASSES], m = 0;                                                                            \
+        for (uint32_t q = 0; q < p->passes; q++) {                                                                     \
+            int constant = 0;                                                                                          \
+            for (uint32_t d = 0; d < radix && !constant; d++)                                                          \
+                constant = p->hist[q][d] == n;                                                                         \
+            if (!constant)                                                                                             \
+                active[m++] = q;                                                                                       \
+        }                                                                                                              \
+        if (m == 0) {                                                                                                  \
+            memcpy(out, in, n * sizeof *in);                                                                           \
+            return;                                                                                                    \
+        }                                                                                                              \
+        /* Ping-pong so that the last pass writes into out. */                                                         \
+        const KEY *src = in;                                                                                           \
+        for (uint32_t a = 0; a < m; a++) {                                                                             \
+            KEY *dst = ((m - 1 - a) % 2 == 0) ? out : tmp;                                                             \
+            uint32_t *h = p->hist[active[a]], run = 0;                                                                 \
+            for (uint32_t d = 0; d < radix; d++) { /* counts become first slots */                                     \
+                uint32_t c = h[d];                                                                                     \
+                h[d] = run;                                                                                            \
+                run += c;                                                                                              \
+            }                                                                                                          \
+            const uint32_t shift = p->lo + active[a] * p->width;                                                       \
+            for (size_t i = 0; i < n; i++)                                                                             \
+                dst[h[(src[i] >> shift) & mask]++] = src[i];                                                           \
+            src = dst;                                                                                                 \
+        }                                                                                                              \
+    }
+
+DEFINE_SORT(uint32_t, u32, 16u)
+DEFINE_SORT(uint64_t, u64, 32u)
+
+rto_status rto_fast_radix_sort(rto_key_format f, const void *keys, size_t n, void *sorted, rto_msg *msg)
+{
+    if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
+    if ((uint64_t)n > RTO_MAX_KEYS)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", n,
+                        (unsigned long long)RTO_MAX_KEYS);
+    if (n && (!keys || !sorted))
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys or output");
+    const size_t ksz = rto_key_size(f);
+    const uintptr_t a = (uintptr_t)keys, b = (uintptr_t)sorted;
+    if (n && a < b + n * ksz && b < a + n * ksz)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys and output overlap");
+    plan p;
+    memset(&p, 0, sizeof p);
+    if (f == RTO_KEY_U32)
+        make_plan_u32(keys, n, &p);
+    else
+        make_plan_u64(keys, n, &p);
+    if (p.passes == 0) { /* already sorted: no bit above the ordered index field differs */
+        if (n)
+            memcpy(sorted, keys, n * ksz);
+        return RTO_OK;
+    }
+    p.hist = calloc(p.passes, sizeof *p.hist);
+    void *tmp = p.passes > 1 ? rto_alloc(n, ksz) : NULL;
+    if (!p.hist || (p.passes > 1 && !tmp)) {
+        free(p.hist);
+        free(tmp);
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
+    }
+    if (f == RTO_KEY_U32)
+        sort_u32(keys, n, sorted, tmp, &p);
+    else
+        sort_u64(keys, n, sorted, tmp, &p);
+    free(p.hist);
+    free(tmp);
+    return RTO_OK;
+}
