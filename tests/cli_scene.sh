@@ -112,6 +112,12 @@ printf '{"asset": {"version": "2.0"}, "buffers": [{"byteLength": 36, "uri": "dat
  {"mesh": 1}]}' "$tri36" >"$T/empty.gltf"
 run 0 "$RTO" info "$T/empty.gltf" && has "^triangles:  1 unique" out && has "no triangles (an empty BLAS)" out
 run 0 "$RTO" info "$T/empty.gltf" --json && has '"triangles": 0' out
+run 0 "$RTO" build "$T/empty.gltf" -o "$T/emptyb"
+# Finite positions whose world bounds overflow: info and build refuse them alike, naming the node and the mesh.
+sed 's/"nodes": \[{"mesh": 0},/"nodes": [{"name": "big", "mesh": 1, "scale": [3e38, 3e38, 3e38]},/' "$T/empty.gltf" \
+    >"$T/overflow.gltf"
+refused "$RTO" info "$T/overflow.gltf" && has "node 0 ('big'), mesh 1 (''): world bounds" err
+run 2 "$RTO" build "$T/overflow.gltf" -o "$T/ovb" && has "node 0 ('big'), mesh 1 (''): world bounds" err
 
 # A corrupt PNG costs its material the texture, with a warning on stdout; the run is silent on stderr (libpng's own
 # handlers would print "libpng error: ..."). The PNG: 1x1 RGBA, stored deflate, an invalid filter type (7).
