@@ -65,6 +65,8 @@ bool cli_parse_algo(const char *text, rto_sort_algo *a);
 /* Limits shared by the commands' option tables. */
 #define CLI_SEED_MAX UINT32_MAX
 #define CLI_TILE_MAX (UINT32_C(1) << 24)
+/* --texture-budget MB (info, build): up to 1 TiB of decoded textures. */
+#define CLI_TEXTURE_BUDGET_MAX_MB (UINT64_C(1) << 20)
 /* --radix-bits: the digit widths the radix reference implements. */
 extern const opt_name cli_radix_bits_names[];
 

@@ -8,7 +8,7 @@
 #include <string.h>
 
 static const char build_usage[] =
-    "usage: rtoracle build SCENE [--tlas sweep|karras] -o OUTDIR\n\n"
+    "usage: rtoracle build SCENE [--tlas sweep|karras] [--texture-budget MB] -o OUTDIR\n\n"
     "SCENE is a .gltf / .glb path or a procedural scene: triangle, rtstress:N (1..40),\n"
     "instances:DIST:N (N boxes around the centroids of a centroid distribution, N <= 65536).\n"
     "Writes a bundle (atomically):\n"
@@ -29,8 +29,11 @@ int cmd_build(int argc, char **argv)
 {
     const char *out = NULL;
     unsigned karras = 0;
+    uint64_t budget_mb = 0;
     const opt_spec opts[] = {
         OPT_ENUM("tlas", &karras, tlas_names, "T", "TLAS layout", "sweep, the seeds' implicit tree"),
+        OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
+                 "decoded texture memory (RGBA8, MiB) the scene may take", "256"),
         OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
         OPT_END,
     };
@@ -45,9 +48,11 @@ int cmd_build(int argc, char **argv)
     const char *scene = args.arg[0];
     rto_msg msg = {{0}};
     rto_scene *sc = NULL;
-    rto_status s = rto_scene_load(scene, &sc, &msg);
-    if (s)
-        return cli_fail("build", "%s: %s", scene, msg.text);
+    rto_scene_load_desc load = {0};
+    load.texture_budget_bytes = (size_t)(budget_mb << 20); /* 0 (not given): the default */
+    rto_status s = rto_scene_load_ex(scene, &load, &sc, &msg);
+    if (s) /* the message names the scene file itself */
+        return cli_fail("build", "%s", msg.text);
     for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
         fprintf(stderr, "rtoracle build: warning: %s\n", sc->warnings[w]);
     rto_accel_desc desc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};

@@ -11,7 +11,7 @@
 #define INFO_TEXT_MESHES 40
 
 static const char info_usage[] =
-    "usage: rtoracle info SCENE [--json]\n\n"
+    "usage: rtoracle info SCENE [--json] [--texture-budget MB]\n\n"
     "Loads SCENE and prints what was loaded: mesh (BLAS) count, instance count, triangles (unique, i.e.\n"
     "summed over the BLAS, and instanced, i.e. summed over the instances' BLAS), vertices, materials,\n"
     "textures with their sizes, cameras, the scene's world bounds and the loader's warnings.\n\n"
@@ -210,9 +210,12 @@ static void print_text(const rto_scene *s, const scene_counts *c, const rto_aabb
 int cmd_info(int argc, char **argv)
 {
     bool as_json = false;
+    uint64_t budget_mb = 0;
     const opt_spec opts[] = {
         OPT_FLAG("json", &as_json, "one JSON object on stdout instead of text (meshes, materials, textures, cameras "
                  "listed)"),
+        OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
+                 "decoded texture memory (RGBA8, MiB) the scene may take; a scene that needs more is refused", "256"),
         OPT_END,
     };
     const opt_command cmd = {"info", info_usage, info_epilog, opts, 1, 1, "a SCENE"};
@@ -222,7 +225,9 @@ int cmd_info(int argc, char **argv)
         return rc;
     rto_msg msg = {{0}};
     rto_scene *s = NULL;
-    rto_status st = rto_scene_load(args.arg[0], &s, &msg);
+    rto_scene_load_desc load = {0};
+    load.texture_budget_bytes = (size_t)(budget_mb << 20); /* 0 (not given): the default */
+    rto_status st = rto_scene_load_ex(args.arg[0], &load, &s, &msg);
     if (st)
         return cli_status("info", st, &msg);
     scene_counts c;

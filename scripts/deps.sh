@@ -6,7 +6,7 @@ RTO_DEBS=(
     libjansson-dev libssl-dev                      # manifest.json (jansson), sha256 (libcrypto)
     libcmocka-dev                                  # unit tests
     g++ libtinygltf-dev nlohmann-json3-dev         # glTF scenes: tinygltf (header-only use) and its JSON parser
-    libopenimageio-dev                             # glTF textures (decoded in the librto_image.so module)
+    libopenimageio-dev libpng-dev                  # glTF textures (decoded in the librto_image.so module)
     libembree-dev                                  # benchmarks: Embree on the same geometry
     assimp-testmodels                              # glTF 2.0 test files, broken ones included (tests only)
 )

@@ -495,12 +495,33 @@ typedef struct rto_scene {
 /** The Stage-2 default camera: position (0, 2, 5), target origin, up +y, fovY 60 degrees. */
 rto_camera rto_camera_default(void);
 
+/* Default cap on the decoded texture memory of one scene: 256 MiB of RGBA8 (4 bytes a texel). */
+#define RTO_SCENE_TEXTURE_BUDGET_DEFAULT ((size_t)256 << 20)
+
+/** Options of rto_scene_load_ex. A zero-initialised description means the defaults. */
+typedef struct rto_scene_load_desc {
+    /* Most bytes the scene's decoded textures may take together (4 * width * height each; an image shared by
+     * several textures counts once); 0 means RTO_SCENE_TEXTURE_BUDGET_DEFAULT. Checked from each image's header,
+     * before any pixel is decoded: a scene over the budget is refused (RTO_ERR_UNSUPPORTED). An external image file
+     * larger than the budget is refused too. */
+    size_t texture_budget_bytes;
+    /* Nonzero: read no file but the scene file itself. A buffer or image URI that is not a data: URI is refused
+     * (RTO_ERR_UNSUPPORTED), so an untrusted .gltf cannot make the loader open other files. */
+    int embedded_only;
+} rto_scene_load_desc;
+
 /**
  * Loads a scene: a .gltf / .glb path, or a procedural spec: "triangle", "rtstress:N" (N x N x N cube instances,
  * 1 <= N <= 40), "instances:DIST:N" (N small boxes whose centroids follow centroid distribution DIST, N <= 65536).
- * Malformed, unsupported or non-finite input is refused with RTO_ERR_PARSE / RTO_ERR_UNSUPPORTED / RTO_ERR_INVALID_ARGUMENT
- * and a one-line reason. Non-triangle primitives are skipped with a warning.
+ * desc may be NULL (the defaults). Malformed, unsupported or non-finite input is refused with RTO_ERR_PARSE /
+ * RTO_ERR_UNSUPPORTED / RTO_ERR_INVALID_ARGUMENT, and a file that cannot be read (missing, or not a regular file:
+ * a FIFO, a directory, a device) with RTO_ERR_IO; msg gets one line of valid UTF-8 that names the file once. glTF 1.0
+ * is refused ("glTF 1.0 is not supported"). Non-triangle primitives are skipped with a warning; a mesh without
+ * triangles loads as an empty BLAS. Vertices and instance world bounds must lie within +-1.7e38 (FLT_MAX / 2), so
+ * that box centroids and spans stay finite. Names, warnings and source are valid UTF-8, cut at character boundaries.
  */
+rto_status rto_scene_load_ex(const char *spec, const rto_scene_load_desc *desc, rto_scene **out, rto_msg *msg);
+/** rto_scene_load_ex with the default options. */
 rto_status rto_scene_load(const char *spec, rto_scene **out, rto_msg *msg);
 void rto_scene_destroy(rto_scene *scene);
 

@@ -24,6 +24,7 @@ run 2 "$RTO" info --frobnicate triangle
 n=0
 while IFS= read -r f; do
     run 0 "$RTO" info "$f" && has "^instances: " out && has "^bounds: .*min" out
+    [ -s "$T/err" ] && { fail "info $f: a successful run wrote to stderr"; sed 's/^/    | /' "$T/err" | head -5; }
     run 0 "$RTO" info "$f" --json && has '"instances": ' out && has '"triangles_instanced": ' out
     n=$((n + 1))
 done < <(find "$FIX" -type f \( -iname '*.gltf' -o -iname '*.glb' \) | sort)
@@ -77,6 +78,77 @@ RTO_IMAGE_MODULE="$T/bogus.so" run 0 "$RTO" info "$FIX/Duck/glTF/Duck.gltf" && h
 libm=$(find /lib /usr/lib -name 'libm.so.6' 2>/dev/null | head -1)
 [ -n "$libm" ] && RTO_IMAGE_MODULE="$libm" run 0 "$RTO" info "$FIX/Duck/glTF/Duck.gltf" &&
     has "is not a compatible image module" out
+
+# A FIFO, a directory, /dev/zero: refused at once (timeout turns a hang into a failure), one line naming the file
+# once, exit 2, for info and build alike; build leaves no output behind.
+mkfifo "$T/fifo.gltf"
+mkdir "$T/dir.gltf"
+ln -s /dev/zero "$T/zero.glb"
+for f in fifo.gltf dir.gltf zero.glb missing.gltf; do
+    refused timeout 20 "$RTO" info "$T/$f"
+    [ "$(grep -o "$T/$f" "$T/err" | wc -l)" = 1 ] || fail "info $f: the path is not named exactly once"
+    run 2 timeout 20 "$RTO" build "$T/$f" -o "$T/bout" && has "^rtoracle build: $T/$f: " err
+    [ "$(wc -l <"$T/err")" = 1 ] || fail "build $f: want one stderr line"
+    [ "$(grep -o "$T/$f" "$T/err" | wc -l)" = 1 ] || fail "build $f: the path is not named exactly once"
+    [ -e "$T/bout" ] && fail "build $f left $T/bout"
+done
+refused timeout 20 "$RTO" info "$T/fifo.gltf" && has "not a regular file (a FIFO)" err
+refused timeout 20 "$RTO" info "$T/zero.glb" && has "not a regular file (a character device)" err
+# ... and as a buffer URI
+printf '{"asset": {"version": "2.0"}, "buffers": [{"byteLength": 36, "uri": "fifo.gltf"}]}' >"$T/fifobuf.gltf"
+refused timeout 20 "$RTO" info "$T/fifobuf.gltf" && has "buffer 0 ('$T/fifo.gltf'): not a regular file (a FIFO)" err
+
+# glTF 1.0 (Debian's assimp-testmodels keeps some next to glTF2/)
+while IFS= read -r f; do
+    refused "$RTO" info "$f" && has "glTF 1.0 is not supported" err
+done < <(find "$ASSIMP/../glTF" -type f \( -iname '*.gltf' -o -iname '*.glb' \) | sort)
+
+# A mesh without triangles (a count-0 accessor) is an empty BLAS: info accepts it.
+tri36=AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA
+printf '{"asset": {"version": "2.0"}, "buffers": [{"byteLength": 36, "uri": "data:application/octet-stream;base64,%s"}],
+ "bufferViews": [{"buffer": 0, "byteLength": 36}], "accessors": [{"bufferView": 0, "componentType": 5126, "count": 0,
+ "type": "VEC3"}, {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}], "meshes": [{"primitives":
+ [{"attributes": {"POSITION": 0}}]}, {"primitives": [{"attributes": {"POSITION": 1}}]}], "nodes": [{"mesh": 0},
+ {"mesh": 1}]}' "$tri36" >"$T/empty.gltf"
+run 0 "$RTO" info "$T/empty.gltf" && has "^triangles:  1 unique" out && has "no triangles (an empty BLAS)" out
+run 0 "$RTO" info "$T/empty.gltf" --json && has '"triangles": 0' out
+run 0 "$RTO" build "$T/empty.gltf" -o "$T/emptyb"
+# Finite positions whose world bounds overflow: info and build refuse them alike, naming the node and the mesh.
+sed 's/"nodes": \[{"mesh": 0},/"nodes": [{"name": "big", "mesh": 1, "scale": [3e38, 3e38, 3e38]},/' "$T/empty.gltf" \
+    >"$T/overflow.gltf"
+refused "$RTO" info "$T/overflow.gltf" && has "node 0 ('big'), mesh 1 (''): world bounds" err
+run 2 "$RTO" build "$T/overflow.gltf" -o "$T/ovb" && has "node 0 ('big'), mesh 1 (''): world bounds" err
+
+# A corrupt PNG costs its material the texture, with a warning on stdout; the run is silent on stderr (libpng's own
+# handlers would print "libpng error: ..."). The PNG: 1x1 RGBA, stored deflate, an invalid filter type (7).
+python3 - "$T/badpng.gltf" "$tri36" <<'PY'
+import base64, struct, sys, zlib
+def chunk(t, d): return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+raw = bytes([7, 1, 2, 3, 4])
+png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 1, 1, 8, 6, 0, 0, 0))
+       + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+open(sys.argv[1], "w").write('{"asset": {"version": "2.0"}, "buffers": [{"byteLength": 36, "uri": '
+    '"data:application/octet-stream;base64,%s"}], "bufferViews": [{"buffer": 0, "byteLength": 36}], "accessors": '
+    '[{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}], "images": [{"uri": '
+    '"data:image/png;base64,%s"}], "textures": [{"source": 0}], "materials": [{"pbrMetallicRoughness": '
+    '{"baseColorTexture": {"index": 0}}}], "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, '
+    '"material": 0}]}], "nodes": [{"mesh": 0}]}' % (sys.argv[2], base64.b64encode(png).decode()))
+PY
+run 0 "$RTO" info "$T/badpng.gltf" && has "cannot decode: PNG read error: bad adaptive filter value" out
+[ -s "$T/err" ] && { fail "info badpng.gltf: a successful run wrote to stderr"; sed 's/^/    | /' "$T/err"; }
+
+# --texture-budget MB: Duck's one 512x512 texture takes exactly 1 MiB; WaterBottle's 2048x2048 base colour 16 MiB
+run 0 "$RTO" info "$FIX/Duck/glTF/Duck.gltf" --texture-budget 1 && has "^textures:   1$" out
+run 0 "$RTO" info "$FIX/WaterBottle/glTF/WaterBottle.gltf" --texture-budget 16 && has "^textures:   1$" out
+refused "$RTO" info "$FIX/WaterBottle/glTF/WaterBottle.gltf" --texture-budget 15 &&
+    has "over the texture budget of 15 MiB (raise it with --texture-budget MB)" err
+for bad in 0 -1 x 1048577 ""; do
+    refused "$RTO" info "$FIX/Duck/glTF/Duck.gltf" --texture-budget "$bad"
+done
+run 0 "$RTO" build "$FIX/Duck/glTF/Duck.gltf" --texture-budget 1 -o "$T/duck"
+run 2 "$RTO" build "$FIX/WaterBottle/glTF/WaterBottle.gltf" --texture-budget 15 -o "$T/wb" &&
+    has "^rtoracle build: $FIX/WaterBottle/glTF/WaterBottle.gltf: image 0 " err
+[ -e "$T/wb" ] && fail "a refused build left $T/wb"
 
 # same input, same bytes
 "$RTO" info "$FIX/CornellBox-nvpro-glTF/cornellBox.gltf" --json >"$T/a.json"

@@ -8,6 +8,7 @@
 #include <jansson.h>
 #include <math.h>
 #include <strings.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -767,7 +768,8 @@ static void test_gltf_malformed_files(void **state)
         {"{", RTO_ERR_PARSE, "invalid JSON"},
         {"[1, 2]", RTO_ERR_PARSE, "the document must be a JSON object, not an array"},
         {"{}", RTO_ERR_PARSE, "asset.version is required"},
-        {"{\"asset\": {\"version\": \"1.0\"}}", RTO_ERR_UNSUPPORTED, "glTF version '1.0'"},
+        {"{\"asset\": {\"version\": \"1.0\"}}", RTO_ERR_UNSUPPORTED, "glTF 1.0 is not supported"},
+        {"{\"asset\": {\"version\": \"3.0\"}}", RTO_ERR_UNSUPPORTED, "glTF version '3.0'"},
         {"{\"asset\": {\"version\": \"2.0\", \"minVersion\": \"2.1\"}}", RTO_ERR_UNSUPPORTED, "minVersion '2.1'"},
         {"{\"asset\": {\"version\": 2}}", RTO_ERR_PARSE, "schema: asset.version must be a string"},
         {"glTF\x02", RTO_ERR_PARSE, "GLB shorter than its 20-byte header"},
@@ -853,6 +855,803 @@ static void test_glb_truncation_and_flips(void **state)
     assert_true(has_warning(s, "cannot decode: corrupt PNG: CRC mismatch in chunk"));
     rto_scene_destroy(s);
     free(b);
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Hostile inputs: non-regular files, amplification, budgets                                                        */
+
+/* Loads that must not allocate much are run under a cap, so a regression fails here instead of swapping: in ASan
+ * builds the allocator's own limit (below), elsewhere an address-space limit around the load. */
+#if defined(__SANITIZE_ADDRESS__)
+#define TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define TEST_ASAN 1
+#endif
+#endif
+#ifdef TEST_ASAN
+const char *__asan_default_options(void);
+const char *__asan_default_options(void) { return "max_allocation_size_mb=1024"; }
+#endif
+
+#ifndef TEST_ASAN
+static struct rlimit saved_as;
+#endif
+
+static void memory_cap_on(void)
+{
+#ifndef TEST_ASAN
+    /* 1 GiB more than the process maps now. */
+    FILE *f = fopen("/proc/self/statm", "r");
+    unsigned long pages = 0;
+    assert_non_null(f);
+    assert_int_equal(fscanf(f, "%lu", &pages), 1);
+    fclose(f);
+    assert_int_equal(getrlimit(RLIMIT_AS, &saved_as), 0);
+    struct rlimit cap = saved_as;
+    cap.rlim_cur = (rlim_t)pages * (rlim_t)sysconf(_SC_PAGESIZE) + ((rlim_t)1 << 30);
+    if (saved_as.rlim_max != RLIM_INFINITY && cap.rlim_cur > saved_as.rlim_max)
+        cap.rlim_cur = saved_as.rlim_max;
+    assert_int_equal(setrlimit(RLIMIT_AS, &cap), 0);
+#endif
+}
+
+static void memory_cap_off(void)
+{
+#ifndef TEST_ASAN
+    assert_int_equal(setrlimit(RLIMIT_AS, &saved_as), 0);
+#endif
+}
+
+static void expect_refusal_ex(const char *spec, const rto_scene_load_desc *desc, rto_status want,
+                              const char *substring)
+{
+    rto_msg msg = {{0}};
+    rto_scene *s = (rto_scene *)&msg;
+    rto_status st = rto_scene_load_ex(spec, desc, &s, &msg);
+    if (st != want || !strstr(msg.text, substring))
+        fail_msg("%s: got %s '%s', want %s containing '%s'", spec, rto_status_string(st), msg.text,
+                 rto_status_string(want), substring);
+    assert_null(s);
+    assert_one_line(&msg);
+}
+
+static rto_scene *load_ok_ex(const char *spec, const rto_scene_load_desc *desc)
+{
+    rto_msg msg = {{0}};
+    rto_scene *s = NULL;
+    rto_status st = rto_scene_load_ex(spec, desc, &s, &msg);
+    if (st)
+        fail_msg("%s: %s (%s)", spec, msg.text, rto_status_string(st));
+    return s;
+}
+
+/* How often needle occurs in hay. */
+static int occurrences(const char *hay, const char *needle)
+{
+    int n = 0;
+    for (const char *p = strstr(hay, needle); p; p = strstr(p + 1, needle))
+        n++;
+    return n;
+}
+
+/* Writes tmp/NAME as the text given; returns the path in a static buffer. */
+static const char *text_file(const char *name, const char *text)
+{
+    static char path[1024];
+    snprintf(path, sizeof path, "%s/%s", tmp_dir, name);
+    write_bytes(path, text, strlen(text));
+    return path;
+}
+
+static const char *tmp_path(const char *name)
+{
+    static char path[1024];
+    snprintf(path, sizeof path, "%s/%s", tmp_dir, name);
+    return path;
+}
+
+/* One triangle whose buffer is the external file URI (36 bytes declared) and, when image_uri is set, a material with
+ * a base-colour texture from that image URI. */
+static const char *external_gltf(const char *name, const char *buffer_uri, const char *image_uri)
+{
+    static const float p[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    char body[4096], buf[512];
+    char *b64 = base64((const unsigned char *)p, sizeof p);
+    if (buffer_uri)
+        snprintf(buf, sizeof buf, "{\"byteLength\": 36, \"uri\": \"%s\"}", buffer_uri);
+    else
+        snprintf(buf, sizeof buf, "{\"byteLength\": 36, \"uri\": \"data:application/octet-stream;base64,%s\"}", b64);
+    free(b64);
+    snprintf(body, sizeof body,
+             "{\"asset\": {\"version\": \"2.0\"}, \"buffers\": [%s], "
+             "\"bufferViews\": [{\"buffer\": 0, \"byteLength\": 36}], \"accessors\": [{\"bufferView\": 0, "
+             "\"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\"}], %s%s%s"
+             "\"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}%s}]}], \"nodes\": [{\"mesh\": 0}]}",
+             buf, image_uri ? "\"images\": [{\"uri\": \"" : "", image_uri ? image_uri : "",
+             image_uri ? "\"}], \"textures\": [{\"source\": 0}], \"materials\": [{\"pbrMetallicRoughness\": "
+                         "{\"baseColorTexture\": {\"index\": 0}}}], "
+                       : "",
+             image_uri ? ", \"material\": 0" : "");
+    return text_file(name, body);
+}
+
+/* A FIFO, a directory or /dev/zero as the scene, as a buffer URI or as an image URI: refused at once with one line
+ * naming the file (open() itself would block on a FIFO; /dev/zero never ends). The alarm turns a hang into a
+ * failure. */
+static void test_non_regular_files(void **state)
+{
+    (void)state;
+    alarm(60);
+    assert_int_equal(mkfifo(tmp_path("fifo.gltf"), 0600), 0);
+    assert_int_equal(mkdir(tmp_path("dir.gltf"), 0700), 0);
+    assert_int_equal(symlink("/dev/zero", tmp_path("zero.glb")), 0);
+    assert_int_equal(mkfifo(tmp_path("fifo.bin"), 0600), 0);
+    assert_int_equal(mkdir(tmp_path("dir.bin"), 0700), 0);
+    assert_int_equal(symlink("/dev/zero", tmp_path("zero.bin")), 0);
+    assert_int_equal(mkfifo(tmp_path("fifo.png"), 0600), 0);
+    assert_int_equal(mkdir(tmp_path("dir.png"), 0700), 0);
+    assert_int_equal(symlink("/dev/zero", tmp_path("zero.png")), 0);
+    static const struct {
+        const char *file, *kind;
+    } scenes[] = {{"fifo.gltf", "a FIFO"}, {"dir.gltf", "a directory"}, {"zero.glb", "a character device"}};
+    for (size_t i = 0; i < 3; i++) {
+        char want[64];
+        snprintf(want, sizeof want, "not a regular file (%s)", scenes[i].kind);
+        char path[1024];
+        snprintf(path, sizeof path, "%s", tmp_path(scenes[i].file));
+        expect_refusal(path, RTO_ERR_IO, want);
+        rto_msg msg = {{0}};
+        rto_scene *s = NULL;
+        rto_scene_load(path, &s, &msg);
+        assert_int_equal(occurrences(msg.text, scenes[i].file), 1); /* the file named once */
+    }
+    static const struct {
+        const char *uri, *kind;
+    } files[] = {{"fifo", "a FIFO"}, {"dir", "a directory"}, {"zero", "a character device"}};
+    for (size_t i = 0; i < 3; i++) {
+        char uri[64], want[128];
+        snprintf(uri, sizeof uri, "%s.bin", files[i].uri);
+        snprintf(want, sizeof want, "/%s.bin'): not a regular file (%s)", files[i].uri, files[i].kind);
+        expect_refusal(external_gltf("extbuf.gltf", uri, NULL), RTO_ERR_IO, want);
+        expect_refusal(external_gltf("extbuf.gltf", uri, NULL), RTO_ERR_IO, "buffer 0 (");
+        snprintf(uri, sizeof uri, "%s.png", files[i].uri);
+        snprintf(want, sizeof want, "/%s.png'): not a regular file (%s)", files[i].uri, files[i].kind);
+        expect_refusal(external_gltf("extimg.gltf", NULL, uri), RTO_ERR_IO, want);
+        expect_refusal(external_gltf("extimg.gltf", NULL, uri), RTO_ERR_IO, "image 0 (");
+    }
+    /* A missing image costs the texture, with a warning; a missing buffer, the scene. */
+    rto_scene *s = load_ok(external_gltf("extimg.gltf", NULL, "missing.png"));
+    assert_int_equal(s->texture_count, 0);
+    assert_true(has_warning(s, "missing.png: No such file or directory; material 0 is untextured"));
+    rto_scene_destroy(s);
+    expect_refusal(external_gltf("extbuf.gltf", "missing.bin", NULL), RTO_ERR_IO, "cannot open");
+    alarm(0);
+}
+
+/* A buffer file's size is checked against byteLength before it is read, and only byteLength bytes are read: an
+ * 8 GiB sparse file behind a 36-byte buffer loads at once under a 1 GiB allocation cap. */
+static void test_buffer_file_size(void **state)
+{
+    (void)state;
+    static const float p[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    write_bytes(tmp_path("short.bin"), p, 20);
+    expect_refusal(external_gltf("short.gltf", "short.bin", NULL), RTO_ERR_PARSE,
+                   "the file holds 20 bytes, less than the byteLength 36 it declares");
+    write_bytes(tmp_path("huge.bin"), p, sizeof p);
+    assert_int_equal(truncate(tmp_path("huge.bin"), (off_t)8 << 30), 0);
+    alarm(60);
+    memory_cap_on();
+    rto_msg msg = {{0}};
+    rto_scene *s = NULL;
+    rto_status st = rto_scene_load(external_gltf("huge.gltf", "huge.bin", NULL), &s, &msg);
+    memory_cap_off();
+    alarm(0);
+    if (st)
+        fail_msg("huge.gltf: %s", msg.text);
+    assert_int_equal(s->meshes[0].vertex_count, 3);
+    assert_memory_equal(s->meshes[0].positions, p, sizeof p);
+    rto_scene_destroy(s);
+    assert_int_equal(unlink(tmp_path("huge.bin")), 0);
+    /* URIs resolve against the glTF's directory only: a file of that name in the working directory is not used. */
+    char here[1024];
+    assert_non_null(getcwd(here, sizeof here));
+    assert_int_equal(mkdir(tmp_path("sub"), 0700), 0);
+    write_bytes(tmp_path("cwd.bin"), p, sizeof p);
+    external_gltf("sub/cwd.gltf", "cwd.bin", NULL);
+    assert_int_equal(chdir(tmp_dir), 0);
+    msg.text[0] = '\0';
+    st = rto_scene_load("sub/cwd.gltf", &s, &msg);
+    assert_int_equal(chdir(here), 0);
+    assert_int_equal(st, RTO_ERR_IO);
+    assert_non_null(strstr(msg.text, "sub/cwd.bin"));
+}
+
+/* An accessor's range is checked before anything its count sizes is allocated. */
+static void test_accessor_amplification(void **state)
+{
+    (void)state;
+    float p[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const char *mesh = "\"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}}]}], \"nodes\": [{\"mesh\": 0}]";
+    char body[1024];
+    memory_cap_on();
+    /* 2^28 VEC3 floats (3 GiB) over a 36-byte bufferView */
+    snprintf(body, sizeof body,
+             "\"bufferViews\": [{\"buffer\": 0, \"byteLength\": 36}], \"accessors\": [{\"bufferView\": 0, "
+             "\"componentType\": 5126, \"count\": 268435456, \"type\": \"VEC3\"}], %s",
+             mesh);
+    expect_refusal(gltf_file("amp1.gltf", p, sizeof p, body), RTO_ERR_PARSE,
+                   "needs bytes 0 .. 3221225472 of bufferView 0, which holds 36");
+    /* the same through a sparse accessor's values: the base has no bufferView, the sparse ranges are short */
+    snprintf(body, sizeof body,
+             "\"bufferViews\": [{\"buffer\": 0, \"byteLength\": 36}], \"accessors\": [{\"componentType\": 5126, "
+             "\"count\": 1048576, \"type\": \"VEC3\", \"sparse\": {\"count\": 1048576, \"indices\": {\"bufferView\": "
+             "0, \"componentType\": 5125}, \"values\": {\"bufferView\": 0}}}], %s",
+             mesh);
+    expect_refusal(gltf_file("amp2.gltf", p, sizeof p, body), RTO_ERR_PARSE, "sparse indices: needs bytes");
+    /* no bufferView at all: 2^28 elements of zeros that no byte of the file backs */
+    snprintf(body, sizeof body,
+             "\"accessors\": [{\"componentType\": 5126, \"count\": 268435456, \"type\": \"VEC3\"}], %s", mesh);
+    expect_refusal(gltf_file("amp3.gltf", p, sizeof p, body), RTO_ERR_UNSUPPORTED,
+                   "268435456 elements without a bufferView (at most 1048576 are supported)");
+    /* One accessor (2^20 zero vertices) named by 100 primitives: each BLAS holds its own copy, 12 * 2^20 bytes of
+     * positions and 12 * floor(2^20 / 3) of indices (16777212 bytes), so with the meshes limited to 256 times the
+     * file's bytes, or 256 MiB, the 17th is refused: 17 * 16777212 = 285212604. */
+    char *many = malloc(16384);
+    size_t at = (size_t)snprintf(many, 16384,
+                                 "\"accessors\": [{\"componentType\": 5126, \"count\": 1048576, \"type\": \"VEC3\"}], "
+                                 "\"meshes\": [{\"primitives\": [");
+    for (int i = 0; i < 100; i++)
+        at += (size_t)snprintf(many + at, 16384 - at, "%s{\"attributes\": {\"POSITION\": 0}}", i ? ", " : "");
+    snprintf(many + at, 16384 - at, "]}], \"nodes\": [{\"mesh\": 0}]");
+    expect_refusal(gltf_file("amp4.gltf", p, sizeof p, many), RTO_ERR_UNSUPPORTED,
+                   "mesh 0 primitive 16: the meshes would take 285212604 bytes, more than 256 times the");
+    free(many);
+    memory_cap_off();
+}
+
+/* count 0 accessors (positions, normals, texcoords, indices): an empty BLAS, without passing NULL to memcpy (UBSan
+ * aborts the ASan/UBSan build on that). */
+static void test_accessor_count_zero(void **state)
+{
+    (void)state;
+    float p[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const char *body =
+        "\"bufferViews\": [{\"buffer\": 0, \"byteLength\": 36}], \"accessors\": ["
+        "{\"bufferView\": 0, \"componentType\": 5126, \"count\": 0, \"type\": \"VEC3\"},"
+        "{\"bufferView\": 0, \"componentType\": 5126, \"count\": 0, \"type\": \"VEC2\"},"
+        "{\"bufferView\": 0, \"componentType\": 5125, \"count\": 0, \"type\": \"SCALAR\"},"
+        "{\"bufferView\": 0, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\"}],"
+        "\"meshes\": [{\"name\": \"empty\", \"primitives\": [{\"attributes\": {\"POSITION\": 0, \"NORMAL\": 0, "
+        "\"TEXCOORD_0\": 1}, \"indices\": 2}, {\"attributes\": {\"POSITION\": 3}, \"indices\": 2}]}],"
+        "\"nodes\": [{\"mesh\": 0, \"translation\": [1, 2, 3]}]";
+    rto_scene *s = load_ok(gltf_file("empty.gltf", p, sizeof p, body));
+    assert_int_equal(s->mesh_count, 2);
+    assert_int_equal(s->instance_count, 2);
+    assert_int_equal(s->meshes[0].vertex_count, 0);
+    assert_int_equal(s->meshes[0].triangle_count, 0);
+    assert_int_equal(s->meshes[1].vertex_count, 3);
+    assert_int_equal(s->meshes[1].triangle_count, 0);
+    assert_true(has_warning(s, "mesh 0 primitive 0: no triangles (an empty BLAS)"));
+    for (uint32_t i = 0; i < 2; i++) {
+        rto_aabb b = rto_instance_aabb(s, i);
+        assert_true(b.min.x == INFINITY && b.max.x == -INFINITY);
+    }
+    rto_aabb b = rto_scene_aabb(s);
+    assert_true(b.min.y == INFINITY && b.max.y == -INFINITY);
+    rto_scene_destroy(s);
+}
+
+/* Finite positions whose bounds would overflow binary32 in a box centroid (min + max) or a span: refused by the
+ * loader, naming the node and the mesh, since the build could not key them. */
+static void test_bounds_overflow(void **state)
+{
+    (void)state;
+    float p[9] = {0, 0, 0, 1e38f, 0, 0, 0, 1e38f, 0};
+    char body[1024];
+    const char *fmt = TRI_BODY_PREFIX ", \"meshes\": [{\"name\": \"wing\", \"primitives\": [{\"attributes\": "
+                                      "{\"POSITION\": 0}}]}], \"nodes\": [{\"name\": \"root\", \"children\": [1]}, "
+                                      "{\"name\": \"big\", \"mesh\": 0, %s}]";
+    snprintf(body, sizeof body, fmt, "\"scale\": [10, 10, 10]");
+    expect_refusal(gltf_file("ovf1.gltf", p, sizeof p, body), RTO_ERR_UNSUPPORTED,
+                   "node 1 ('big'), mesh 0 ('wing'): world bounds (0, 0, 0) .. (inf, inf, 0) reach beyond");
+    /* the issue's case: 3e38 under a scale of 10 (already too large in object space) */
+    p[3] = 3e38f;
+    expect_refusal(gltf_file("ovf2.gltf", p, sizeof p, body), RTO_ERR_UNSUPPORTED,
+                   "node 1 ('big'), mesh 0 ('wing') primitive 0: vertex 1 has coordinate 3e+38, beyond +-1.70141e+38");
+    /* both sides of the bound: FLT_MAX / 2 itself loads, and a translation past it is refused */
+    p[3] = 0x1.fffffep+126f;
+    p[7] = -0x1.fffffep+126f;
+    snprintf(body, sizeof body, fmt, "\"translation\": [0, 0, 0]");
+    rto_scene *s = load_ok(gltf_file("ovf3.gltf", p, sizeof p, body));
+    rto_aabb b = rto_scene_aabb(s);
+    rto_vec3 c = rto_aabb_centroid(&b);
+    assert_true(isfinite(c.x) && isfinite(c.y) && b.max.x == 0x1.fffffep+126f);
+    rto_scene_destroy(s);
+    p[3] = nextafterf(0x1.fffffep+126f, INFINITY);
+    expect_refusal(gltf_file("ovf4.gltf", p, sizeof p, body), RTO_ERR_UNSUPPORTED, "primitive 0: vertex 1 has");
+    p[3] = 1e38f;
+    snprintf(body, sizeof body, fmt, "\"translation\": [1e38, 0, 0]");
+    expect_refusal(gltf_file("ovf5.gltf", p, sizeof p, body), RTO_ERR_UNSUPPORTED,
+                   "node 1 ('big'), mesh 0 ('wing'): world bounds (1e+38, -1.70141e+38, 0) .. (2e+38");
+}
+
+/* RFC 3629 UTF-8, checked here independently of the loader. */
+static int valid_utf8(const char *text)
+{
+    const unsigned char *s = (const unsigned char *)text;
+    while (*s) {
+        uint32_t cp;
+        int n;
+        if (s[0] < 0x80)
+            cp = s[0], n = 1;
+        else if ((s[0] & 0xE0) == 0xC0)
+            cp = s[0] & 0x1Fu, n = 2;
+        else if ((s[0] & 0xF0) == 0xE0)
+            cp = s[0] & 0x0Fu, n = 3;
+        else if ((s[0] & 0xF8) == 0xF0)
+            cp = s[0] & 0x07u, n = 4;
+        else
+            return 0;
+        for (int k = 1; k < n; k++) {
+            if ((s[k] & 0xC0) != 0x80)
+                return 0;
+            cp = cp << 6 | (s[k] & 0x3Fu);
+        }
+        const uint32_t least[5] = {0, 0, 0x80, 0x800, 0x10000};
+        if (cp < least[n] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF))
+            return 0;
+        s += n;
+    }
+    return 1;
+}
+
+/* Names land in fixed arrays cut at a character boundary, as valid UTF-8 without control characters; warnings quoting
+ * names, the source path and failure messages are valid UTF-8 too. */
+static void test_names_utf8(void **state)
+{
+    (void)state;
+    float p[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    char a62[63], c59[60], body[2048];
+    memset(a62, 'a', 62), a62[62] = '\0';
+    memset(c59, 'c', 59), c59[59] = '\0';
+    /* "é" (2 bytes) at bytes 62-63 of a 64-byte array; "€" (3 bytes) at 61-63; a control character */
+    snprintf(body, sizeof body,
+             TRI_BODY_PREFIX ", \"meshes\": [{\"name\": \"%s\\u00e9\", \"primitives\": [{\"attributes\": "
+                             "{\"POSITION\": 0}}]}, {\"name\": \"tab\\tbell\\u0007\", \"primitives\": [{\"attributes\": "
+                             "{\"POSITION\": 0}}]}],"
+                             "\"cameras\": [{\"name\": \"%.61s\\u20ac\", \"type\": \"perspective\", \"perspective\": "
+                             "{\"yfov\": 1, \"znear\": 0.1}}, {\"name\": \"%s\\u00e9\\u00e9\", \"type\": "
+                             "\"orthographic\", \"orthographic\": {\"xmag\": 1, \"ymag\": 1, \"zfar\": 2, \"znear\": "
+                             "1}}],"
+                             "\"nodes\": [{\"mesh\": 0, \"camera\": 0}, {\"mesh\": 1, \"camera\": 1}]",
+             a62, a62, c59);
+    rto_scene *s = load_ok(gltf_file("names.gltf", p, sizeof p, body));
+    assert_string_equal(s->meshes[0].name, a62);
+    assert_string_equal(s->meshes[1].name, "tab?bell?");
+    char want[64];
+    snprintf(want, sizeof want, "%.61s", a62);
+    assert_string_equal(s->cameras[0].name, want);
+    assert_true(has_warning(s, "orthographic cameras are not supported"));
+    for (uint32_t i = 0; i < s->warning_count && i < RTO_SCENE_MAX_WARNINGS; i++)
+        if (!valid_utf8(s->warnings[i]))
+            fail_msg("warning %u is not valid UTF-8: %s", i, s->warnings[i]);
+    rto_scene_destroy(s);
+    /* A path is bytes: the scene's source and a failure message naming it are valid UTF-8. */
+    const char *ok = gltf_file("bad\xff\xfe.gltf", p, sizeof p,
+                               TRI_BODY_PREFIX ", \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}}]}]");
+    s = load_ok(ok);
+    assert_true(valid_utf8(s->source));
+    assert_non_null(strstr(s->source, "/bad\xef\xbf\xbd\xef\xbf\xbd.gltf")); /* U+FFFD for each bad byte */
+    rto_scene_destroy(s);
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_scene_load(tmp_path("missing\xc3.gltf"), &s, &msg), RTO_ERR_IO);
+    assert_true(valid_utf8(msg.text));
+    assert_non_null(strstr(msg.text, "missing\xef\xbf\xbd.gltf: cannot open"));
+    /* A long path cut inside a character (the message keeps 200 bytes of it). */
+    char longname[300];
+    memset(longname, 'x', sizeof longname);
+    size_t at = 200 - strlen(tmp_dir) - 2;
+    memcpy(longname + at, "\xe2\x82\xac", 3);
+    memcpy(longname + 240, ".gltf", 6);
+    assert_int_equal(rto_scene_load(tmp_path(longname), &s, &msg), RTO_ERR_IO);
+    assert_true(valid_utf8(msg.text));
+}
+
+static void test_gltf1_refused(void **state)
+{
+    (void)state;
+    static const char *files[] = {"BoxTextured-glTF/BoxTextured.gltf",
+                                  "BoxTextured-glTF-Embedded/BoxTextured.gltf",
+                                  "BoxTextured-glTF-MaterialsCommon/BoxTextured.gltf",
+                                  "BoxTextured-glTF-Binary/BoxTextured.glb",
+                                  "CesiumMilkTruck/CesiumMilkTruck.gltf",
+                                  "IncorrectVertexArrays/Cube_v1.gltf",
+                                  "TwoBoxes/TwoBoxes.gltf"};
+    char path[1024];
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        /* Debian's assimp-testmodels keeps glTF 1.0 files next to glTF2/ */
+        snprintf(path, sizeof path, "%s/../glTF/%s", assimp_dir(), files[i]);
+        expect_refusal(path, RTO_ERR_UNSUPPORTED, "glTF 1.0 is not supported");
+    }
+    static const char *texts[] = {
+        "{\"asset\": {\"version\": \"1.0\"}}",
+        "{\"asset\": {\"version\": 1}, \"meshes\": []}",
+        "{\"asset\": {}, \"scene\": \"defaultScene\", \"scenes\": {\"defaultScene\": {\"nodes\": []}}}",
+        "{\"meshes\": {\"m\": {}}}",
+    };
+    for (size_t i = 0; i < sizeof texts / sizeof texts[0]; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "v1_%zu.gltf", i);
+        expect_refusal(text_file(name, texts[i]), RTO_ERR_UNSUPPORTED, "glTF 1.0 is not supported");
+    }
+    /* 2.0 with a dictionary where an array belongs stays a schema error */
+    expect_refusal(text_file("v2dict.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"meshes\": {\"m\": {}}}"),
+                   RTO_ERR_PARSE, "schema: meshes must be an array");
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Textures: PNG written here (stored deflate blocks), decoded pixels known by construction                         */
+
+static uint32_t crc32_png(const unsigned char *p, size_t n)
+{
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; i++) {
+        c ^= p[i];
+        for (int k = 0; k < 8; k++)
+            c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    }
+    return c ^ 0xFFFFFFFFu;
+}
+
+static void put_be32(unsigned char *p, uint32_t v)
+{
+    p[0] = (unsigned char)(v >> 24), p[1] = (unsigned char)(v >> 16), p[2] = (unsigned char)(v >> 8),
+    p[3] = (unsigned char)v;
+}
+
+typedef struct bytes {
+    unsigned char *p;
+    size_t n;
+} bytes;
+
+static void put(bytes *b, const void *data, size_t n)
+{
+    b->p = realloc(b->p, b->n + n + 1);
+    assert_non_null(b->p);
+    if (n)
+        memcpy(b->p + b->n, data, n);
+    b->n += n;
+}
+
+static void chunk(bytes *b, const char *type, const unsigned char *data, size_t n)
+{
+    unsigned char len[4], crc[4];
+    put_be32(len, (uint32_t)n);
+    put(b, len, 4);
+    size_t start = b->n;
+    put(b, type, 4);
+    put(b, data, n);
+    put_be32(crc, crc32_png(b->p + start, n + 4));
+    put(b, crc, 4);
+}
+
+/* A PNG of the given IHDR whose IDAT holds raw (filter byte + row) data in stored deflate blocks; extra chunks
+ * (already framed) go before IDAT. */
+static bytes make_png(uint32_t w, uint32_t h, int depth, int type, int interlace, const unsigned char *raw,
+                      size_t rawlen, const bytes *extra)
+{
+    bytes b = {NULL, 0}, z = {NULL, 0};
+    put(&b, "\x89PNG\r\n\x1a\n", 8);
+    unsigned char ihdr[13];
+    put_be32(ihdr, w);
+    put_be32(ihdr + 4, h);
+    ihdr[8] = (unsigned char)depth, ihdr[9] = (unsigned char)type, ihdr[10] = 0, ihdr[11] = 0,
+    ihdr[12] = (unsigned char)interlace;
+    chunk(&b, "IHDR", ihdr, 13);
+    if (extra && extra->n)
+        put(&b, extra->p, extra->n);
+    put(&z, "\x78\x01", 2);
+    size_t at = 0;
+    do {
+        size_t n = rawlen - at < 65535 ? rawlen - at : 65535;
+        unsigned char hdr[5] = {(unsigned char)(at + n == rawlen), (unsigned char)n, (unsigned char)(n >> 8),
+                                (unsigned char)~n, (unsigned char)(~n >> 8)};
+        put(&z, hdr, 5);
+        put(&z, raw + at, n);
+        at += n;
+    } while (at < rawlen);
+    uint32_t a = 1, bb = 0;
+    for (size_t i = 0; i < rawlen; i++)
+        a = (a + raw[i]) % 65521, bb = (bb + a) % 65521;
+    unsigned char adler[4];
+    put_be32(adler, bb << 16 | a);
+    put(&z, adler, 4);
+    chunk(&b, "IDAT", z.p, z.n);
+    chunk(&b, "IEND", NULL, 0);
+    free(z.p);
+    return b;
+}
+
+/* A w x h RGBA8 PNG (filter 0) whose texel (x, y) is (x, y, seed, 255 - x). */
+static bytes rgba_png(uint32_t w, uint32_t h, unsigned seed)
+{
+    size_t rawlen = (size_t)h * (1 + 4 * (size_t)w);
+    unsigned char *raw = calloc(rawlen, 1);
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            unsigned char *t = raw + (size_t)y * (1 + 4 * w) + 1 + 4 * x;
+            t[0] = (unsigned char)x, t[1] = (unsigned char)y, t[2] = (unsigned char)seed, t[3] = (unsigned char)(255 - x);
+        }
+    bytes b = make_png(w, h, 8, 6, 0, raw, rawlen, NULL);
+    free(raw);
+    return b;
+}
+
+/* A textured triangle: images as data URIs (one per png), textures naming images (tex_images[i] = source of texture
+ * i) and one material per texture; more top-level properties may follow in extra. */
+static const char *textured_gltf(const char *name, const bytes *pngs, size_t npng, const int *tex_images,
+                                 size_t ntex)
+{
+    float p[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    size_t cap = 4096;
+    for (size_t i = 0; i < npng; i++)
+        cap += pngs[i].n * 2 + 64;
+    char *body = malloc(cap);
+    size_t at = (size_t)snprintf(body, cap, "%s, \"images\": [", TRI_BODY_PREFIX);
+    for (size_t i = 0; i < npng; i++) {
+        char *b64 = base64(pngs[i].p, pngs[i].n);
+        at += (size_t)snprintf(body + at, cap - at, "%s{\"uri\": \"data:image/png;base64,%s\"}", i ? ", " : "", b64);
+        free(b64);
+    }
+    at += (size_t)snprintf(body + at, cap - at, "], \"textures\": [");
+    for (size_t i = 0; i < ntex; i++)
+        at += (size_t)snprintf(body + at, cap - at, "%s{\"source\": %d}", i ? ", " : "", tex_images[i]);
+    at += (size_t)snprintf(body + at, cap - at, "], \"materials\": [");
+    for (size_t i = 0; i < ntex; i++)
+        at += (size_t)snprintf(body + at, cap - at,
+                               "%s{\"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": %zu}}}", i ? ", " : "",
+                               i);
+    at += (size_t)snprintf(body + at, cap - at, "], \"meshes\": [{\"primitives\": [");
+    for (size_t i = 0; i < ntex; i++)
+        at += (size_t)snprintf(body + at, cap - at, "%s{\"attributes\": {\"POSITION\": 0}, \"material\": %zu}",
+                               i ? ", " : "", i);
+    snprintf(body + at, cap - at, "]}], \"nodes\": [{\"mesh\": 0}]");
+    const char *path = gltf_file(name, p, sizeof p, body);
+    free(body);
+    return path;
+}
+
+/* Runs a load with fd 2 sent to a file; returns what was written there (malloc'd). */
+static char *stderr_of_load(const char *path, rto_scene **s)
+{
+    fflush(stderr);
+    int saved = dup(2);
+    assert_true(saved >= 0);
+    FILE *cap = fopen(tmp_path("stderr.txt"), "w+");
+    assert_non_null(cap);
+    assert_true(dup2(fileno(cap), 2) >= 0);
+    rto_msg msg = {{0}};
+    rto_status st = rto_scene_load(path, s, &msg);
+    fflush(stderr);
+    assert_true(dup2(saved, 2) >= 0);
+    close(saved);
+    fclose(cap);
+    if (st)
+        fail_msg("%s: %s", path, msg.text);
+    size_t n;
+    char *text = (char *)read_all(tmp_path("stderr.txt"), &n);
+    text[n] = '\0';
+    return text;
+}
+
+/* PNG decoding: every colour type to RGBA8 with the texels known by construction; a corrupt image costs the texture
+ * with a warning and prints nothing (libpng's default handlers write "libpng error" to stderr). */
+static void test_png_decoding(void **state)
+{
+    (void)state;
+    /* 2x2 palette with tRNS: index 0 red opaque, 1 green half transparent, 2 blue (no alpha entry: 255) */
+    bytes extra = {NULL, 0};
+    const unsigned char plte[9] = {255, 0, 0, 0, 255, 0, 0, 0, 255}, trns[2] = {255, 128};
+    chunk(&extra, "PLTE", plte, 9);
+    chunk(&extra, "tRNS", trns, 2);
+    const unsigned char pal_raw[] = {0, 0x10, 0, 0x80}; /* 2-bit indices: row 0 = 0,1; row 1 = 2,0 */
+    bytes pngs[5];
+    pngs[0] = make_png(2, 2, 2, 3, 0, pal_raw, 4, &extra);
+    free(extra.p);
+    /* 2x1 grey 16-bit: 0x0000 and 0x8080 (scaled with rounding: 128) */
+    const unsigned char g16_raw[] = {0, 0x00, 0x00, 0x80, 0x80};
+    pngs[1] = make_png(2, 1, 16, 0, 0, g16_raw, sizeof g16_raw, NULL);
+    /* 1x2 grey + alpha 8-bit */
+    const unsigned char ga_raw[] = {0, 10, 20, 0, 30, 40};
+    pngs[2] = make_png(1, 2, 8, 4, 0, ga_raw, sizeof ga_raw, NULL);
+    /* 3x3 RGB, Adam7-interlaced: passes 1 (0,0), 4 (2,0), 5 (0,2)(2,2), 6 (1,0)(1,2), 7 (0,1)(1,1)(2,1);
+     * texel (x, y) = (10x, 10y, 7) */
+#define T(x, y) (unsigned char)(10 * (x)), (unsigned char)(10 * (y)), 7
+    const unsigned char adam_raw[] = {0, T(0, 0), 0, T(2, 0), 0, T(0, 2), T(2, 2), 0, T(1, 0), 0, T(1, 2),
+                                      0, T(0, 1), T(1, 1), T(2, 1)};
+#undef T
+    pngs[3] = make_png(3, 3, 8, 2, 1, adam_raw, sizeof adam_raw, NULL);
+    /* an invalid filter type (7) in an otherwise well-formed file */
+    const unsigned char bad_raw[] = {7, 1, 2, 3, 4};
+    pngs[4] = make_png(1, 1, 8, 6, 0, bad_raw, sizeof bad_raw, NULL);
+    const int tex[5] = {0, 1, 2, 3, 4};
+    rto_scene *s = NULL;
+    char *err = stderr_of_load(textured_gltf("pngs.gltf", pngs, 5, tex, 5), &s);
+    if (err[0])
+        fail_msg("a successful load wrote to stderr: %s", err);
+    free(err);
+    assert_int_equal(s->texture_count, 4);
+    const uint8_t pal[16] = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 255, 255, 0, 0, 255};
+    const uint8_t g16[8] = {0, 0, 0, 255, 128, 128, 128, 255};
+    const uint8_t ga[8] = {10, 10, 10, 20, 30, 30, 30, 40};
+    assert_int_equal(s->textures[0].width, 2);
+    assert_memory_equal(s->textures[0].rgba, pal, 16);
+    assert_memory_equal(s->textures[1].rgba, g16, 8);
+    assert_memory_equal(s->textures[2].rgba, ga, 8);
+    for (uint32_t y = 0; y < 3; y++)
+        for (uint32_t x = 0; x < 3; x++) {
+            const uint8_t want[4] = {(uint8_t)(10 * x), (uint8_t)(10 * y), 7, 255};
+            assert_memory_equal(s->textures[3].rgba + 4 * (3 * y + x), want, 4);
+        }
+    assert_int_equal(s->materials[4].base_color_texture, -1);
+    assert_true(has_warning(s, "image 4 ('image 4'): cannot decode: PNG read error: bad adaptive filter value"));
+    rto_scene_destroy(s);
+    for (int i = 0; i < 5; i++)
+        free(pngs[i].p);
+}
+
+/* The texture budget, checked from the image headers before a pixel is decoded; an image is decoded once however
+ * many textures and images name the same bytes. */
+static void test_texture_budget(void **state)
+{
+    (void)state;
+    bytes a = rgba_png(16, 16, 1), b = rgba_png(16, 16, 2); /* 1024 bytes decoded each */
+    bytes pngs[3] = {a, b, a};
+    /* textures 0, 1 -> image 0; texture 2 -> image 2 (the same bytes as image 0); texture 3 -> image 1 */
+    const int tex[4] = {0, 0, 2, 1};
+    const char *path = textured_gltf("budget.gltf", pngs, 3, tex, 4);
+    rto_scene_load_desc d = {0};
+    d.texture_budget_bytes = 2048;
+    rto_scene *s = load_ok_ex(path, &d);
+    assert_int_equal(s->texture_count, 2);
+    assert_int_equal(s->materials[0].base_color_texture, 0);
+    assert_int_equal(s->materials[1].base_color_texture, 0);
+    assert_int_equal(s->materials[2].base_color_texture, 0);
+    assert_int_equal(s->materials[3].base_color_texture, 1);
+    const uint8_t t_5_3[4] = {5, 3, 2, 250}; /* texture 1 = seed 2, texel (5, 3) */
+    assert_memory_equal(s->textures[1].rgba + 4 * (3 * 16 + 5), t_5_3, 4);
+    rto_scene_destroy(s);
+    d.texture_budget_bytes = 2047;
+    expect_refusal_ex(path, &d, RTO_ERR_UNSUPPORTED,
+                      "image 1 ('image 1', 16x16): the decoded textures would take 2048 bytes, over the texture budget "
+                      "of 2047 bytes (raise it with --texture-budget MB)");
+    /* one image: 1024 fits exactly, 1023 does not */
+    const int one[2] = {0, 0};
+    path = textured_gltf("budget1.gltf", pngs, 1, one, 2);
+    d.texture_budget_bytes = 1024;
+    s = load_ok_ex(path, &d);
+    assert_int_equal(s->texture_count, 1);
+    rto_scene_destroy(s);
+    d.texture_budget_bytes = 1023;
+    expect_refusal_ex(path, &d, RTO_ERR_UNSUPPORTED, "over the texture budget of 1023 bytes");
+    /* an image that fails to decode takes nothing from the budget */
+    bytes broken = rgba_png(16, 16, 3);
+    broken.p[broken.n - 20] ^= 0x55; /* inside the IDAT chunk: CRC mismatch */
+    bytes two[2] = {broken, a};
+    const int both[2] = {0, 1};
+    d.texture_budget_bytes = 1024;
+    s = load_ok_ex(textured_gltf("budget2.gltf", two, 2, both, 2), &d);
+    assert_int_equal(s->texture_count, 1);
+    assert_int_equal(s->materials[0].base_color_texture, -1);
+    assert_int_equal(s->materials[1].base_color_texture, 0);
+    rto_scene_destroy(s);
+    free(broken.p);
+    /* Default budget, 256 MiB: 8192 x 8193 RGBA8 is 16 bytes over. The header alone decides: the image data is not
+     * even valid, and nothing is decoded. Three images of one 16384^2 PNG likewise. */
+    unsigned char row[2] = {0, 0};
+    bytes big = make_png(8192, 8193, 8, 6, 0, row, 2, NULL);
+    path = textured_gltf("big.gltf", &big, 1, one, 1);
+    memory_cap_on();
+    expect_refusal(path, RTO_ERR_UNSUPPORTED,
+                   "image 0 ('image 0', 8192x8193): the decoded textures would take 268468224 bytes, over the texture "
+                   "budget of 256 MiB");
+    free(big.p);
+    big = make_png(16384, 16384, 8, 6, 0, row, 2, NULL);
+    bytes three[3] = {big, big, big};
+    const int all3[3] = {0, 1, 2};
+    expect_refusal(textured_gltf("big3.gltf", three, 3, all3, 3), RTO_ERR_UNSUPPORTED,
+                   "would take 1024 MiB, over the texture budget of 256 MiB");
+    memory_cap_off();
+    free(big.p);
+    /* External files: the same file under two URIs is read and decoded once; a file larger than the budget is
+     * refused before it is read. */
+    write_bytes(tmp_path("tex.png"), a.p, a.n);
+    const char *ext = text_file(
+        "ext_tex.gltf",
+        "{\"asset\": {\"version\": \"2.0\"}, \"buffers\": [{\"byteLength\": 36, \"uri\": "
+        "\"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA\"}], "
+        "\"bufferViews\": [{\"buffer\": 0, \"byteLength\": 36}], \"accessors\": [{\"bufferView\": 0, "
+        "\"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\"}], \"images\": [{\"uri\": \"tex.png\"}, {\"uri\": "
+        "\"./tex.png\"}], \"textures\": [{\"source\": 0}, {\"source\": 1}], \"materials\": [{\"pbrMetallicRoughness\": "
+        "{\"baseColorTexture\": {\"index\": 0}}}, {\"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 1}}}], "
+        "\"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"material\": 0}, {\"attributes\": "
+        "{\"POSITION\": 0}, \"material\": 1}]}], \"nodes\": [{\"mesh\": 0}]}");
+    d.texture_budget_bytes = 1200; /* the file (1108 bytes) and one decode (1024) fit, two decodes do not */
+    assert_true(a.n <= 1200);
+    s = load_ok_ex(ext, &d);
+    assert_int_equal(s->texture_count, 1);
+    assert_int_equal(s->materials[1].base_color_texture, 0);
+    assert_string_equal(s->textures[0].name, "tex.png");
+    rto_scene_destroy(s);
+    d.texture_budget_bytes = a.n - 1;
+    expect_refusal_ex(ext, &d, RTO_ERR_UNSUPPORTED, "tex.png'): the file is");
+    free(a.p);
+    free(b.p);
+}
+
+/* JPEG, the other format glTF allows: the size comes from the frame header (SOF2 in a progressive file, after APP0
+ * and two DQT segments), found by walking the marker segments before anything is decoded. */
+static void test_jpeg_textures(void **state)
+{
+    (void)state;
+    char src[1024];
+    snprintf(src, sizeof src, "%s/../OBJ/engineflare1.jpg", assimp_dir()); /* 128 x 128, progressive */
+    size_t n;
+    unsigned char *jpg = read_all(src, &n);
+    assert_true(n > 200 && jpg[158] == 0xFF && jpg[159] == 0xC2); /* SOF2 at byte 158 */
+    bytes img = {jpg, n};
+    const int one[1] = {0};
+    const char *path = textured_gltf("jpeg.gltf", &img, 1, one, 1);
+    /* textured_gltf wrote a PNG mime type: the format is taken from the bytes, not from the URI */
+    rto_scene *s = load_ok(path);
+    assert_int_equal(s->texture_count, 1);
+    assert_int_equal(s->textures[0].width, 128);
+    assert_int_equal(s->textures[0].height, 128);
+    rto_scene_destroy(s);
+    rto_scene_load_desc d = {0};
+    d.texture_budget_bytes = 128 * 128 * 4 - 1;
+    expect_refusal_ex(path, &d, RTO_ERR_UNSUPPORTED, "image 0 ('image 0', 128x128): the decoded textures would take");
+    /* cut before the frame header; a frame header whose height is 0 (defined later by DNL) */
+    img.n = 158;
+    s = load_ok(textured_gltf("jpeg_cut.gltf", &img, 1, one, 1));
+    assert_int_equal(s->texture_count, 0);
+    assert_true(has_warning(s, "cannot decode: corrupt JPEG: no frame header"));
+    rto_scene_destroy(s);
+    img.n = n;
+    jpg[158 + 5] = 0, jpg[158 + 6] = 0;
+    s = load_ok(textured_gltf("jpeg_dnl.gltf", &img, 1, one, 1));
+    assert_true(has_warning(s, "JPEG without its height in the frame header (DNL) is not supported"));
+    rto_scene_destroy(s);
+    /* neither PNG nor JPEG (a GIF): glTF allows only those two */
+    bytes gif = {(unsigned char *)"GIF89a\x01\x00\x01\x00\x00\x00\x00;", 14};
+    s = load_ok(textured_gltf("gif.gltf", &gif, 1, one, 1));
+    assert_true(has_warning(s, "not a PNG or JPEG image (the formats glTF 2.0 allows)"));
+    rto_scene_destroy(s);
+    free(jpg);
+}
+
+/* embedded_only: no file but the scene file is opened. */
+static void test_embedded_only(void **state)
+{
+    (void)state;
+    rto_scene_load_desc d = {0};
+    d.embedded_only = 1;
+    float p[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    write_bytes(tmp_path("emb.bin"), p, sizeof p);
+    expect_refusal_ex(external_gltf("emb.gltf", "emb.bin", NULL), &d, RTO_ERR_UNSUPPORTED,
+                      "buffer 0: external URI 'emb.bin' refused (embedded-only load)");
+    expect_refusal_ex(external_gltf("emb.gltf", NULL, "tex.png"), &d, RTO_ERR_UNSUPPORTED,
+                      "image 0: external URI 'tex.png' refused (embedded-only load)");
+    char path[1024];
+    assimp_path(path, sizeof path, "BoxTextured-glTF-Binary/BoxTextured.glb");
+    rto_scene *s = load_ok_ex(path, &d);
+    assert_int_equal(s->texture_count, 1);
+    rto_scene_destroy(s);
+    assimp_path(path, sizeof path, "BoxTextured-glTF/BoxTextured.gltf");
+    expect_refusal_ex(path, &d, RTO_ERR_UNSUPPORTED, "external URI");
+    s = load_ok_ex(external_gltf("emb.gltf", "emb.bin", NULL), NULL); /* the default reads it */
+    rto_scene_destroy(s);
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
@@ -1104,6 +1903,17 @@ int main(void)
         cmocka_unit_test(test_gltf_refusals),
         cmocka_unit_test(test_gltf_malformed_files),
         cmocka_unit_test(test_glb_truncation_and_flips),
+        cmocka_unit_test(test_non_regular_files),
+        cmocka_unit_test(test_buffer_file_size),
+        cmocka_unit_test(test_accessor_amplification),
+        cmocka_unit_test(test_accessor_count_zero),
+        cmocka_unit_test(test_bounds_overflow),
+        cmocka_unit_test(test_names_utf8),
+        cmocka_unit_test(test_gltf1_refused),
+        cmocka_unit_test(test_png_decoding),
+        cmocka_unit_test(test_texture_budget),
+        cmocka_unit_test(test_jpeg_textures),
+        cmocka_unit_test(test_embedded_only),
         cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_rtstress_all_sizes),
         cmocka_unit_test(test_instances_distributions),

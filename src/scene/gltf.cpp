@@ -1,17 +1,23 @@
-// The glTF 2.0 loader: a thin C++17 shim over tinygltf (parsing) and OpenImageIO (base-colour textures, through the
-// image module of image_module.h) behind the C entry point of gltf.h. Every exception stops here and becomes a
-// status plus a one-line message.
+// The glTF 2.0 loader: a thin C++17 shim over tinygltf (parsing) and the image module of image_module.h (base-colour
+// textures) behind the C entry point of gltf.h. Every exception stops here and becomes a status plus a one-line
+// message.
 //
 // tinygltf is compiled into this translation unit (TINYGLTF_IMPLEMENTATION) rather than linked from Debian's
 // libtinygltf.so: that library decodes images with stb_image, and building it here lets it be compiled with
-// TINYGLTF_NO_STB_IMAGE (so stb is neither linked nor reachable) and instrumented by the sanitizer builds. An image
-// loader callback keeps every image's encoded bytes; OpenImageIO (librto_image.so) decodes the ones that materials
-// use.
+// TINYGLTF_NO_STB_IMAGE (so stb is neither linked nor reachable) and instrumented by the sanitizer and fuzzing
+// builds. An image loader callback keeps embedded images' encoded bytes; the image module decodes the ones that
+// materials use, straight into the scene's texture buffer.
 //
 // tinygltf parses leniently: a property of the wrong JSON type is silently ignored. A schema pass over the raw JSON
 // (nlohmann, which tinygltf itself uses) runs first, so a file that violates the glTF 2.0 core schema is refused
 // with the JSON path of the offending value; after parsing, every index, range and size this loader relies on is
 // checked again here, so tinygltf's own checks are never trusted for memory safety.
+//
+// Files: tinygltf never opens one itself. The scene file is read here; external buffers are read by the schema pass
+// (regular files only, opened without blocking, size checked against byteLength with fstat before a byte is read,
+// and only byteLength bytes read) and handed to tinygltf through its FsCallbacks; external images are not loaded by
+// tinygltf at all (TINYGLTF_NO_EXTERNAL_IMAGE) but read here, only when a material uses them. URIs resolve against
+// the glTF file's directory only. With rto_scene_load_desc.embedded_only no file but the scene file is opened.
 //
 // Decisions (see also rto_scene_load in rtoracle.h):
 //  - Scene: the glTF `scene`, else scene 0; with no scenes at all, the root nodes (nodes no node lists as a child) in
@@ -20,19 +26,29 @@
 //  - Node graph: every child index in range, no node with two parents, no cycle, a scene root that is nobody's child,
 //    depth at most kMaxDepth; traversal uses an explicit stack, never recursion.
 //  - One BLAS per (glTF mesh, triangle primitive), in first-use order of the depth-first pre-order traversal; one
-//    instance per (node, primitive). customIndex = node index & 0xFFFFFF, mask 0xFF, sbtOffset 0, flags 0.
+//    instance per (node, primitive). customIndex = node index & 0xFFFFFF, mask 0xFF, sbtOffset 0, flags 0. A
+//    primitive without triangles is an empty BLAS (with a warning).
 //  - Modes 4 (triangles), 5 (strip) and 6 (fan) become triangle lists by the glTF 2.0 spec's formulas (§3.7.2.1);
 //    points and lines (0-3) are skipped with a warning. Trailing indices of a list that is not a multiple of 3 are
 //    dropped with a warning.
-//  - Sparse accessors are supported (base values, or zeros without a bufferView, then the substitutions).
+//  - Sparse accessors are supported (base values, or zeros without a bufferView, then the substitutions). Every
+//    accessor's range is checked before anything sized by its count is allocated.
 //  - Required extensions are refused by name (none is supported); optional ones are ignored.
 //  - Morph targets and skins are ignored with a warning: meshes are placed by their node transforms.
+//  - Textures: PNG and JPEG (the formats glTF 2.0 allows). Width and height come from the image header, and the
+//    scene's texture budget is checked before a pixel is decoded; an image is decoded once however many textures
+//    name it (and once for identical embedded bytes or the same external file). An image that cannot be decoded
+//    costs its material the texture, with a warning.
+//  - glTF 1.0 (by asset.version, its GLB container version, or its shape) is refused as such.
 #define TINYGLTF_IMPLEMENTATION
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
+#define TINYGLTF_NO_EXTERNAL_IMAGE
 #include <tiny_gltf.h>
 
 #include <dlfcn.h>
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -49,6 +65,8 @@
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -57,7 +75,7 @@ extern "C" {
 }
 #include "gltf.h"
 #include "image_module.h"
-#include "scene_internal.h"
+#include "model.h"
 
 namespace {
 
@@ -67,6 +85,13 @@ constexpr size_t kMaxDepth = 1024;          // node hierarchy levels
 constexpr size_t kMaxJsonDepth = 128;       // nesting of the JSON document (tinygltf converts extras recursively)
 constexpr uint64_t kMaxFileBytes = 0xFFFFFFFFull; // tinygltf takes the GLB size as unsigned int
 constexpr uint64_t kMaxAccessorCount = uint64_t(1) << 28;
+// Elements of an accessor without a bufferView: zeros that no byte of the file backs, so their count amplifies a
+// small file into a large allocation unless it is bounded on its own.
+constexpr uint64_t kMaxZeroAccessorCount = uint64_t(1) << 20;
+// Mesh memory (positions, normals, texture coordinates, indices of every BLAS) may be this many times the bytes of
+// the scene file and its buffers, and at least kMinMeshBytes (see Loader::blas).
+constexpr uint64_t kMaxAmplification = 256;
+constexpr uint64_t kMinMeshBytes = uint64_t(256) << 20;
 
 // A refusal: thrown anywhere below, caught once in rto__gltf_load.
 struct Refusal {
@@ -104,25 +129,104 @@ std::string first_line(const std::string &text)
     return std::string();
 }
 
-std::vector<unsigned char> read_file(const std::string &path)
+// What a path that is not a regular file is, for the message.
+const char *file_kind(mode_t m)
 {
-    FILE *f = fopen(path.c_str(), "rb");
-    if (!f)
-        refuse(RTO_ERR_IO, "cannot open: %s", strerror(errno));
-    std::vector<unsigned char> data;
-    unsigned char chunk[1 << 16];
-    for (size_t got; (got = fread(chunk, 1, sizeof chunk, f)) > 0;) {
-        if (data.size() + got > kMaxFileBytes) {
-            fclose(f);
-            refuse(RTO_ERR_UNSUPPORTED, "file larger than 4 GiB");
+    if (S_ISDIR(m))
+        return "a directory";
+    if (S_ISFIFO(m))
+        return "a FIFO";
+    if (S_ISCHR(m))
+        return "a character device";
+    if (S_ISBLK(m))
+        return "a block device";
+    if (S_ISSOCK(m))
+        return "a socket";
+    return "not a plain file";
+}
+
+// A file the loader reads. open() itself blocks on a FIFO until a writer comes, so the file is opened with
+// O_NONBLOCK, and anything fstat does not call a regular file (a FIFO, a directory, /dev/zero) is refused before a
+// byte is read; its size is known before anything is allocated for it. `what` names the file in messages ("" for the
+// scene file, whose path the caller puts in front of every message). With `optional`, a file that cannot be opened
+// is not a refusal: is_open() says so and error() why (a missing texture costs a warning, not the scene).
+class InFile {
+  public:
+    InFile(const std::string &path, const std::string &what, bool optional = false) : what_(what)
+    {
+        fd_ = open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+        if (fd_ < 0) {
+            error_ = strerror(errno);
+            if (!optional)
+                refuse(RTO_ERR_IO, "%scannot open: %s", prefix().c_str(), error_.c_str());
+            return;
         }
-        data.insert(data.end(), chunk, chunk + got);
+        struct stat st;
+        if (fstat(fd_, &st) != 0) {
+            const int e = errno;
+            fail(RTO_ERR_IO, "cannot stat: " + std::string(strerror(e)));
+        }
+        if (!S_ISREG(st.st_mode))
+            fail(RTO_ERR_IO, std::string("not a regular file (") + file_kind(st.st_mode) + ")");
+        size_ = st.st_size < 0 ? 0 : uint64_t(st.st_size);
+        dev_ = st.st_dev;
+        ino_ = st.st_ino;
     }
-    bool bad = ferror(f) != 0;
-    fclose(f);
-    if (bad)
-        refuse(RTO_ERR_IO, "read error");
-    return data;
+    InFile(const InFile &) = delete;
+    InFile &operator=(const InFile &) = delete;
+    ~InFile()
+    {
+        if (fd_ >= 0)
+            close(fd_);
+    }
+    bool is_open() const { return fd_ >= 0; }
+    const std::string &error() const { return error_; }
+    uint64_t size() const { return size_; }
+    std::pair<uint64_t, uint64_t> identity() const { return {uint64_t(dev_), uint64_t(ino_)}; }
+
+    // The first n bytes (n <= size()): a file that shrinks meanwhile is an I/O error; nothing past n is read.
+    std::vector<unsigned char> read(uint64_t n)
+    {
+        if (n > size_ || n > uint64_t(std::numeric_limits<size_t>::max()))
+            fail(RTO_ERR_IO, "asked for more bytes than the file holds");
+        std::vector<unsigned char> data(static_cast<size_t>(n));
+        size_t at = 0;
+        while (at < data.size()) {
+            const ssize_t got = ::read(fd_, data.data() + at, std::min(data.size() - at, size_t(1) << 30));
+            if (got < 0 && errno == EINTR)
+                continue;
+            if (got < 0)
+                fail(RTO_ERR_IO, "read error: " + std::string(strerror(errno)));
+            if (got == 0)
+                fail(RTO_ERR_IO, "the file shrank while it was read");
+            at += size_t(got);
+        }
+        return data;
+    }
+
+  private:
+    int fd_ = -1;
+    uint64_t size_ = 0;
+    dev_t dev_ = 0;
+    ino_t ino_ = 0;
+    std::string what_, error_;
+
+    std::string prefix() const { return what_.empty() ? std::string() : what_ + ": "; }
+    [[noreturn]] void fail(rto_status s, const std::string &why)
+    {
+        close(fd_); // the destructor does not run for a constructor that throws
+        fd_ = -1;
+        refuse(s, "%s%s", prefix().c_str(), why.c_str());
+    }
+};
+
+std::vector<unsigned char> read_scene_file(const std::string &path)
+{
+    InFile f(path, "");
+    if (f.size() > kMaxFileBytes)
+        refuse(RTO_ERR_UNSUPPORTED, "file of %llu bytes (at most 4 GiB - 1 are supported)",
+               (unsigned long long)f.size());
+    return f.read(f.size());
 }
 
 uint32_t le32(const unsigned char *p)
@@ -140,6 +244,8 @@ std::string glb_json(const std::vector<unsigned char> &b)
 {
     if (b.size() < 20)
         refuse(RTO_ERR_PARSE, "GLB shorter than its 20-byte header");
+    if (le32(&b[4]) == 1)
+        refuse(RTO_ERR_UNSUPPORTED, "glTF 1.0 is not supported (a binary glTF 1.0 container)");
     if (le32(&b[4]) != 2)
         refuse(RTO_ERR_UNSUPPORTED, "GLB container version %u (only 2 is supported)", le32(&b[4]));
     uint64_t len = le32(&b[12]);
@@ -417,8 +523,92 @@ size_t json_depth(const json &root)
     return deepest;
 }
 
+// glTF 1.0 is a different format (dictionaries where 2.0 has arrays, a string `scene`, shaders and techniques), not
+// a malformed 2.0 file: say so rather than report its first difference from the 2.0 schema. By asset.version (a
+// string or, as some 1.0 exporters wrote it, a number), else, when no 2.x version is given, by its shape.
+bool is_gltf1(const json &doc)
+{
+    auto asset = doc.find("asset");
+    if (asset != doc.end() && asset->is_object()) {
+        auto v = asset->find("version");
+        if (v != asset->end() && v->is_string()) {
+            const std::string s = v->get<std::string>();
+            if (s.rfind("2.", 0) == 0)
+                return false;
+            if (s == "1" || s.rfind("1.", 0) == 0)
+                return true;
+        } else if (v != asset->end() && v->is_number()) {
+            const double d = v->get<double>();
+            if (d >= 1.0 && d < 2.0)
+                return true;
+        }
+    }
+    auto scene = doc.find("scene");
+    if (scene != doc.end() && scene->is_string())
+        return true;
+    for (const char *k : {"programs", "shaders", "techniques"})
+        if (doc.contains(k))
+            return true;
+    for (const char *k : {"accessors", "animations", "bufferViews", "buffers", "cameras", "images", "materials",
+                          "meshes", "nodes", "samplers", "scenes", "skins", "textures"}) {
+        auto it = doc.find(k);
+        if (it != doc.end() && it->is_object())
+            return true;
+    }
+    return false;
+}
+
+// One load: the options, where relative URIs resolve, and the external buffer files read by the schema pass, keyed
+// by the path tinygltf will ask its FsCallbacks for.
+struct Context {
+    rto_scene_load_desc opts{};
+    std::string base_dir;
+    struct Pending {
+        std::vector<unsigned char> bytes;
+        size_t uses = 0; // buffers still to hand it to; the last one takes the bytes without a copy
+    };
+    std::map<std::string, Pending> files;
+    uint64_t input_bytes = 0; // the scene file and the external buffers read: what mesh memory is measured against
+
+    // The path of an external URI, exactly as tinygltf forms it (percent-decoded, joined to the base directory).
+    std::string resolve(const std::string &uri) const { return tinygltf::JoinPath(base_dir, tinygltf::dlib::urldecode(uri)); }
+};
+
+// External buffer files: regular files only, each at least its byteLength long (checked with fstat before reading),
+// and only byteLength bytes read, once per file.
+void read_buffers(const json &doc, Context &ctx)
+{
+    const json &buffers = doc.value("buffers", json::array());
+    for (size_t i = 0; i < buffers.size(); i++) {
+        const json &b = buffers[i];
+        if (!b.contains("uri") || !b.contains("byteLength"))
+            continue; // the GLB binary chunk, or refused by tinygltf
+        const std::string uri = b["uri"].get<std::string>();
+        if (uri.empty() || tinygltf::IsDataURI(uri))
+            continue;
+        if (ctx.opts.embedded_only)
+            refuse(RTO_ERR_UNSUPPORTED, "buffer %zu: external URI '%.100s' refused (embedded-only load)", i,
+                   uri.c_str());
+        const uint64_t want = b["byteLength"].get<uint64_t>();
+        const std::string path = ctx.resolve(uri);
+        Context::Pending &p = ctx.files[path];
+        if (p.uses == 0) {
+            InFile f(path, "buffer " + std::to_string(i) + " ('" + path.substr(0, 200) + "')");
+            if (f.size() < want)
+                refuse(RTO_ERR_PARSE, "buffer %zu ('%.200s'): the file holds %llu bytes, less than the byteLength %llu "
+                       "it declares", i, path.c_str(), (unsigned long long)f.size(), (unsigned long long)want);
+            p.bytes = f.read(want);
+            ctx.input_bytes += want;
+        } else if (p.bytes.size() != want) {
+            refuse(RTO_ERR_PARSE, "buffer %zu ('%.200s'): byteLength %llu, but an earlier buffer names the same file "
+                   "with byteLength %zu", i, path.c_str(), (unsigned long long)want, p.bytes.size());
+        }
+        p.uses++;
+    }
+}
+
 // Everything that must hold before tinygltf sees the document.
-void prepass(const std::string &text)
+void prepass(const std::string &text, Context &ctx)
 {
     json doc;
     try {
@@ -430,6 +620,8 @@ void prepass(const std::string &text)
         refuse(RTO_ERR_PARSE, "schema: the document must be a JSON object, not %s", json_kind(doc));
     if (json_depth(doc) > kMaxJsonDepth)
         refuse(RTO_ERR_UNSUPPORTED, "JSON nested deeper than %zu levels", kMaxJsonDepth);
+    if (is_gltf1(doc))
+        refuse(RTO_ERR_UNSUPPORTED, "glTF 1.0 is not supported");
     auto asset = doc.find("asset");
     if (asset == doc.end() || !asset->is_object() || !asset->contains("version"))
         refuse(RTO_ERR_PARSE, "schema: asset.version is required");
@@ -451,6 +643,9 @@ void prepass(const std::string &text)
         const json &views = doc.value("bufferViews", json::array()), &buffers = doc.value("buffers", json::array());
         for (size_t i = 0; i < doc["images"].size(); i++) {
             const json &img = doc["images"][i];
+            if (ctx.opts.embedded_only && img.contains("uri") && !tinygltf::IsDataURI(img["uri"].get<std::string>()))
+                refuse(RTO_ERR_UNSUPPORTED, "image %zu: external URI '%.100s' refused (embedded-only load)", i,
+                       img["uri"].get<std::string>().c_str());
             if (!img.contains("bufferView"))
                 continue;
             size_t v = img["bufferView"].get<size_t>();
@@ -464,6 +659,39 @@ void prepass(const std::string &text)
                 refuse(RTO_ERR_PARSE, "image %zu: bufferView %zu lies outside its buffer", i, v);
         }
     }
+    read_buffers(doc, ctx);
+}
+
+// tinygltf's file access, all of it through here: a file "exists" only if the schema pass read it, so tinygltf opens
+// nothing itself (no second search in the working directory, no ~ or $VAR expansion of URIs, no writes).
+bool fs_exists(const std::string &path, void *user)
+{
+    return static_cast<Context *>(user)->files.count(path) != 0;
+}
+
+std::string fs_expand(const std::string &path, void *) { return path; }
+
+bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::string &path, void *user)
+{
+    auto &files = static_cast<Context *>(user)->files;
+    auto it = files.find(path);
+    if (it == files.end() || it->second.uses == 0) {
+        if (err)
+            *err = "not read by the loader";
+        return false;
+    }
+    if (--it->second.uses == 0)
+        out->swap(it->second.bytes);
+    else
+        *out = it->second.bytes;
+    return true;
+}
+
+bool fs_write(std::string *err, const std::string &, const std::vector<unsigned char> &, void *)
+{
+    if (err)
+        *err = "the loader writes no files";
+    return false;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -555,42 +783,57 @@ const unsigned char *view_range(const tinygltf::Model &g, int v, uint64_t offset
     return buf.data.data() + bv.byteOffset + offset;
 }
 
-Packed read_accessor(const tinygltf::Model &g, int a, const std::string &role)
+// Accessor a, its index checked (its ranges are plan_accessor's).
+const tinygltf::Accessor &accessor_at(const tinygltf::Model &g, int a, const std::string &role)
 {
     if (a < 0 || size_t(a) >= g.accessors.size())
         refuse(RTO_ERR_PARSE, "%s: accessor %d out of range (%zu accessors)", role.c_str(), a, g.accessors.size());
-    const tinygltf::Accessor &acc = g.accessors[size_t(a)];
-    const std::string what = "accessor " + std::to_string(a) + " (" + role + ")";
-    Packed p;
-    p.comp_size = component_size(acc.componentType);
-    p.ncomp = type_components(acc.type);
-    p.component_type = acc.componentType;
-    p.normalized = acc.normalized;
-    if (!p.comp_size || !p.ncomp)
-        refuse(RTO_ERR_PARSE, "%s: unknown componentType %d or type", what.c_str(), acc.componentType);
+    return g.accessors[size_t(a)];
+}
+
+// Where an accessor's bytes are, every range checked: its elements (and sparse substitutions) inside their
+// bufferViews, each view inside its buffer. Nothing is allocated.
+struct AccessorPlan {
+    const tinygltf::Accessor *acc = nullptr;
+    std::string what;
+    size_t ncomp = 0, comp_size = 0, elem = 0, stride = 0, isz = 0;
+    const unsigned char *src = nullptr, *ip = nullptr, *vp = nullptr; // elements, sparse indices, sparse values
+};
+
+AccessorPlan plan_accessor(const tinygltf::Model &g, int a, const std::string &role)
+{
+    AccessorPlan pl;
+    const tinygltf::Accessor &acc = accessor_at(g, a, role);
+    pl.acc = &acc;
+    pl.what = "accessor " + std::to_string(a) + " (" + role + ")";
+    const char *what = pl.what.c_str();
+    pl.comp_size = component_size(acc.componentType);
+    pl.ncomp = type_components(acc.type);
+    if (!pl.comp_size || !pl.ncomp)
+        refuse(RTO_ERR_PARSE, "%s: unknown componentType %d or type", what, acc.componentType);
     if (acc.count > kMaxAccessorCount)
-        refuse(RTO_ERR_UNSUPPORTED, "%s: %zu elements (at most %llu are supported)", what.c_str(), acc.count,
+        refuse(RTO_ERR_UNSUPPORTED, "%s: %zu elements (at most %llu are supported)", what, acc.count,
                (unsigned long long)kMaxAccessorCount);
-    p.count = acc.count;
-    const size_t elem = p.ncomp * p.comp_size;
-    p.bytes.assign(p.count * elem, 0); // no bufferView: zeros (glTF 2.0 §3.6.2.3)
+    pl.elem = pl.stride = pl.ncomp * pl.comp_size;
     if (acc.bufferView >= 0) {
         const tinygltf::BufferView *bv =
             size_t(acc.bufferView) < g.bufferViews.size() ? &g.bufferViews[size_t(acc.bufferView)] : nullptr;
-        size_t stride = bv && bv->byteStride ? bv->byteStride : elem;
-        if (stride < elem)
-            refuse(RTO_ERR_PARSE, "%s: byteStride %zu is smaller than an element (%zu bytes)", what.c_str(), stride,
-                   elem);
-        const unsigned char *src = view_range(g, acc.bufferView, acc.byteOffset, stride, elem, p.count, what);
-        for (size_t i = 0; i < p.count; i++)
-            memcpy(&p.bytes[i * elem], src + i * stride, elem);
+        pl.stride = bv && bv->byteStride ? bv->byteStride : pl.elem;
+        if (pl.stride < pl.elem)
+            refuse(RTO_ERR_PARSE, "%s: byteStride %zu is smaller than an element (%zu bytes)", what, pl.stride,
+                   pl.elem);
+        pl.src = view_range(g, acc.bufferView, acc.byteOffset, pl.stride, pl.elem, acc.count, pl.what);
+    } else if (acc.count > kMaxZeroAccessorCount) {
+        // Without a bufferView the elements are zeros (glTF 2.0 §3.6.2.3), backed by no data at all.
+        refuse(RTO_ERR_UNSUPPORTED, "%s: %zu elements without a bufferView (at most %llu are supported)", what,
+               acc.count, (unsigned long long)kMaxZeroAccessorCount);
     }
-    if (acc.sparse.isSparse) {
-        const auto &sp = acc.sparse;
-        const std::string swhat = what + " sparse";
-        if (sp.count < 1 || size_t(sp.count) > p.count)
-            refuse(RTO_ERR_PARSE, "%s: count %d not in 1 .. %zu", swhat.c_str(), sp.count, p.count);
-        const size_t isz = component_size(sp.indices.componentType);
+    const auto &sp = acc.sparse;
+    if (sp.isSparse) {
+        const std::string swhat = pl.what + " sparse";
+        if (sp.count < 1 || size_t(sp.count) > acc.count)
+            refuse(RTO_ERR_PARSE, "%s: count %d not in 1 .. %zu", swhat.c_str(), sp.count, acc.count);
+        pl.isz = component_size(sp.indices.componentType);
         if (sp.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
             sp.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
             sp.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
@@ -598,29 +841,52 @@ Packed read_accessor(const tinygltf::Model &g, int a, const std::string &role)
                    sp.indices.componentType);
         if (sp.indices.byteOffset < 0 || sp.values.byteOffset < 0)
             refuse(RTO_ERR_PARSE, "%s: negative byteOffset", swhat.c_str());
-        const unsigned char *ip = view_range(g, sp.indices.bufferView, uint64_t(sp.indices.byteOffset), isz, isz,
-                                             uint64_t(sp.count), swhat + " indices");
-        const unsigned char *vp = view_range(g, sp.values.bufferView, uint64_t(sp.values.byteOffset), elem, elem,
-                                             uint64_t(sp.count), swhat + " values");
+        pl.ip = view_range(g, sp.indices.bufferView, uint64_t(sp.indices.byteOffset), pl.isz, pl.isz,
+                           uint64_t(sp.count), swhat + " indices");
+        pl.vp = view_range(g, sp.values.bufferView, uint64_t(sp.values.byteOffset), pl.elem, pl.elem,
+                           uint64_t(sp.count), swhat + " values");
+    }
+    return pl;
+}
+
+// The accessor's elements, packed. Every range is checked first (plan_accessor): nothing sized by count is
+// allocated until the data behind it is known to exist, so a small file cannot make the loader allocate gigabytes.
+Packed read_accessor(const tinygltf::Model &g, int a, const std::string &role)
+{
+    const AccessorPlan pl = plan_accessor(g, a, role);
+    const tinygltf::Accessor &acc = *pl.acc;
+    Packed p;
+    p.comp_size = pl.comp_size;
+    p.ncomp = pl.ncomp;
+    p.component_type = acc.componentType;
+    p.normalized = acc.normalized;
+    p.count = acc.count;
+    const size_t elem = pl.elem;
+    p.bytes.assign(p.count * elem, 0);
+    if (pl.src)
+        for (size_t i = 0; i < p.count; i++)
+            memcpy(&p.bytes[i * elem], pl.src + i * pl.stride, elem);
+    const auto &sp = acc.sparse;
+    if (sp.isSparse) {
         uint64_t prev = 0;
         for (size_t k = 0; k < size_t(sp.count); k++) {
             uint64_t idx = 0;
-            if (isz == 1)
-                idx = ip[k];
-            else if (isz == 2) {
+            if (pl.isz == 1)
+                idx = pl.ip[k];
+            else if (pl.isz == 2) {
                 uint16_t v;
-                memcpy(&v, ip + 2 * k, 2);
+                memcpy(&v, pl.ip + 2 * k, 2);
                 idx = v;
             } else {
                 uint32_t v;
-                memcpy(&v, ip + 4 * k, 4);
+                memcpy(&v, pl.ip + 4 * k, 4);
                 idx = v;
             }
             if (idx >= p.count || (k > 0 && idx <= prev))
-                refuse(RTO_ERR_PARSE, "%s: index %llu (entry %zu) out of range or not strictly increasing",
-                       swhat.c_str(), (unsigned long long)idx, k);
+                refuse(RTO_ERR_PARSE, "%s sparse: index %llu (entry %zu) out of range or not strictly increasing",
+                       pl.what.c_str(), (unsigned long long)idx, k);
             prev = idx;
-            memcpy(&p.bytes[size_t(idx) * elem], vp + k * elem, elem);
+            memcpy(&p.bytes[size_t(idx) * elem], pl.vp + k * elem, elem);
         }
     }
     return p;
@@ -656,7 +922,9 @@ std::vector<float> read_floats(const tinygltf::Model &g, int a, size_t ncomp, bo
                type_name(int(ncomp)), allow_normalized ? " or normalized unsigned byte / short" : "",
                type_name(int(p.ncomp)), component_name(p.component_type), p.normalized ? " normalized" : "");
     std::vector<float> out(p.count * ncomp);
-    if (is_float) {
+    if (out.empty()) {
+        // count 0: nothing to copy (and data() may be NULL, which memcpy must not be given even for 0 bytes)
+    } else if (is_float) {
         memcpy(out.data(), p.bytes.data(), out.size() * sizeof(float));
     } else {
         const float scale = p.comp_size == 1 ? 255.0f : 65535.0f;
@@ -684,14 +952,90 @@ std::vector<uint32_t> read_indices(const tinygltf::Model &g, int a, const std::s
 // ---------------------------------------------------------------------------------------------------------------
 // Textures
 
+struct FreeDeleter {
+    void operator()(void *p) const { free(p); }
+};
+
+// A decoded texture: its pixels sit in the malloc'd block the scene will own, decoded there directly.
 struct TexBuf {
     std::string name;
     uint32_t width = 0, height = 0;
-    std::vector<uint8_t> rgba;
+    std::unique_ptr<uint8_t, FreeDeleter> rgba;
 };
 
-// The image module, loaded on the first texture (image_module.h says why). A failure to load it is remembered and
-// reported with every texture, as a warning.
+uint16_t be16(const unsigned char *p) { return uint16_t(p[0] << 8 | p[1]); }
+
+uint32_t be32(const unsigned char *p)
+{
+    return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | uint32_t(p[3]);
+}
+
+// Width and height from an image's header, without decoding a pixel: a PNG's IHDR (PNG spec §11.2.2) or a JPEG's
+// first frame header SOFn (ITU-T T.81 §B.2.2), found by walking the marker segments. PNG and JPEG are the formats
+// glTF 2.0 allows (§3.8.1). False with a reason for anything else.
+bool image_header(const unsigned char *b, size_t n, uint32_t *w, uint32_t *h, std::string *why)
+{
+    if (n >= 8 && memcmp(b, "\x89PNG\r\n\x1a\n", 8) == 0) {
+        if (n < 8 + 8 + 13 || be32(b + 8) != 13 || memcmp(b + 12, "IHDR", 4) != 0) {
+            *why = "corrupt PNG: no IHDR chunk first";
+            return false;
+        }
+        *w = be32(b + 16);
+        *h = be32(b + 20);
+        if (*w == 0 || *h == 0 || *w > 0x7FFFFFFFu || *h > 0x7FFFFFFFu) {
+            *why = "corrupt PNG: size " + std::to_string(*w) + "x" + std::to_string(*h) + " in IHDR";
+            return false;
+        }
+        return true;
+    }
+    if (n >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF) {
+        size_t at = 2;
+        for (;;) {
+            if (at >= n || b[at] != 0xFF) {
+                *why = at >= n ? "corrupt JPEG: no frame header" : "corrupt JPEG: no marker where one must be";
+                return false;
+            }
+            while (at < n && b[at] == 0xFF) // fill bytes
+                at++;
+            if (at >= n) {
+                *why = "corrupt JPEG: no frame header";
+                return false;
+            }
+            const unsigned m = b[at++];
+            if (m == 0x01 || (m >= 0xD0 && m <= 0xD8)) // TEM, RSTn, SOI: no length
+                continue;
+            if (m == 0xD9 || m == 0xDA || m == 0x00) {
+                *why = "corrupt JPEG: no frame header before the scan";
+                return false;
+            }
+            if (n - at < 2 || be16(b + at) < 2 || be16(b + at) > n - at) {
+                *why = "corrupt JPEG: a marker segment runs past the end of the data";
+                return false;
+            }
+            const size_t len = be16(b + at);
+            // SOF0..SOF15 but DHT (C4), JPG (C8) and DAC (CC), which share the range.
+            if (m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC) {
+                if (len < 8) {
+                    *why = "corrupt JPEG: short frame header";
+                    return false;
+                }
+                *h = be16(b + at + 3);
+                *w = be16(b + at + 5);
+                if (*w == 0 || *h == 0) {
+                    *why = "JPEG without its height in the frame header (DNL) is not supported";
+                    return false;
+                }
+                return true;
+            }
+            at += len;
+        }
+    }
+    *why = "not a PNG or JPEG image (the formats glTF 2.0 allows)";
+    return false;
+}
+
+// The image module, loaded on the first texture that passes the header and budget checks (image_module.h says why
+// it is a module). A failure to load it is remembered and reported with every texture, as a warning.
 struct ImageModule {
     rto_image_decode_fn decode = nullptr;
     std::string error;
@@ -732,41 +1076,25 @@ const ImageModule &image_module()
     return mod;
 }
 
-bool decode_rgba(const std::vector<unsigned char> &bytes, TexBuf *out, std::string *why)
-{
-    const ImageModule &mod = image_module();
-    if (!mod.decode) {
-        *why = mod.error;
-        return false;
-    }
-    char reason[256] = "";
-    uint32_t w = 0, h = 0;
-    unsigned char *rgba = nullptr;
-    if (!mod.decode(bytes.data(), bytes.size(), RTO_SCENE_MAX_TEXELS, &w, &h, &rgba, reason, sizeof reason)) {
-        *why = reason;
-        return false;
-    }
-    out->width = w;
-    out->height = h;
-    try {
-        out->rgba.assign(rgba, rgba + size_t(w) * h * 4);
-    } catch (...) {
-        free(rgba);
-        throw;
-    }
-    free(rgba);
-    return true;
-}
-
-// tinygltf image callback: keep the encoded bytes; decoding waits until a material needs the image.
+// tinygltf image callback: keep a data: URI image's encoded bytes (tinygltf frees its own copy); a bufferView
+// image's bytes stay in the buffer and are read from there, so they are not held twice. Decoding waits until a
+// material needs the image.
 bool keep_encoded(tinygltf::Image *image, const int, std::string *, std::string *, int, int, const unsigned char *bytes,
                   int size, void *)
 {
     image->image.clear();
-    if (bytes && size > 0)
+    if (image->bufferView < 0 && bytes && size > 0)
         image->image.assign(bytes, bytes + size);
     image->as_is = true;
     return true;
+}
+
+// "256 MiB" for whole mebibytes, else the exact byte count (budgets in tests are small).
+std::string bytes_text(uint64_t n)
+{
+    if (n && n % (uint64_t(1) << 20) == 0)
+        return std::to_string(n >> 20) + " MiB";
+    return std::to_string(n) + " bytes";
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -797,6 +1125,7 @@ struct MeshBuf {
     std::vector<float> positions, normals, uvs;
     std::vector<uint32_t> indices;
     int32_t material = -1;
+    rto_aabb box{}; // object-space bounds (rto_mesh_aabb), for the instances' world bounds
 };
 
 struct Loader {
@@ -808,10 +1137,19 @@ struct Loader {
     std::vector<rto_camera> cameras;
     std::vector<rto_material> materials;
     std::vector<TexBuf> textures;
-    std::map<int, int32_t> texture_of; // glTF texture -> rto texture (-1: could not be decoded)
+    std::map<int, int32_t> texture_of;  // glTF texture -> rto texture (-1: none)
+    std::map<int, int32_t> image_of;    // glTF image -> rto texture (-1: could not be decoded)
+    std::unordered_map<std::string_view, int32_t> by_bytes;         // embedded encoded bytes -> rto texture
+    std::map<std::pair<uint64_t, uint64_t>, int32_t> by_file;       // external file (device, inode) -> rto texture
+    uint64_t texture_bytes = 0;                                     // decoded so far, against the budget
+    uint64_t total_vertices = 0, total_triangles = 0;               // over the BLAS built so far, against the limits
+    uint64_t mesh_bytes = 0;                                        // their arrays' bytes, against amplification
     bool warned_skin = false, warned_targets = false;
+    const Context &ctx;
 
-    Loader(const tinygltf::Model &model, rto_scene *scene) : g(model), s(scene) {}
+    Loader(const tinygltf::Model &model, rto_scene *scene, const Context &context) : g(model), s(scene), ctx(context)
+    {
+    }
 
     Mat local_transform(size_t n) const
     {
@@ -854,6 +1192,110 @@ struct Loader {
         return m;
     }
 
+    // Decodes one image's encoded bytes into a new texture, straight into the block the scene will own, after its
+    // header has shown that it fits the texture budget. -1 (with a warning) if it cannot be decoded; a refusal if it
+    // does not fit.
+    int32_t decode_image(int i, const std::string &label, const unsigned char *bytes, size_t len, size_t material)
+    {
+        uint32_t w = 0, h = 0;
+        std::string why;
+        if (!image_header(bytes, len, &w, &h, &why)) {
+            rto__scene_warn(s, "image %d ('%.80s'): cannot decode: %.100s; material %zu is untextured", i,
+                            label.c_str(), why.c_str(), material);
+            return -1;
+        }
+        const uint64_t texels = uint64_t(w) * h, need = 4 * texels;
+        if (texels > RTO_SCENE_MAX_TEXELS) {
+            rto__scene_warn(s, "image %d ('%.80s'): %ux%u is more than %u texels; material %zu is untextured", i,
+                            label.c_str(), w, h, RTO_SCENE_MAX_TEXELS, material);
+            return -1;
+        }
+        const uint64_t budget = ctx.opts.texture_budget_bytes;
+        if (need > budget - std::min(budget, texture_bytes))
+            refuse(RTO_ERR_UNSUPPORTED,
+                   "image %d ('%.80s', %ux%u): the decoded textures would take %s, over the texture budget of %s "
+                   "(raise it with --texture-budget MB)",
+                   i, label.c_str(), w, h, bytes_text(texture_bytes + need).c_str(), bytes_text(budget).c_str());
+        const ImageModule &mod = image_module();
+        if (!mod.decode) {
+            rto__scene_warn(s, "image %d ('%.80s'): cannot decode: %.100s; material %zu is untextured", i,
+                            label.c_str(), mod.error.c_str(), material);
+            return -1;
+        }
+        TexBuf tb;
+        tb.rgba.reset(static_cast<uint8_t *>(malloc(size_t(need))));
+        if (!tb.rgba)
+            throw std::bad_alloc();
+        char reason[256] = "";
+        if (!mod.decode(bytes, len, w, h, tb.rgba.get(), reason, sizeof reason)) {
+            rto__scene_warn(s, "image %d ('%.80s'): cannot decode: %.100s; material %zu is untextured", i,
+                            label.c_str(), reason, material);
+            return -1;
+        }
+        texture_bytes += need;
+        tb.name = label;
+        tb.width = w;
+        tb.height = h;
+        textures.push_back(std::move(tb));
+        return int32_t(textures.size() - 1);
+    }
+
+    // The texture of glTF image i: decoded once, however many textures name it; identical embedded bytes and the
+    // same external file are decoded once too.
+    int32_t image_texture(int i, size_t material)
+    {
+        auto it = image_of.find(i);
+        if (it != image_of.end())
+            return it->second;
+        const tinygltf::Image &img = g.images[size_t(i)];
+        const bool external = img.bufferView < 0 && !img.uri.empty() && !tinygltf::IsDataURI(img.uri);
+        const std::string label = !img.name.empty() ? img.name : external ? img.uri : "image " + std::to_string(i);
+        int32_t r = -1;
+        if (external) {
+            const std::string path = ctx.resolve(img.uri);
+            InFile f(path, "image " + std::to_string(i) + " ('" + path.substr(0, 200) + "')", true);
+            if (!f.is_open()) {
+                rto__scene_warn(s, "image %d ('%.80s'): cannot open %.100s: %s; material %zu is untextured", i,
+                                label.c_str(), path.c_str(), f.error().c_str(), material);
+            } else if (auto known = by_file.find(f.identity()); known != by_file.end()) {
+                r = known->second;
+            } else {
+                // Encoded bytes are held only while the image decodes, and never more than the budget.
+                if (f.size() > ctx.opts.texture_budget_bytes)
+                    refuse(RTO_ERR_UNSUPPORTED, "image %d ('%.200s'): the file is %llu bytes, more than the texture "
+                           "budget of %s (raise it with --texture-budget MB)", i, path.c_str(),
+                           (unsigned long long)f.size(), bytes_text(ctx.opts.texture_budget_bytes).c_str());
+                const std::vector<unsigned char> bytes = f.read(f.size());
+                r = decode_image(i, label, bytes.data(), bytes.size(), material);
+                by_file[f.identity()] = r;
+            }
+        } else {
+            const unsigned char *bytes = img.image.data();
+            size_t len = img.image.size();
+            if (img.bufferView >= 0) {
+                const tinygltf::BufferView *bv =
+                    size_t(img.bufferView) < g.bufferViews.size() ? &g.bufferViews[size_t(img.bufferView)] : nullptr;
+                len = bv ? bv->byteLength : 0;
+                bytes = view_range(g, img.bufferView, 0, 1, 1, len, "image " + std::to_string(i));
+            }
+            if (!len) {
+                rto__scene_warn(s, "image %d ('%.80s'): missing or empty; material %zu is untextured", i,
+                                label.c_str(), material);
+            } else {
+                const std::string_view key(reinterpret_cast<const char *>(bytes), len);
+                auto known = by_bytes.find(key);
+                if (known != by_bytes.end()) {
+                    r = known->second;
+                } else {
+                    r = decode_image(i, label, bytes, len, material);
+                    by_bytes[key] = r;
+                }
+            }
+        }
+        image_of[i] = r;
+        return r;
+    }
+
     int32_t texture_index(size_t material, int tex)
     {
         if (tex < 0)
@@ -866,31 +1308,12 @@ struct Loader {
             return it->second;
         int32_t result = -1;
         const tinygltf::Texture &t = g.textures[size_t(tex)];
-        if (t.source < 0) {
+        if (t.source < 0)
             rto__scene_warn(s, "texture %d has no image source (an extension's?); material %zu is untextured", tex,
                             material);
-        } else if (size_t(t.source) >= g.images.size()) {
-            // Already warned about by load_materials, which checks every texture.
-        } else {
-            const tinygltf::Image &img = g.images[size_t(t.source)];
-            const std::string label =
-                !img.name.empty() ? img.name
-                : (!img.uri.empty() && img.uri.rfind("data:", 0) != 0) ? img.uri
-                                                                        : "image " + std::to_string(t.source);
-            TexBuf tb;
-            std::string why;
-            if (img.image.empty())
-                rto__scene_warn(s, "image %d ('%.80s'): missing or empty; material %zu is untextured", t.source,
-                                label.c_str(), material);
-            else if (!decode_rgba(img.image, &tb, &why))
-                rto__scene_warn(s, "image %d ('%.80s'): cannot decode: %.100s; material %zu is untextured", t.source,
-                                label.c_str(), why.c_str(), material);
-            else {
-                tb.name = label;
-                result = int32_t(textures.size());
-                textures.push_back(std::move(tb));
-            }
-        }
+        else if (size_t(t.source) < g.images.size())
+            result = image_texture(t.source, material);
+        // (a source out of range was warned about by load_materials, which checks every texture)
         texture_of[tex] = result;
         return result;
     }
@@ -919,7 +1342,17 @@ struct Loader {
     }
 
     // The BLAS of (mesh m, primitive p): built on first use.
-    uint32_t blas(int m, int p)
+    // "node 3 ('arm'), mesh 1 ('hand')": where a BLAS or an instance comes from, for messages.
+    std::string node_mesh(size_t n, int m) const
+    {
+        char buf[200];
+        snprintf(buf, sizeof buf, "node %zu ('%.60s'), mesh %d ('%.60s')", n, g.nodes[n].name.c_str(), m,
+                 g.meshes[size_t(m)].name.c_str());
+        return buf;
+    }
+
+    // The BLAS of (mesh m, primitive p): built on first use, by node n (named in messages).
+    uint32_t blas(size_t n, int m, int p)
     {
         auto key = std::make_pair(m, p);
         auto it = blas_of.find(key);
@@ -935,12 +1368,40 @@ struct Loader {
         auto pos = prim.attributes.find("POSITION");
         if (pos == prim.attributes.end())
             refuse(RTO_ERR_PARSE, "%s: no POSITION attribute", where.c_str());
+        // The limits on the scene's totals hold before a BLAS is allocated. Each BLAS holds its own copy of the
+        // vertices it names, so a small file whose primitives all name one large accessor could otherwise make the
+        // loader hold it many times over: the meshes may take at most kMaxAmplification times the bytes of the file
+        // and its buffers (or kMinMeshBytes).
+        const uint64_t nv_declared = plan_accessor(g, pos->second, "POSITION of " + where).acc->count;
+        if (total_vertices + nv_declared > RTO_SCENE_MAX_VERTICES)
+            refuse(RTO_ERR_UNSUPPORTED, "%s: the meshes would hold more than %u vertices", where.c_str(),
+                   RTO_SCENE_MAX_VERTICES);
+        {
+            const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+            const uint64_t nidx =
+                prim.indices >= 0 ? plan_accessor(g, prim.indices, "indices of " + where).acc->count : nv_declared;
+            const uint64_t tris = mode == TINYGLTF_MODE_TRIANGLES ? nidx / 3 : nidx >= 3 ? nidx - 2 : 0;
+            const uint64_t per_vertex = 12 + (prim.attributes.count("NORMAL") ? 12 : 0) +
+                                        (prim.attributes.count("TEXCOORD_0") ? 8 : 0);
+            const uint64_t need = nv_declared * per_vertex + 12 * tris;
+            const uint64_t limit = std::max(kMinMeshBytes, kMaxAmplification * ctx.input_bytes);
+            if (mesh_bytes + need > limit)
+                refuse(RTO_ERR_UNSUPPORTED, "%s: the meshes would take %llu bytes, more than %llu times the %llu "
+                       "bytes of the file and its buffers (each BLAS holds its own copy of the vertices it names)",
+                       where.c_str(), (unsigned long long)(mesh_bytes + need),
+                       (unsigned long long)kMaxAmplification, (unsigned long long)ctx.input_bytes);
+        }
         mb.positions = read_floats(g, pos->second, 3, false, "POSITION of " + where);
         const size_t nv = mb.positions.size() / 3;
         for (size_t i = 0; i < mb.positions.size(); i++)
             if (!std::isfinite(mb.positions[i]))
                 refuse(RTO_ERR_PARSE, "accessor %d (POSITION of %s): vertex %zu is not finite (%g)", pos->second,
                        where.c_str(), i / 3, double(mb.positions[i]));
+        for (size_t i = 0; i < mb.positions.size(); i++)
+            if (!(std::fabs(mb.positions[i]) <= RTO_SCENE_MAX_COORD))
+                refuse(RTO_ERR_UNSUPPORTED, "%s primitive %d: vertex %zu has coordinate %g, beyond +-%g (box "
+                       "centroids would overflow binary32)", node_mesh(n, m).c_str(), p, i / 3,
+                       double(mb.positions[i]), double(RTO_SCENE_MAX_COORD));
         auto nrm = prim.attributes.find("NORMAL");
         if (nrm != prim.attributes.end()) {
             mb.normals = read_floats(g, nrm->second, 3, false, "NORMAL of " + where);
@@ -971,17 +1432,21 @@ struct Loader {
             for (size_t i = 0; i < nv; i++)
                 v[i] = uint32_t(i);
         }
-        const size_t n = v.size();
+        const size_t nidx = v.size();
         const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+        const size_t tris = mode == TINYGLTF_MODE_TRIANGLES ? nidx / 3 : nidx >= 3 ? nidx - 2 : 0;
+        if (total_triangles + tris > RTO_SCENE_MAX_TRIANGLES)
+            refuse(RTO_ERR_UNSUPPORTED, "%s: the meshes would hold more than %u triangles", where.c_str(),
+                   RTO_SCENE_MAX_TRIANGLES);
         if (mode == TINYGLTF_MODE_TRIANGLES) {
-            if (n % 3)
-                rto__scene_warn(s, "%s: %zu vertices in a triangle list; the last %zu are ignored", where.c_str(), n,
-                                n % 3);
-            mb.indices.assign(v.begin(), v.begin() + std::ptrdiff_t(n / 3 * 3));
-        } else if (n >= 3) {
+            if (nidx % 3)
+                rto__scene_warn(s, "%s: %zu vertices in a triangle list; the last %zu are ignored", where.c_str(),
+                                nidx, nidx % 3);
+            mb.indices.assign(v.begin(), v.begin() + std::ptrdiff_t(nidx / 3 * 3));
+        } else if (nidx >= 3) {
             // glTF 2.0 §3.7.2.1: strip p_i = {v_i, v_{i+(1+i%2)}, v_{i+(2-i%2)}}; fan p_i = {v_{i+1}, v_{i+2}, v_0}.
-            mb.indices.reserve(3 * (n - 2));
-            for (size_t i = 0; i + 2 < n; i++) {
+            mb.indices.reserve(3 * (nidx - 2));
+            for (size_t i = 0; i + 2 < nidx; i++) {
                 if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
                     mb.indices.insert(mb.indices.end(), {v[i], v[i + 1 + i % 2], v[i + 2 - i % 2]});
                 } else {
@@ -997,6 +1462,16 @@ struct Loader {
         mb.material = prim.material;
         if (meshes.size() >= RTO_SCENE_MAX_MESHES)
             refuse(RTO_ERR_UNSUPPORTED, "more than %u BLAS", RTO_SCENE_MAX_MESHES);
+        rto_mesh view;
+        memset(&view, 0, sizeof view);
+        view.positions = mb.positions.data();
+        view.vertex_count = uint32_t(nv);
+        view.indices = mb.indices.data();
+        view.triangle_count = uint32_t(mb.indices.size() / 3);
+        mb.box = rto_mesh_aabb(&view);
+        total_vertices += nv;
+        mesh_bytes += 4 * (mb.positions.size() + mb.normals.size() + mb.uvs.size() + mb.indices.size());
+        total_triangles += mb.indices.size() / 3;
         const uint32_t id = uint32_t(meshes.size());
         meshes.push_back(std::move(mb));
         blas_of[key] = id;
@@ -1029,7 +1504,7 @@ struct Loader {
         std::string name = cam.name;
         if (name.empty())
             name = !g.nodes[n].name.empty() ? g.nodes[n].name : "camera" + std::to_string(c);
-        snprintf(r.name, sizeof r.name, "%s", name.c_str());
+        rto__utf8_copy(r.name, sizeof r.name, name.data(), name.size());
         // The axes are normalised so the target sits one unit ahead whatever the node's scale (Duck's is 0.01).
         r.position = rto_vec3{float(w.m[0][3]), float(w.m[1][3]), float(w.m[2][3])};
         r.target = rto_vec3{float(w.m[0][3] + dir[0] / dl), float(w.m[1][3] + dir[1] / dl),
@@ -1078,7 +1553,14 @@ struct Loader {
             rto_msg m = {{0}};
             if (rto_instance_set_transform(&in, w.m, &m))
                 refuse(RTO_ERR_PARSE, "node %zu: %s", n, m.text);
-            in.blas = blas(node.mesh, int(p));
+            in.blas = blas(n, node.mesh, int(p));
+            // What the build computes from this instance (DESIGN.md §3: centroids and their span) must stay finite.
+            const rto_aabb wb = rto_aabb_transform(&in.obj_to_world, &meshes[in.blas].box);
+            if (!rto__aabb_in_range(&wb))
+                refuse(RTO_ERR_UNSUPPORTED, "%s: world bounds (%g, %g, %g) .. (%g, %g, %g) reach beyond +-%g (box "
+                       "centroids would overflow binary32)", node_mesh(n, node.mesh).c_str(), double(wb.min.x),
+                       double(wb.min.y), double(wb.min.z), double(wb.max.x), double(wb.max.y), double(wb.max.z),
+                       double(RTO_SCENE_MAX_COORD));
             in.custom_index = uint32_t(n) & RTO_INSTANCE_CUSTOM_INDEX_MASK;
             in.mask = 0xFFu;
             if (instances.size() >= RTO_SCENE_MAX_INSTANCES)
@@ -1185,9 +1667,9 @@ struct Loader {
         s->meshes = static_cast<rto_mesh *>(calloc(meshes.size() ? meshes.size() : 1, sizeof(rto_mesh)));
         if (!s->meshes)
             throw std::bad_alloc();
-        for (const MeshBuf &mb : meshes) {
+        for (MeshBuf &mb : meshes) {
             rto_mesh &m = s->meshes[s->mesh_count++];
-            snprintf(m.name, sizeof m.name, "%s", mb.name.c_str());
+            rto__utf8_copy(m.name, sizeof m.name, mb.name.data(), mb.name.size());
             m.material = mb.material;
             m.positions = c_array(mb.positions);
             if (!mb.normals.empty())
@@ -1197,6 +1679,7 @@ struct Loader {
             m.indices = c_array(mb.indices);
             m.vertex_count = uint32_t(mb.positions.size() / 3);
             m.triangle_count = uint32_t(mb.indices.size() / 3);
+            mb = MeshBuf(); // each copy replaces its original at once: the meshes are never held twice in full
         }
         s->instances = c_array(instances);
         s->instance_count = uint32_t(instances.size());
@@ -1207,40 +1690,43 @@ struct Loader {
         s->textures = static_cast<rto_texture *>(calloc(textures.size() ? textures.size() : 1, sizeof(rto_texture)));
         if (!s->textures)
             throw std::bad_alloc();
-        for (const TexBuf &tb : textures) {
+        for (TexBuf &tb : textures) {
             rto_texture &t = s->textures[s->texture_count++];
-            snprintf(t.name, sizeof t.name, "%s", tb.name.c_str());
-            t.rgba = c_array(tb.rgba);
+            rto__utf8_copy(t.name, sizeof t.name, tb.name.data(), tb.name.size());
+            t.rgba = tb.rgba.release(); // decoded in place: handed over, not copied
             t.width = tb.width;
             t.height = tb.height;
         }
     }
 };
 
-void load(const char *path, rto_scene *scene)
+void load(const char *path, const rto_scene_load_desc *opts, rto_scene *scene)
 {
     const std::string p(path);
-    const std::vector<unsigned char> bytes = read_file(p);
+    const std::vector<unsigned char> bytes = read_scene_file(p);
     const bool binary = is_glb(bytes);
-    prepass(binary ? glb_json(bytes) : std::string(bytes.begin(), bytes.end()));
-
+    Context ctx;
+    ctx.opts = *opts;
+    ctx.input_bytes = bytes.size();
     const size_t slash = p.find_last_of('/');
-    const std::string base_dir = slash == std::string::npos ? std::string() : p.substr(0, slash);
+    ctx.base_dir = slash == std::string::npos ? std::string() : p.substr(0, slash);
+    prepass(binary ? glb_json(bytes) : std::string(bytes.begin(), bytes.end()), ctx);
+
     tinygltf::TinyGLTF parser;
     parser.SetImageLoader(keep_encoded, nullptr);
     parser.SetStoreOriginalJSONForExtrasAndExtensions(false);
+    tinygltf::FsCallbacks fs = {fs_exists, fs_expand, fs_read, fs_write, &ctx};
+    parser.SetFsCallbacks(fs);
     tinygltf::Model model;
     std::string err, warn;
     const auto size = static_cast<unsigned int>(bytes.size());
-    const bool ok = binary ? parser.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), size, base_dir)
+    const bool ok = binary ? parser.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), size, ctx.base_dir)
                            : parser.LoadASCIIFromString(&model, &err, &warn,
-                                                        reinterpret_cast<const char *>(bytes.data()), size, base_dir);
+                                                        reinterpret_cast<const char *>(bytes.data()), size,
+                                                        ctx.base_dir);
     if (!ok) {
         std::string why = first_line(err);
-        // A buffer file that cannot be read is an I/O failure, not a malformed document.
-        const bool io =
-            why.find("File not found") != std::string::npos || why.find("File open error") != std::string::npos;
-        refuse(io ? RTO_ERR_IO : RTO_ERR_PARSE, "tinygltf: %s", why.empty() ? "failed without a reason" : why.c_str());
+        refuse(RTO_ERR_PARSE, "tinygltf: %s", why.empty() ? "failed without a reason" : why.c_str());
     }
     for (size_t at = 0; at < warn.size();) {
         size_t end = warn.find('\n', at);
@@ -1251,7 +1737,7 @@ void load(const char *path, rto_scene *scene)
             rto__scene_warn(scene, "tinygltf: %.200s", line.c_str());
         at = end + 1;
     }
-    Loader l(model, scene);
+    Loader l(model, scene, ctx);
     l.load_materials();
     l.load_nodes();
     l.emit();
@@ -1259,20 +1745,22 @@ void load(const char *path, rto_scene *scene)
 
 } // namespace
 
-extern "C" rto_status rto__gltf_load(const char *path, rto_scene *scene, rto_msg *msg)
+extern "C" rto_status rto__gltf_load(const char *path, const rto_scene_load_desc *opts, rto_scene *scene,
+                                     rto_msg *msg)
 {
-    if (!path || !scene)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path or scene");
+    if (!path || !opts || !scene)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path, options or scene");
+    // Messages do not name the file: rto_scene_load_ex puts the path in front of every failure, once.
     try {
-        load(path, scene);
+        load(path, opts, scene);
         return RTO_OK;
     } catch (const Refusal &r) {
-        return rto_fail(msg, r.status, "%.200s: %s", path, r.text.c_str());
+        return rto_fail(msg, r.status, "%s", r.text.c_str());
     } catch (const std::bad_alloc &) {
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%.200s: out of memory", path);
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     } catch (const std::exception &e) {
-        return rto_fail(msg, RTO_ERR_PARSE, "%.200s: %s", path, first_line(e.what()).c_str());
+        return rto_fail(msg, RTO_ERR_PARSE, "%s", first_line(e.what()).c_str());
     } catch (...) {
-        return rto_fail(msg, RTO_ERR_PARSE, "%.200s: unknown C++ exception", path);
+        return rto_fail(msg, RTO_ERR_PARSE, "unknown C++ exception");
     }
 }

@@ -1,7 +1,8 @@
 /* Procedural scenes named on the command line where a path would go: the seeds' VulkanTriangle and RTStress samples,
  * and N small boxes on a named centroid distribution (DESIGN.md §3), so TLAS keys come from real instances. */
 #include "internal.h"
-#include "scene_internal.h"
+#include "model.h"
+#include "procedural.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -199,6 +200,11 @@ static rto_status load_instances(const char *spec, const char *arg, rto_scene *s
     if (!st && add_framing_camera(s, "instances", 0.5, 0.5, 0.5, 0.5 * sqrt(3.0)))
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     return st;
+}
+
+int rto__procedural_is(const char *spec)
+{
+    return !strcmp(spec, "triangle") || !strncmp(spec, "rtstress:", 9) || !strncmp(spec, "instances:", 10);
 }
 
 rto_status rto__procedural_load(const char *spec, rto_scene *scene, rto_msg *msg)
