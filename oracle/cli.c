@@ -2,7 +2,6 @@
 #include "cli.h"
 
 #include <errno.h>
-#include <jansson.h>
 #include <math.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -80,83 +79,6 @@ bool cli_parse_algo(const char *text, rto_sort_algo *a)
         return false;
     *a = (rto_sort_algo)v;
     return true;
-}
-
-json_t *cli_json_string(const char *text)
-{
-    size_t len = rto_utf8_repair(text, NULL, 0);
-    char *buf = malloc(len + 1);
-    if (!buf)
-        return NULL;
-    rto_utf8_repair(text, buf, len + 1);
-    json_t *v = json_stringn(buf, len);
-    free(buf);
-    return v;
-}
-
-json_t *cli_json_real(double v)
-{
-    if (isnan(v))
-        return json_string("nan");
-    if (isinf(v))
-        return json_string(v > 0 ? "inf" : "-inf");
-    return json_real(v);
-}
-
-/* The text buffer of cli_json_text: once an append fails, all later ones fail. jansson's dump does not check its
- * callback's result while writing an object's key (dump.c, do_dump), so json_dumps can return text with a key cut
- * short after one failed allocation; a sticky failure makes the next write report it, and the flag is checked. */
-typedef struct text_buffer {
-    char *text;
-    size_t len, cap;
-    bool failed;
-} text_buffer;
-
-static int text_append(const char *chunk, size_t n, void *data)
-{
-    text_buffer *t = data;
-    if (!t->failed && n >= t->cap - t->len) {
-        size_t cap = t->cap ? t->cap : 4096;
-        while (cap - t->len <= n && cap < SIZE_MAX / 2)
-            cap *= 2;
-        char *p = cap - t->len > n ? realloc(t->text, cap) : NULL;
-        if (p) {
-            t->text = p;
-            t->cap = cap;
-        } else {
-            t->failed = true;
-        }
-    }
-    if (t->failed)
-        return -1;
-    memcpy(t->text + t->len, chunk, n);
-    t->len += n;
-    t->text[t->len] = '\0';
-    return 0;
-}
-
-char *cli_json_text(const json_t *root)
-{
-    text_buffer t = {NULL, 0, 0, false};
-    if (!root || json_dump_callback(root, text_append, &t, JSON_INDENT(2)) != 0 || t.failed ||
-        text_append("\n", 1, &t) != 0) {
-        free(t.text);
-        return NULL;
-    }
-    return t.text;
-}
-
-int cli_json_print(const json_t *root)
-{
-    char *text = cli_json_text(root);
-    if (!text)
-        return 0;
-    /* All or nothing from here: the text is complete before the first byte goes out, and a failed write (a full
-     * disk, a closed pipe) is reported rather than taken for success. */
-    errno = 0;
-    int ok = fputs(text, stdout) >= 0 && fflush(stdout) == 0;
-    free(text);
-    return ok;
 }
 
 int cli_write_report(const char *gpu_path, const char *command, const char *text)

@@ -6,7 +6,6 @@
 #include "opts.h"
 #include "rtoracle.h"
 
-#include <jansson.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -46,14 +45,6 @@ bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want);
 /** "dtype <u4, shape (1,)": what an array holds, for messages; a structured dtype is named by layout ("Aabb
  * records, shape (3,)") or, with layout NULL, by its record size. Returns buf. */
 const char *cli_npy_what(const rto_npy_desc *d, const char *layout, char *buf, size_t cap);
-/** JSON values that never fail silently: a string repaired to UTF-8 (rto_utf8_repair), a real with non-finite
- * values as the strings "inf", "-inf", "nan". NULL only when out of memory. */
-json_t *cli_json_string(const char *text);
-json_t *cli_json_real(double v);
-/** root as indented JSON text with a final newline (malloc'ed), or NULL if root is NULL or memory ran out. */
-char *cli_json_text(const json_t *root);
-/** Serialises root (NULL: a build that failed) to stdout with a final newline; 0 if that failed. */
-int cli_json_print(const json_t *root);
 /** Removes the temporaries of unfinished outputs on SIGINT / SIGTERM / SIGHUP, then exits by that signal. */
 void cli_cleanup_on_signals(void);
 /* Names of the key formats and sort algorithms, for option tables and manifests. */

@@ -2,7 +2,6 @@
 #include "cli.h"
 
 #include <errno.h>
-#include <jansson.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -49,112 +48,6 @@ static int count_scene(const rto_scene *s, scene_counts *c)
 static int box_empty(const rto_aabb *b)
 {
     return !(b->min.x <= b->max.x && b->min.y <= b->max.y && b->min.z <= b->max.z);
-}
-
-/* Every jansson call below can fail (out of memory), and a failure must fail the command rather than drop a field:
- * set / push count failures in *bad; values come from cli_json_string / cli_json_real, which encode what JSON cannot
- * hold (names that are not UTF-8, non-finite numbers) instead of failing on it. */
-static void set(int *bad, json_t *o, const char *key, json_t *v) { *bad |= json_object_set_new(o, key, v) != 0; }
-static void push(int *bad, json_t *a, json_t *v) { *bad |= json_array_append_new(a, v) != 0; }
-
-static json_t *vec3_json(int *bad, rto_vec3 v)
-{
-    json_t *a = json_array();
-    *bad |= !a;
-    push(bad, a, cli_json_real((double)v.x));
-    push(bad, a, cli_json_real((double)v.y));
-    push(bad, a, cli_json_real((double)v.z));
-    return a;
-}
-
-static json_t *floats_json(int *bad, const float *v, int n)
-{
-    json_t *a = json_array();
-    *bad |= !a;
-    for (int i = 0; i < n; i++)
-        push(bad, a, cli_json_real((double)v[i]));
-    return a;
-}
-
-static json_t *scene_json(const rto_scene *s, const scene_counts *c, const rto_aabb *box)
-{
-    int bad = 0;
-    json_t *root = json_object(), *counts = json_object();
-    bad |= !root || !counts;
-    set(&bad, root, "source", cli_json_string(s->source));
-    set(&bad, counts, "meshes", json_integer((json_int_t)s->mesh_count));
-    set(&bad, counts, "instances", json_integer((json_int_t)s->instance_count));
-    set(&bad, counts, "vertices", json_integer((json_int_t)c->vertices));
-    set(&bad, counts, "triangles_unique", json_integer((json_int_t)c->unique_tris));
-    set(&bad, counts, "triangles_instanced", json_integer((json_int_t)c->instanced_tris));
-    set(&bad, counts, "materials", json_integer((json_int_t)s->material_count));
-    set(&bad, counts, "textures", json_integer((json_int_t)s->texture_count));
-    set(&bad, counts, "cameras", json_integer((json_int_t)s->camera_count));
-    set(&bad, counts, "warnings", json_integer((json_int_t)s->warning_count));
-    set(&bad, root, "counts", counts);
-    json_t *bounds = box_empty(box) ? json_null() : json_object();
-    if (!box_empty(box)) {
-        set(&bad, bounds, "min", vec3_json(&bad, box->min));
-        set(&bad, bounds, "max", vec3_json(&bad, box->max));
-    }
-    set(&bad, root, "bounds", bounds);
-    json_t *meshes = json_array();
-    for (uint32_t m = 0; m < s->mesh_count; m++) {
-        const rto_mesh *me = &s->meshes[m];
-        json_t *o = json_object();
-        set(&bad, o, "name", cli_json_string(me->name));
-        set(&bad, o, "vertices", json_integer((json_int_t)me->vertex_count));
-        set(&bad, o, "triangles", json_integer((json_int_t)me->triangle_count));
-        set(&bad, o, "material", json_integer((json_int_t)me->material));
-        set(&bad, o, "instances", json_integer((json_int_t)c->mesh_instances[m]));
-        set(&bad, o, "normals", json_boolean(me->normals != NULL));
-        set(&bad, o, "uvs", json_boolean(me->uvs != NULL));
-        push(&bad, meshes, o);
-    }
-    set(&bad, root, "meshes", meshes);
-    json_t *mats = json_array();
-    for (uint32_t i = 0; i < s->material_count; i++) {
-        const rto_material *ma = &s->materials[i];
-        json_t *o = json_object();
-        set(&bad, o, "base_color", floats_json(&bad, ma->base_color, 4));
-        set(&bad, o, "base_color_texture", json_integer((json_int_t)ma->base_color_texture));
-        set(&bad, o, "emissive", floats_json(&bad, ma->emissive, 3));
-        push(&bad, mats, o);
-    }
-    set(&bad, root, "materials", mats);
-    json_t *texs = json_array();
-    for (uint32_t i = 0; i < s->texture_count; i++) {
-        json_t *o = json_object();
-        set(&bad, o, "name", cli_json_string(s->textures[i].name));
-        set(&bad, o, "width", json_integer((json_int_t)s->textures[i].width));
-        set(&bad, o, "height", json_integer((json_int_t)s->textures[i].height));
-        push(&bad, texs, o);
-    }
-    set(&bad, root, "textures", texs);
-    json_t *cams = json_array();
-    for (uint32_t i = 0; i < s->camera_count; i++) {
-        const rto_camera *ca = &s->cameras[i];
-        json_t *o = json_object();
-        set(&bad, o, "name", cli_json_string(ca->name));
-        set(&bad, o, "position", vec3_json(&bad, ca->position));
-        set(&bad, o, "target", vec3_json(&bad, ca->target));
-        set(&bad, o, "up", vec3_json(&bad, ca->up));
-        set(&bad, o, "fov_y", cli_json_real((double)ca->fov_y));
-        set(&bad, o, "aspect", cli_json_real((double)ca->aspect));
-        set(&bad, o, "znear", cli_json_real((double)ca->znear));
-        set(&bad, o, "zfar", cli_json_real((double)ca->zfar));
-        push(&bad, cams, o);
-    }
-    set(&bad, root, "cameras", cams);
-    json_t *warns = json_array();
-    for (uint32_t i = 0; i < s->warning_count && i < RTO_SCENE_MAX_WARNINGS; i++)
-        push(&bad, warns, cli_json_string(s->warnings[i]));
-    set(&bad, root, "warnings", warns);
-    if (bad) {
-        json_decref(root);
-        return NULL;
-    }
-    return root;
 }
 
 static void print_text(const rto_scene *s, const scene_counts *c, const rto_aabb *box)
@@ -238,12 +131,16 @@ int cmd_info(int argc, char **argv)
     rto_aabb box = rto_scene_aabb(s);
     rc = EXIT_PASS;
     if (as_json) {
-        json_t *root = scene_json(s, &c, &box);
-        if (!root)
-            rc = cli_fail("info", "cannot build the JSON description of %s: out of memory", args.arg[0]);
-        else if (!cli_json_print(root))
+        /* All or nothing: the whole description is built before the first byte goes out, and a failed write (a
+         * full disk, a closed pipe) is reported rather than taken for success. */
+        size_t len = 0;
+        char *text = NULL;
+        rto_scene_json(s, NULL, 0, &len, &msg);
+        if (!(text = malloc(len + 1)) || (st = rto_scene_json(s, text, len + 1, &len, &msg)) != RTO_OK)
+            rc = cli_fail("info", "%s", text ? msg.text : "out of memory");
+        else if ((errno = 0, fputs(text, stdout) < 0 || fflush(stdout) != 0))
             rc = cli_fail("info", "cannot write the JSON description to stdout: %s", strerror(errno ? errno : EIO));
-        json_decref(root);
+        free(text);
     } else {
         print_text(s, &c, &box);
         if (fflush(stdout) != 0 || ferror(stdout))

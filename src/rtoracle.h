@@ -537,6 +537,14 @@ rto_aabb rto_mesh_aabb(const rto_mesh *mesh);
 rto_aabb rto_instance_aabb(const rto_scene *scene, uint32_t instance);
 /** Union of all instance world bounds. */
 rto_aabb rto_scene_aabb(const rto_scene *scene);
+/**
+ * Describes a scene as one JSON object (what `rtoracle info --json` prints; indented by two spaces, final newline):
+ * source, counts, world bounds (null when empty), meshes, materials, textures, cameras, warnings. Names are repaired
+ * to UTF-8 (U+FFFD), non-finite numbers written as the strings "inf", "-inf", "nan". Same buffer contract as
+ * rto_report_text: *len is the full length without the NUL; RTO_ERR_BUFFER_TOO_SMALL when cap <= *len (call with
+ * buf = NULL, cap = 0 to size the buffer).
+ */
+rto_status rto_scene_json(const rto_scene *scene, char *buf, size_t cap, size_t *len, rto_msg *msg);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Acceleration structures (DESIGN.md §5): the TLAS sweep tree and Karras radix trees, in their GPU layouts         */

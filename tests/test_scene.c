@@ -1888,9 +1888,41 @@ static void test_bounds(void **state)
     assert_true(fabsf(c.fov_y - 1.0471976f) < 1e-6f);
 }
 
+/* rto_scene_json: the buffer contract of rto_report_text (size, truncate, exact), and what JSON cannot hold is
+ * encoded, not dropped: a non-UTF-8 mesh name and a non-finite camera value. */
+static void test_scene_json_buffer_and_encoding(void **state)
+{
+    (void)state;
+    rto_msg msg = {{0}};
+    rto_scene *s = NULL;
+    assert_int_equal(rto_scene_load("triangle", &s, &msg), RTO_OK);
+    memcpy(s->meshes[0].name, "bad\xff", 5);
+    assert_true(s->camera_count >= 1);
+    s->cameras[0].zfar = INFINITY;
+    size_t len = 0;
+    assert_int_equal(rto_scene_json(s, NULL, 0, &len, &msg), RTO_ERR_BUFFER_TOO_SMALL);
+    assert_true(len > 100);
+    char *text = malloc(len + 1);
+    assert_non_null(text);
+    size_t len2 = 0;
+    assert_int_equal(rto_scene_json(s, text, len, &len2, &msg), RTO_ERR_BUFFER_TOO_SMALL); /* no room for NUL */
+    assert_int_equal(len2, len);
+    assert_int_equal(strlen(text), len - 1);
+    assert_int_equal(rto_scene_json(s, text, len + 1, &len2, &msg), RTO_OK);
+    assert_int_equal(strlen(text), len);
+    assert_int_equal(text[len - 1], '\n');
+    assert_non_null(strstr(text, "\"name\": \"bad\xef\xbf\xbd\"")); /* U+FFFD */
+    assert_non_null(strstr(text, "\"zfar\": \"inf\""));
+    assert_non_null(strstr(text, "\"source\": \"triangle\""));
+    free(text);
+    assert_int_equal(rto_scene_json(NULL, NULL, 0, &len, &msg), RTO_ERR_INVALID_ARGUMENT);
+    rto_scene_destroy(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_scene_json_buffer_and_encoding),
         cmocka_unit_test(test_fixtures_load_with_independent_counts),
         cmocka_unit_test(test_assimp_models_load_or_refuse),
         cmocka_unit_test(test_assimp_broken_files),

@@ -2,6 +2,7 @@
  * of fixed-size fields, so a validator fills it without allocating and a harness can read it without parsing; the
  * writers decide nothing about content, only layout: text for people, JSON (jansson) for tools. */
 #include "report_internal.h"
+#include "io/json.h"
 
 #include <inttypes.h>
 #include <jansson.h>
@@ -386,7 +387,7 @@ rto_status rto_report_json(const rto_report *r, char *buf, size_t cap, size_t *l
     int bad = 0;
     json_t *o = report_object(r, &bad);
     /* 9 significant digits round-trip every binary32 value and are plenty for binary64 differences. */
-    char *text = bad ? NULL : json_dumps(o, JSON_INDENT(2) | JSON_REAL_PRECISION(9));
+    char *text = bad ? NULL : rto_json_text(o, JSON_INDENT(2) | JSON_REAL_PRECISION(9));
     json_decref(o);
     if (!text)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory writing the JSON report");

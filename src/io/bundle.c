@@ -4,6 +4,7 @@
  * inputs give the same bytes. */
 #define _GNU_SOURCE /* renameat2 (glibc >= 2.28) */
 #include "internal.h"
+#include "io/json.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -380,34 +381,11 @@ static rto_status set_value(rto_bundle *b, const char *section, const char *key,
     return RTO_OK;
 }
 
-/* A JSON string of text repaired to well-formed UTF-8 (NULL if out of memory). */
-static json_t *utf8_string(const char *text)
-{
-    size_t len = rto_utf8_repair(text, NULL, 0);
-    char *buf = malloc(len + 1);
-    if (!buf)
-        return NULL;
-    rto_utf8_repair(text, buf, len + 1);
-    json_t *v = json_stringn(buf, len);
-    free(buf);
-    return v;
-}
-
-/* JSON has no infinities or NaN (RFC 8259 §6); they are written as strings rather than dropped. */
-static json_t *real_value(double value)
-{
-    if (isnan(value))
-        return json_string("nan");
-    if (isinf(value))
-        return json_string(value > 0 ? "inf" : "-inf");
-    return json_real(value);
-}
-
 rto_status rto_bundle_set_str(rto_bundle *b, const char *section, const char *key, const char *value)
 {
     if (b && !value)
         return keep_error(b, RTO_ERR_INVALID_ARGUMENT, NULL, "", section, key);
-    return set_value(b, section, key, b ? utf8_string(value) : NULL);
+    return set_value(b, section, key, b ? rto_json_string(value) : NULL);
 }
 
 rto_status rto_bundle_set_int(rto_bundle *b, const char *section, const char *key, int64_t value)
@@ -417,7 +395,7 @@ rto_status rto_bundle_set_int(rto_bundle *b, const char *section, const char *ke
 
 rto_status rto_bundle_set_real(rto_bundle *b, const char *section, const char *key, double value)
 {
-    return set_value(b, section, key, b ? real_value(value) : NULL);
+    return set_value(b, section, key, b ? rto_json_real(value) : NULL);
 }
 
 rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role, const char *layout,
@@ -503,56 +481,12 @@ void rto_bundle_abort(rto_bundle *b)
     free(b);
 }
 
-/* Serialisation that cannot come out cut short. jansson's dump ignores its output callback's failure while writing an
- * object's key (dump.c, do_dump: the result of dump_string for a key is not checked, 2.14 and later alike), so
- * json_dumps can return text with a key cut off after one failed allocation. Here the output buffer is ours: once an
- * append fails every later one fails too, so jansson's next write reports it, and the flag is checked anyway. */
-typedef struct dump_buffer {
-    char *text;
-    size_t len, cap;
-    bool failed;
-} dump_buffer;
-
-static int dump_append(const char *chunk, size_t n, void *data)
-{
-    dump_buffer *d = data;
-    if (!d->failed && n >= d->cap - d->len) {
-        size_t cap = d->cap ? d->cap : 4096;
-        while (cap - d->len <= n && cap < SIZE_MAX / 2)
-            cap *= 2;
-        char *p = cap - d->len > n ? realloc(d->text, cap) : NULL;
-        if (p) {
-            d->text = p;
-            d->cap = cap;
-        } else {
-            d->failed = true;
-        }
-    }
-    if (d->failed)
-        return -1;
-    memcpy(d->text + d->len, chunk, n);
-    d->len += n;
-    d->text[d->len] = '\0';
-    return 0;
-}
-
-/* json_dumps(j, flags) with a final newline, or NULL (out of memory). */
-static char *dump_text(const json_t *j, size_t flags)
-{
-    dump_buffer d = {NULL, 0, 0, false};
-    if (json_dump_callback(j, dump_append, &d, flags) != 0 || d.failed || dump_append("\n", 1, &d) != 0) {
-        free(d.text);
-        return NULL;
-    }
-    return d.text;
-}
-
 /* manifest.json into the temporary directory, in a file created 0666 (umask). */
 static rto_status write_manifest(rto_bundle *b, rto_msg *msg)
 {
     if (json_object_set(b->root, "files", b->files))
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot assemble manifest.json (out of memory)", b->name);
-    char *text = dump_text(b->root, JSON_INDENT(2));
+    char *text = rto_json_text(b->root, JSON_INDENT(2));
     if (!text)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot serialise manifest.json (out of memory)", b->name);
     char *path = join(b->tmpdir, "manifest.json");
