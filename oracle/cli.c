@@ -30,17 +30,6 @@ int cli_status(const char *cmd, rto_status s, const rto_msg *msg)
     return cli_fail(cmd, "%s", msg && msg->text[0] ? msg->text : rto_status_string(s));
 }
 
-rto_status cli_error(rto_msg *m, rto_status s, const char *fmt, ...)
-{
-    if (m) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(m->text, sizeof m->text, fmt, ap);
-        va_end(ap);
-    }
-    return s;
-}
-
 void *cli_alloc(size_t count, size_t size)
 {
     if (size != 0 && count > SIZE_MAX / size)

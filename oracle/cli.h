@@ -19,12 +19,6 @@ int cli_fail(const char *cmd, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)))
 #endif
     ;
-/** Writes a formatted one-line reason into m (if non-NULL) and returns s, as the library's own calls do. */
-rto_status cli_error(rto_msg *m, rto_status s, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
 void *cli_alloc(size_t count, size_t size);
 /** Maps a library status to an exit status, printing msg for failures. */

@@ -149,7 +149,7 @@ int cmd_suite(int argc, char **argv)
                     free(keys);
                     keys = cli_alloc(n, rto_key_size(f));
                     if (!keys) {
-                        s = cli_error(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu keys", n);
+                        s = rto_msg_set(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu keys", n);
                         break;
                     }
                     s = rto_keys_generate(dist->name, f, seed, n, keys, &msg);
@@ -159,7 +159,7 @@ int cmd_suite(int argc, char **argv)
                     size_t path_len = strlen(rto_bundle_tmpdir(suite)) + strlen(dir) + 2;
                     char *path = malloc(path_len);
                     if (!path) {
-                        s = cli_error(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+                        s = rto_msg_set(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
                         break;
                     }
                     snprintf(path, path_len, "%s/%s", rto_bundle_tmpdir(suite), dir);

@@ -58,7 +58,7 @@ static rto_status write_bitonic(rto_bundle *b, rto_key_format f, const void *key
     const size_t np = rto_next_pow2(n), ksz = rto_key_size(f);
     const uint32_t passes = rto_bitonic_pass_count(np);
     if (checkpoints && (uint64_t)passes * np * ksz > CHECKPOINT_BYTES_MAX)
-        return cli_error(msg, RTO_ERR_INVALID_ARGUMENT,
+        return rto_msg_set(msg, RTO_ERR_INVALID_ARGUMENT,
                         "checkpoints for n = %zu would take %.1f GiB (%" PRIu32 " passes of %zu keys); limit 4 GiB", n,
                         (double)passes * (double)np * (double)ksz / (double)(1u << 30), passes, np);
     void *sorted = cli_alloc(np, ksz), *ck = checkpoints ? cli_alloc((size_t)passes * np, ksz) : NULL;
@@ -66,7 +66,7 @@ static rto_status write_bitonic(rto_bundle *b, rto_key_format f, const void *key
     uint32_t *table = cli_alloc(passes, 2 * sizeof *table);
     rto_status s = RTO_OK;
     if (!sorted || !perm || !table || (checkpoints && !ck))
-        s = cli_error(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
+        s = rto_msg_set(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
     if (!s)
         s = rto_bitonic_sort(f, keys, n, sorted, perm, ck, msg);
     if (!s)
@@ -97,9 +97,9 @@ static rto_status write_radix(rto_bundle *b, rto_key_format f, const void *keys,
     const size_t ksz = rto_key_size(f), tiles = rto_radix_tile_count(n, p->tile);
     const uint32_t passes = rto_radix_pass_count(f, p->radix_bits), radix = UINT32_C(1) << p->radix_bits;
     if (!passes || !p->tile)
-        return cli_error(msg, RTO_ERR_INVALID_ARGUMENT, "radix needs --radix-bits 4 or 8 and --tile >= 1");
+        return rto_msg_set(msg, RTO_ERR_INVALID_ARGUMENT, "radix needs --radix-bits 4 or 8 and --tile >= 1");
     if (p->checkpoints && (uint64_t)passes * (tiles * radix * 8 + n * (ksz + 4)) > CHECKPOINT_BYTES_MAX)
-        return cli_error(msg, RTO_ERR_INVALID_ARGUMENT, "radix intermediates for n = %zu would exceed 4 GiB", n);
+        return rto_msg_set(msg, RTO_ERR_INVALID_ARGUMENT, "radix intermediates for n = %zu would exceed 4 GiB", n);
     void *sorted = cli_alloc(n, ksz);
     uint32_t *perm = cli_alloc(n, sizeof *perm);
     rto_radix_trace tr = {NULL, NULL, NULL, NULL, NULL};
@@ -112,7 +112,7 @@ static rto_status write_radix(rto_bundle *b, rto_key_format f, const void *keys,
     }
     rto_status s = RTO_OK;
     if (!sorted || !perm || (p->checkpoints && (!tr.hist || !tr.prefix || !tr.base || !tr.scatter || !tr.perm)))
-        s = cli_error(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
+        s = rto_msg_set(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
     if (!s)
         s = rto_radix_sort(f, keys, n, p->radix_bits, p->tile, sorted, perm, p->checkpoints ? &tr : NULL, msg);
     if (!s)

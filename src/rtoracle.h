@@ -82,6 +82,14 @@ typedef struct rto_msg {
     char text[512];
 } rto_msg;
 
+/** Writes a formatted one-line reason into msg (when non-NULL) and returns s: how every fallible call reports, and
+ * how a harness or program of its own reports through the same channel. */
+rto_status rto_msg_set(rto_msg *msg, rto_status s, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* PRNG (DESIGN.md §3): counter-based, reproducible in C, JS and WGSL                                               */
 

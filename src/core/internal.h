@@ -20,8 +20,8 @@
 #define RTO_PRINTF(a, b)
 #endif
 
-/** Writes a formatted one-line reason into m (if non-NULL) and returns s. */
-rto_status rto_fail(rto_msg *m, rto_status s, const char *fmt, ...) RTO_PRINTF(3, 4);
+/** The library's name for rto_msg_set (public): writes a one-line reason into m (if non-NULL) and returns s. */
+#define rto_fail rto_msg_set
 
 /** Key i of a u32 or u64 key array, widened to 64 bits. */
 static inline uint64_t rto_key_get(rto_key_format f, const void *keys, size_t i)

@@ -19,7 +19,7 @@ const char *rto_status_string(rto_status s)
     return "unknown status";
 }
 
-rto_status rto_fail(rto_msg *m, rto_status s, const char *fmt, ...)
+rto_status rto_msg_set(rto_msg *m, rto_status s, const char *fmt, ...)
 {
     if (m) {
         va_list ap;
