@@ -412,6 +412,33 @@ static void test_karras_mutations(void **state)
     }
     expect_bvh(CHECK(t), &r, RTO_BVH_SWAPPED, (int64_t)mixed, "karras swapped");
     assert_int_equal(CHECK(NULL), RTO_OK); /* still a valid tree without the oracle's order */
+    /* A node cut off from the tree whose leaf link is out of range, while another leaf is linked twice (so no
+     * dropped-leaf fault is claimed first) and no earlier node differs from the oracle's: exact mode compares the
+     * cut-off node with the oracle's without reading the leaf order out of bounds, and names the out-of-range link
+     * there. Karras nodes can have a parent of higher index: cut is one such, so the walk never range-checks it. */
+    {
+        size_t cut = SIZE_MAX, tw = SIZE_MAX;
+        for (size_t i = 1; i < n - 1 && cut == SIZE_MAX; i++)
+            if ((t[i].left & RTO_BVH_LEAF_BIT) && !(t[i].right & RTO_BVH_LEAF_BIT) && t[i].parent > i)
+                cut = i;
+        assert_true(cut != SIZE_MAX);
+        for (size_t i = cut + 1; i < n - 1 && tw == SIZE_MAX; i++)
+            if ((t[i].left & RTO_BVH_LEAF_BIT) && (t[i].right & RTO_BVH_LEAF_BIT) && t[cut].right != i)
+                tw = i;
+        assert_true(tw != SIZE_MAX);
+        RESET();
+        uint32_t p = t[cut].parent, keep = t[cut].right;
+        assert_true(p > cut && keep > cut);
+        if (t[p].left == cut)
+            g[p].left = keep;
+        else
+            g[p].right = keep;
+        g[keep].parent = p;
+        g[tw].right = g[tw].left;
+        g[cut].left = RTO_BVH_LEAF_BIT | (uint32_t)n; /* one past the leaf order */
+        expect_bvh(CHECK(t), &r, RTO_BVH_BAD_LINK, (int64_t)cut, "karras unreachable node with a bad leaf link");
+        assert_int_equal(rto_report_check_state(&r, "links"), RTO_CHECK_FAILED);
+    }
 #undef RESET
 #undef CHECK
     free(boxes);

@@ -620,9 +620,11 @@ static void leaf_order_fault(rto_report *r, const rto_bvh_check_desc *d, const k
     }
 }
 
-/* Exact topology against the oracle's links: the first differing node. */
+/* Exact topology against the oracle's links: the first differing node. Every node is compared, also one the walk
+ * never reached (its links were not range-checked there), so a leaf link is checked against n before its primitive
+ * is looked up. */
 static void karras_compare(rto_report *r, const rto_bvh_node *g, const rto_bvh_node *e, size_t count,
-                           const uint32_t *prims)
+                           const uint32_t *prims, size_t n)
 {
     for (size_t i = 0; i < count; i++) {
         const rto_bvh_node *x = &g[i], *y = &e[i];
@@ -634,7 +636,10 @@ static void karras_compare(rto_report *r, const rto_bvh_node *g, const rto_bvh_n
             } else {
                 int side = x->left != y->left ? 0 : 1;
                 uint32_t gc = child_of(x, side), ec = child_of(y, side);
-                if (gc & ec & RTO_BVH_LEAF_BIT) {
+                if ((gc & RTO_BVH_LEAF_BIT) && (gc & ~RTO_BVH_LEAF_BIT) >= n) {
+                    own = note(r, RTO_BVH_BAD_LINK, "links", (int64_t)i, "node %zu %s child is leaf %" PRIu32 " of %zu",
+                               i, side_name(side), gc & ~RTO_BVH_LEAF_BIT, n);
+                } else if (gc & ec & RTO_BVH_LEAF_BIT) {
                     own = note(r, RTO_BVH_ITEM, "oracle", (int64_t)i, "node %zu %s child is leaf %" PRIu32 ", expected "
                                "leaf %" PRIu32, i, side_name(side), gc & ~RTO_BVH_LEAF_BIT, ec & ~RTO_BVH_LEAF_BIT);
                     if (own) {
@@ -787,7 +792,7 @@ rto_status rto_karras_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg 
     if (bad_prim != SIZE_MAX)
         leaf_order_fault(r, d, &w, bad_prim, other);
     if (exp)
-        karras_compare(r, g, exp, count, d->leaf_prims);
+        karras_compare(r, g, exp, count, d->leaf_prims, n);
     if (missing && w.first_dup_leaf != SIZE_MAX &&
         note(r, RTO_BVH_ITEM, "leaves", w.dup_node, "sorted leaf %zu is linked twice (second time from node %" PRId64
              ") and leaf %zu never", w.first_dup_leaf, w.dup_node, first_missing)) {
