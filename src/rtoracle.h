@@ -372,7 +372,8 @@ rto_status rto_report_text(const rto_report *r, char *buf, size_t cap, size_t *l
 /**
  * Writes the report as one JSON object (indented by two spaces; keys: command, what, context, mode, result, fault,
  * faults, location, checks, facts, tolerance, diffs, message). Hex values are strings, non-finite floats the
- * strings "inf", "-inf", "nan". Same buffer contract as rto_report_text.
+ * strings "inf", "-inf", "nan"; text that is not well-formed UTF-8 (a name cut inside a character) is written
+ * repaired by rto_utf8_repair. Same buffer contract as rto_report_text.
  */
 rto_status rto_report_json(const rto_report *r, char *buf, size_t cap, size_t *len, rto_msg *msg);
 

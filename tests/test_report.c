@@ -211,6 +211,36 @@ static void test_json_writer(void **state)
     free(buf);
 }
 
+/* Text cut inside a UTF-8 character (a case id cut to fit `what`) or not UTF-8 at all is written repaired (U+FFFD),
+ * not refused as if memory had run out. */
+static void test_json_writer_repairs_text(void **state)
+{
+    (void)state;
+    rto_report r;
+    sample(&r);
+    char id[200] = "case";
+    for (int i = 0; i < 60; i++)
+        strcat(id, "\xc3\xa9"); /* U+00E9 */
+    snprintf(r.what, sizeof r.what, "%s", id); /* 95 bytes: "case", 45 characters and the first byte of one */
+    assert_int_equal((unsigned char)r.what[94], 0xc3);
+    snprintf(r.summary, sizeof r.summary, "box: \xff at node 5");
+    size_t len = 0;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_report_json(&r, NULL, 0, &len, &msg), RTO_ERR_BUFFER_TOO_SMALL);
+    char *buf = malloc(len + 1);
+    assert_int_equal(rto_report_json(&r, buf, len + 1, &len, &msg), RTO_OK);
+    json_error_t err;
+    json_t *o = json_loads(buf, 0, &err);
+    if (!o)
+        fail_msg("not JSON (%s): %s", err.text, buf);
+    char want[200];
+    snprintf(want, sizeof want, "%.94s\xef\xbf\xbd", r.what);
+    assert_string_equal(json_string_value(json_object_get(o, "what")), want);
+    assert_string_equal(json_string_value(json_object_get(o, "message")), "box: \xef\xbf\xbd at node 5");
+    json_decref(o);
+    free(buf);
+}
+
 /* Validators fill the same shape: the lookups a harness uses work on a real check-sort report. */
 static void test_lookups_on_a_validator_report(void **state)
 {
@@ -248,6 +278,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_text_writer),
         cmocka_unit_test(test_json_writer),
+        cmocka_unit_test(test_json_writer_repairs_text),
         cmocka_unit_test(test_lookups_on_a_validator_report),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -324,18 +324,20 @@ static json_t *fields_json(const rto_report_field *f, uint32_t n, int *bad)
     return o;
 }
 
+/* The report's strings are text a caller may have filled (a case id from a manifest, cut to fit `what`, can end
+ * inside a character): written repaired to UTF-8, as jansson refuses anything else. */
 static json_t *report_object(const rto_report *r, int *bad)
 {
     json_t *o = json_object();
-    jset(o, "command", json_string(r->validator), bad);
-    jset(o, "what", r->what[0] ? json_string(r->what) : json_null(), bad);
-    jset(o, "context", r->context[0] ? json_string(r->context) : json_null(), bad);
-    jset(o, "mode", r->mode[0] ? json_string(r->mode) : json_null(), bad);
+    jset(o, "command", rto_json_string(r->validator), bad);
+    jset(o, "what", r->what[0] ? rto_json_string(r->what) : json_null(), bad);
+    jset(o, "context", r->context[0] ? rto_json_string(r->context) : json_null(), bad);
+    jset(o, "mode", r->mode[0] ? rto_json_string(r->mode) : json_null(), bad);
     jset(o, "result", json_string(r->code ? "fail" : "pass"), bad);
-    jset(o, "fault", json_string(r->fault), bad);
+    jset(o, "fault", rto_json_string(r->fault), bad);
     json_t *faults = json_array();
     for (uint32_t i = 0; i < r->nfaults_seen && i < RTO_REPORT_MAX_FAULTS; i++)
-        jappend(faults, json_string(r->faults_seen[i]), bad);
+        jappend(faults, rto_json_string(r->faults_seen[i]), bad);
     jset(o, "faults", faults, bad);
     jset(o, "location", fields_json(r->where, r->nwhere, bad), bad);
     json_t *checks = json_object();
@@ -349,7 +351,7 @@ static json_t *report_object(const rto_report *r, int *bad)
     if (r->tolerance[0]) {
         json_t *t = json_object();
         rto_value b = rto_val_f64(r->tolerance_bound);
-        jset(t, "rule", json_string(r->tolerance), bad);
+        jset(t, "rule", rto_json_string(r->tolerance), bad);
         jset(t, "bound", jvalue(&b), bad);
         jset(o, "tolerance", t, bad);
     } else {
@@ -357,14 +359,14 @@ static json_t *report_object(const rto_report *r, int *bad)
     }
     json_t *diffs = json_object(), *rows = json_array();
     const char *index_name = r->index_name[0] ? r->index_name : "index";
-    jset(diffs, "title", json_string(r->table_title), bad);
-    jset(diffs, "index", json_string(index_name), bad);
+    jset(diffs, "title", rto_json_string(r->table_title), bad);
+    jset(diffs, "index", rto_json_string(index_name), bad);
     for (uint32_t i = 0; i < r->nrows && i < RTO_REPORT_MAX_ROWS; i++) {
         const rto_report_row *row = &r->rows[i];
         json_t *jr = json_object();
         jset(jr, index_name, json_integer((json_int_t)row->index), bad);
         if (row->field[0])
-            jset(jr, "field", json_string(row->field), bad);
+            jset(jr, "field", rto_json_string(row->field), bad);
         jset(jr, "expected", jvalue(&row->expected), bad);
         jset(jr, "actual", jvalue(&row->actual), bad);
         jset(jr, "diff", jvalue(&row->diff), bad);
@@ -374,7 +376,7 @@ static json_t *report_object(const rto_report *r, int *bad)
     }
     jset(diffs, "rows", rows, bad);
     jset(o, "diffs", diffs, bad);
-    jset(o, "message", json_string(r->summary), bad);
+    jset(o, "message", rto_json_string(r->summary), bad);
     return o;
 }
 
