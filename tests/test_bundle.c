@@ -104,6 +104,41 @@ static void test_commit_abort_and_replace(void **state)
     rto_bundle_abort(NULL);
 }
 
+/* A bundle is input: a file it names, or its manifest, may be a FIFO (an open would wait for a writer) or a link to
+ * /dev/zero (a read would never end). Each is refused at once; the alarm turns a hang into a failure. */
+static void test_reader_refuses_special_files(void **state)
+{
+    (void)state;
+    char dir[300], file[320], manifest[320];
+    snprintf(dir, sizeof dir, "%s/b", root);
+    write_bundle(dir, 1);
+    snprintf(file, sizeof file, "%s/a.npy", dir);
+    snprintf(manifest, sizeof manifest, "%s/manifest.json", dir);
+    alarm(20);
+    rto_bundle_reader *r = NULL;
+    rto_msg msg = {{0}};
+    rto_npy a = {0};
+    assert_int_equal(rto_bundle_open(dir, &r, &msg), RTO_OK);
+    assert_int_equal(unlink(file), 0);
+    assert_int_equal(symlink("/dev/zero", file), 0);
+    assert_int_equal(rto_bundle_read_role(r, "things", &a, &msg), RTO_ERR_IO);
+    assert_non_null(strstr(msg.text, "not a regular file"));
+    assert_int_equal(unlink(file), 0);
+    assert_int_equal(mkfifo(file, 0644), 0);
+    assert_int_equal(rto_bundle_read_role(r, "things", &a, &msg), RTO_ERR_IO);
+    assert_non_null(strstr(msg.text, "not a regular file"));
+    assert_int_equal(rto_npy_read(file, &a, &msg), RTO_ERR_IO);
+    assert_non_null(strstr(msg.text, "not a regular file"));
+    rto_bundle_close(r);
+    assert_int_equal(unlink(manifest), 0);
+    assert_int_equal(mkfifo(manifest, 0644), 0);
+    r = NULL;
+    assert_int_equal(rto_bundle_open(dir, &r, &msg), RTO_ERR_IO);
+    assert_null(r);
+    assert_non_null(strstr(msg.text, "not a regular file"));
+    alarm(0);
+}
+
 static void test_refuses_foreign_directory_and_versions(void **state)
 {
     (void)state;
@@ -482,6 +517,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_file_write, setup, teardown),
         cmocka_unit_test_setup_teardown(test_commit_abort_and_replace, setup, teardown),
         cmocka_unit_test_setup_teardown(test_refuses_foreign_directory_and_versions, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_reader_refuses_special_files, setup, teardown),
         cmocka_unit_test_setup_teardown(test_same_input_same_bytes, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -37,13 +37,36 @@ struct rto_bundle_reader {
     json_t *root;
 };
 
+/* Opens a bundle's file for reading, refusing anything but a regular file: a name in a manifest (or the manifest
+ * itself) may be a FIFO, which would block, or a link to /dev/zero, which never ends. O_NONBLOCK keeps the open of a
+ * FIFO from waiting for a writer; it changes nothing for a regular file. */
+static FILE *open_regular(const char *path, rto_msg *msg, rto_status *s)
+{
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    struct stat st;
+    if (fd < 0) {
+        *s = rto_fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
+        return NULL;
+    }
+    FILE *fp = NULL;
+    if (fstat(fd, &st) != 0)
+        *s = rto_fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
+    else if (!S_ISREG(st.st_mode))
+        *s = rto_fail(msg, RTO_ERR_IO, "%s: not a regular file", path);
+    else if (!(fp = fdopen(fd, "rb")))
+        *s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: %s", path, strerror(errno));
+    if (!fp)
+        close(fd);
+    return fp;
+}
+
 rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg)
 {
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return rto_fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
-    EVP_MD_CTX *ctx = EVP_MD_CTX_new();
     rto_status s = RTO_OK;
+    FILE *fp = open_regular(path, msg, &s);
+    if (!fp)
+        return s;
+    EVP_MD_CTX *ctx = EVP_MD_CTX_new();
     if (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1) {
         s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot start SHA-256");
         goto out;
@@ -577,17 +600,20 @@ rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *ms
     if (!path)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no bundle directory given");
     json_error_t err;
-    json_t *root = json_load_file(path, JSON_REJECT_DUPLICATES, &err);
+    rto_status s = RTO_OK;
+    FILE *fp = open_regular(path, msg, &s);
+    json_t *root = fp ? json_loadf(fp, JSON_REJECT_DUPLICATES, &err) : NULL;
+    if (fp)
+        fclose(fp);
     if (!root) {
-        rto_status s = rto_fail(msg, access(path, F_OK) ? RTO_ERR_IO : RTO_ERR_PARSE, "%s: %s (line %d)", path,
-                                err.text, err.line);
+        if (!s)
+            s = rto_fail(msg, RTO_ERR_PARSE, "%s: %s (line %d)", path, err.text, err.line);
         free(path);
         return s;
     }
     free(path);
     const char *format = json_string_value(json_object_get(root, "format"));
     json_t *version = json_object_get(root, "format_version");
-    rto_status s = RTO_OK;
     if (!format || strcmp(format, "rtoracle-bundle") != 0)
         s = rto_fail(msg, RTO_ERR_PARSE, "%s is not an rtoracle bundle (manifest format '%s')", dir,
                      format ? format : "missing");

@@ -8,6 +8,7 @@
 #include "internal.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -753,9 +754,15 @@ rto_status rto_npy_read(const char *path, rto_npy *out, rto_msg *msg)
     memset(out, 0, sizeof *out);
     if (!path)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return rto_fail(msg, RTO_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+    /* O_NONBLOCK: opening a FIFO must not wait for a writer before it is refused below (no effect on a file). */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    FILE *fp = fd >= 0 ? fdopen(fd, "rb") : NULL;
+    if (!fp) {
+        int e = errno;
+        if (fd >= 0)
+            close(fd);
+        return rto_fail(msg, RTO_ERR_IO, "cannot open '%s': %s", path, strerror(e));
+    }
     struct stat st;
     if (fstat(fileno(fp), &st) != 0) {
         int e = errno;
