@@ -39,9 +39,12 @@ struct rto_bundle_reader {
 
 rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg)
 {
-    FILE *fp = fopen(path, "rb");
+    /* A bundle's file may be anything by now: a FIFO or a link to /dev/zero would hash forever. */
+    uint64_t size;
+    rto_status opened = RTO_OK;
+    FILE *fp = rto_open_regular(path, &size, &opened, msg);
     if (!fp)
-        return rto_fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
+        return opened;
     EVP_MD_CTX *ctx = EVP_MD_CTX_new();
     rto_status s = RTO_OK;
     if (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1) {
@@ -577,10 +580,18 @@ rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *ms
     if (!path)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no bundle directory given");
     json_error_t err;
-    json_t *root = json_load_file(path, JSON_REJECT_DUPLICATES, &err);
+    /* Opened as a plain file first: json_load_file would wait for ever on a manifest.json that is a FIFO. */
+    uint64_t size;
+    rto_status opened = RTO_OK;
+    FILE *fp = rto_open_regular(path, &size, &opened, msg);
+    if (!fp) {
+        free(path);
+        return opened;
+    }
+    json_t *root = json_loadf(fp, JSON_REJECT_DUPLICATES, &err);
+    fclose(fp);
     if (!root) {
-        rto_status s = rto_fail(msg, access(path, F_OK) ? RTO_ERR_IO : RTO_ERR_PARSE, "%s: %s (line %d)", path,
-                                err.text, err.line);
+        rto_status s = rto_fail(msg, RTO_ERR_PARSE, "%s: %s (line %d)", path, err.text, err.line);
         free(path);
         return s;
     }
