@@ -44,7 +44,7 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (!strcmp(argv[1], commands[i].name))
             return commands[i].run(argc - 1, argv + 1);
-    fprintf(stderr, "rtoracle: unknown command '%s'\n", argv[1]);
-    usage(stderr);
+    /* One line, as for an unknown option: the list of commands is one --help away. */
+    fprintf(stderr, "rtoracle: unknown command '%s' (rtoracle --help)\n", argv[1]);
     return EXIT_BAD_INPUT;
 }

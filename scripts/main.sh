@@ -15,9 +15,11 @@ fix=fixtures
 mkdir -p "$out/build"
 while IFS= read -r f; do
     name=$(basename "${f%.*}")
-    build/oracle/rtoracle build "$f" -o "$out/build/$name" 2>/dev/null
+    # Loader warnings (e.g. CornellBox's unused texture) are not news here; a failure shows them and stops.
+    build/oracle/rtoracle build "$f" -o "$out/build/$name" 2>"$out/build.err" || { cat "$out/build.err" >&2; exit 1; }
 done < <(find "$fix" \( -name '*.gltf' -o -name '*.glb' \) | sort)
 for spec in triangle rtstress:16 instances:clustered:4097; do
     build/oracle/rtoracle build "$spec" -o "$out/build/${spec//:/-}"
 done
+rm -f "$out/build.err"
 echo "rtoracle: built build/oracle/rtoracle; golden bundles in $out/"

@@ -226,6 +226,30 @@ for f in triangle rtstress:2 "${RTO_FIXTURES:-fixtures}/Duck/glTF/Duck.gltf" \
         "$JSON" "$T/out" "$k/$n" >/dev/null 2>&1 && fail "info --json $f: more $k than $n"
     done
 done
+# ---- inputs that are not plain files: a FIFO (open() would wait for a writer), /dev/zero (never ends) given as a
+# dump or the keys, or standing in for a bundle's manifest or array, is refused at once (timeout turns a hang into a
+# failure) with one line, exit 2
+mkfifo "$T/in_fifo"
+run 0 "$RTO" keys --dist uniform --n 40 -o "$T/in_k.npy" && run 0 "$RTO" sort "$T/in_k.npy" -o "$T/in_sb"
+run 0 "$RTO" build triangle -o "$T/in_bb"
+for src in "$T/in_fifo" /dev/zero; do
+    refused timeout 20 "$RTO" sort "$src" -o "$T/in_out" && has "not a regular file" err
+    refused timeout 20 "$RTO" check-sort --expected "$T/in_sb" --gpu "$src" && has "not a regular file" err
+    refused timeout 20 "$RTO" check-bvh --expected "$T/in_bb" --gpu "$src" && has "not a regular file" err
+    # the same inside the bundles: the manifest, and an array the manifest's sha256 is checked against
+    for b in in_sb/manifest.json in_bb/manifest.json in_bb/blas_0_order.npy; do
+        mv "$T/$b" "$T/in_saved" && ln -s "$src" "$T/$b"
+        case $b in
+        in_sb/*) refused timeout 20 "$RTO" check-sort --expected "$T/in_sb" --gpu "$T/in_k.npy" ;;
+        *) refused timeout 20 "$RTO" check-bvh --expected "$T/in_bb" --gpu "$T/in_bb/blas_0_nodes.npy" --blas 0 ;;
+        esac && has "not a regular file" err
+        rm "$T/$b" && mv "$T/in_saved" "$T/$b"
+    done
+done
+[ -e "$T/in_out" ] && fail "a refused sort wrote its output"
+# control: the restored bundles still check
+run 0 "$RTO" check-bvh --expected "$T/in_bb" --gpu "$T/in_bb/blas_0_nodes.npy" --blas 0
+
 # a failed write of the description is an error, not a silent exit 0
 if [ -w /dev/full ]; then
     for json in --json ""; do

@@ -32,6 +32,8 @@ for c in keys sort check-sort "suite sort" build check-bvh info; do
     run 2 "$RTO" $c -x && usage_line $name "unknown option '-x'"
     run 0 "$RTO" $c --help && has "^usage: rtoracle $name" out && has "^  -h, --help" out
 done
+# An unknown command is one line too, naming it and where the list of commands is.
+run 2 "$RTO" frob --help && one_line "rtoracle: unknown command 'frob' (rtoracle --help)"
 # Long names are spelled out: no unique-prefix matching (getopt_long took --check for --checkpoints).
 run 2 "$RTO" sort "$T/k.npy" --check -o "$T/p" && usage_line sort "unknown option '--check'"
 # A flag takes no value.

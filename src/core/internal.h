@@ -90,6 +90,15 @@ rto_status rto_atomic_close(rto_atomic_file *f, rto_msg *msg);
 /** Closes and removes the temporary (a failed write). */
 void rto_atomic_discard(rto_atomic_file *f);
 
+/* Input files. */
+
+/**
+ * Opens path for reading only if it is a regular file (a symbolic link is followed): a FIFO, a directory or a device
+ * (/dev/zero) is refused at once, without blocking in open() and without a byte read, so no input can hang the
+ * command or make it read without end. *size gets the file's size. NULL with *status set and msg written on refusal.
+ */
+FILE *rto_open_regular(const char *path, uint64_t *size, rto_status *status, rto_msg *msg);
+
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
 void *rto_alloc(size_t count, size_t size);
 

@@ -37,36 +37,16 @@ struct rto_bundle_reader {
     json_t *root;
 };
 
-/* Opens a bundle's file for reading, refusing anything but a regular file: a name in a manifest (or the manifest
- * itself) may be a FIFO, which would block, or a link to /dev/zero, which never ends. O_NONBLOCK keeps the open of a
- * FIFO from waiting for a writer; it changes nothing for a regular file. */
-static FILE *open_regular(const char *path, rto_msg *msg, rto_status *s)
-{
-    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-    struct stat st;
-    if (fd < 0) {
-        *s = rto_fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
-        return NULL;
-    }
-    FILE *fp = NULL;
-    if (fstat(fd, &st) != 0)
-        *s = rto_fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
-    else if (!S_ISREG(st.st_mode))
-        *s = rto_fail(msg, RTO_ERR_IO, "%s: not a regular file", path);
-    else if (!(fp = fdopen(fd, "rb")))
-        *s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: %s", path, strerror(errno));
-    if (!fp)
-        close(fd);
-    return fp;
-}
-
 rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg)
 {
-    rto_status s = RTO_OK;
-    FILE *fp = open_regular(path, msg, &s);
+    /* A bundle's file may be anything by now: a FIFO or a link to /dev/zero would hash forever. */
+    uint64_t size;
+    rto_status opened = RTO_OK;
+    FILE *fp = rto_open_regular(path, &size, &opened, msg);
     if (!fp)
-        return s;
+        return opened;
     EVP_MD_CTX *ctx = EVP_MD_CTX_new();
+    rto_status s = RTO_OK;
     if (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1) {
         s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot start SHA-256");
         goto out;
@@ -600,18 +580,23 @@ rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *ms
     if (!path)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no bundle directory given");
     json_error_t err;
-    rto_status s = RTO_OK;
-    FILE *fp = open_regular(path, msg, &s);
-    json_t *root = fp ? json_loadf(fp, JSON_REJECT_DUPLICATES, &err) : NULL;
-    if (fp)
-        fclose(fp);
+    /* Opened as a plain file first: json_load_file would wait for ever on a manifest.json that is a FIFO. */
+    uint64_t size;
+    rto_status opened = RTO_OK;
+    FILE *fp = rto_open_regular(path, &size, &opened, msg);
+    if (!fp) {
+        free(path);
+        return opened;
+    }
+    json_t *root = json_loadf(fp, JSON_REJECT_DUPLICATES, &err);
+    fclose(fp);
     if (!root) {
-        if (!s)
-            s = rto_fail(msg, RTO_ERR_PARSE, "%s: %s (line %d)", path, err.text, err.line);
+        rto_status s = rto_fail(msg, RTO_ERR_PARSE, "%s: %s (line %d)", path, err.text, err.line);
         free(path);
         return s;
     }
     free(path);
+    rto_status s = RTO_OK;
     const char *format = json_string_value(json_object_get(root, "format"));
     json_t *version = json_object_get(root, "format_version");
     if (!format || strcmp(format, "rtoracle-bundle") != 0)

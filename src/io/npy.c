@@ -3,7 +3,7 @@
  * The reader takes untrusted input: every byte access is checked against the header's or the buffer's end, integers
  * are range-checked before they are combined, and nothing recurses on input structure (nested structs are refused
  * rather than parsed). Offsets in messages are byte offsets from the start of the file, so they match a hexdump. */
-#define _POSIX_C_SOURCE 200809L /* fileno, fstat */
+#define _POSIX_C_SOURCE 200809L /* fileno, fstat, O_CLOEXEC */
 
 #include "internal.h"
 
@@ -747,6 +747,39 @@ void rto_npy_free(rto_npy *npy)
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Files */
 
+FILE *rto_open_regular(const char *path, uint64_t *size, rto_status *status, rto_msg *msg)
+{
+    /* O_NONBLOCK: open() of a FIFO waits for a writer, so without it a FIFO would hang the command before fstat
+     * could refuse it. On a regular file the flag changes nothing; it is cleared anyway before the stream is made. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    if (fd < 0) {
+        *status = rto_fail(msg, RTO_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+        return NULL;
+    }
+    struct stat st;
+    int flags;
+    if (fstat(fd, &st) != 0 || (flags = fcntl(fd, F_GETFL)) < 0) {
+        *status = rto_fail(msg, RTO_ERR_IO, "cannot stat '%s': %s", path, strerror(errno));
+        close(fd);
+        return NULL;
+    }
+    /* The size of a FIFO or a device is unknown (/dev/zero never ends): only plain files are inputs. */
+    if (!S_ISREG(st.st_mode)) {
+        *status = rto_fail(msg, RTO_ERR_IO, S_ISDIR(st.st_mode) ? "'%s' is a directory" : "'%s' is not a regular file",
+                           path);
+        close(fd);
+        return NULL;
+    }
+    FILE *fp = fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) == 0 ? fdopen(fd, "rb") : NULL;
+    if (!fp) {
+        *status = rto_fail(msg, RTO_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+        close(fd);
+        return NULL;
+    }
+    *size = st.st_size < 0 ? 0 : (uint64_t)st.st_size;
+    return fp;
+}
+
 rto_status rto_npy_read(const char *path, rto_npy *out, rto_msg *msg)
 {
     if (!out)
@@ -754,36 +787,17 @@ rto_status rto_npy_read(const char *path, rto_npy *out, rto_msg *msg)
     memset(out, 0, sizeof *out);
     if (!path)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
-    /* O_NONBLOCK: opening a FIFO must not wait for a writer before it is refused below (no effect on a file). */
-    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-    FILE *fp = fd >= 0 ? fdopen(fd, "rb") : NULL;
-    if (!fp) {
-        int e = errno;
-        if (fd >= 0)
-            close(fd);
-        return rto_fail(msg, RTO_ERR_IO, "cannot open '%s': %s", path, strerror(e));
-    }
-    struct stat st;
-    if (fstat(fileno(fp), &st) != 0) {
-        int e = errno;
+    uint64_t file_size = 0;
+    rto_status opened = RTO_OK;
+    FILE *fp = rto_open_regular(path, &file_size, &opened, msg);
+    if (!fp)
+        return opened;
+    if (file_size > NPY_MAX_FILE_BYTES || file_size > SIZE_MAX) {
         fclose(fp);
-        return rto_fail(msg, RTO_ERR_IO, "cannot stat '%s': %s", path, strerror(e));
+        return rto_fail(msg, RTO_ERR_IO, "'%s' is %llu bytes; files over 16 GiB are refused", path,
+                        (unsigned long long)file_size);
     }
-    /* fopen succeeds on a directory on Linux; the size of pipes and devices is unknown, so only plain files. */
-    if (S_ISDIR(st.st_mode)) {
-        fclose(fp);
-        return rto_fail(msg, RTO_ERR_IO, "'%s' is a directory", path);
-    }
-    if (!S_ISREG(st.st_mode)) {
-        fclose(fp);
-        return rto_fail(msg, RTO_ERR_IO, "'%s' is not a regular file", path);
-    }
-    if (st.st_size < 0 || (uint64_t)st.st_size > NPY_MAX_FILE_BYTES || (uint64_t)st.st_size > SIZE_MAX) {
-        fclose(fp);
-        return rto_fail(msg, RTO_ERR_IO, "'%s' is %lld bytes; files over 16 GiB are refused", path,
-                        (long long)st.st_size);
-    }
-    size_t size = (size_t)st.st_size;
+    size_t size = (size_t)file_size;
     unsigned char *buf = rto_alloc(size, 1);
     if (!buf) {
         fclose(fp);
