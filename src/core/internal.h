@@ -23,6 +23,21 @@
 /** The library's name for rto_msg_set (public): writes a one-line reason into m (if non-NULL) and returns s. */
 #define rto_fail rto_msg_set
 
+/** The checks every sort entry point makes of its common arguments: a known format, n within RTO_MAX_KEYS, and
+ * non-NULL arrays when n > 0. */
+static inline rto_status rto_sort_args_check(rto_key_format f, const void *keys, size_t n, const void *sorted,
+                                             rto_msg *msg)
+{
+    if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
+    if ((uint64_t)n > RTO_MAX_KEYS)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", n,
+                        (unsigned long long)RTO_MAX_KEYS);
+    if (n && (!keys || !sorted))
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys or output");
+    return RTO_OK;
+}
+
 /** Key i of a u32 or u64 key array, widened to 64 bits. */
 static inline uint64_t rto_key_get(rto_key_format f, const void *keys, size_t i)
 {

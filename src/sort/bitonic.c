@@ -71,13 +71,9 @@ static void run_pass(uint64_t *a, uint32_t *idx, size_t n, size_t k, size_t j)
 rto_status rto_bitonic_sort(rto_key_format f, const void *keys, size_t n, void *sorted, uint32_t *perm,
                             void *checkpoints, rto_msg *msg)
 {
-    if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
-    if ((uint64_t)n > RTO_MAX_KEYS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", n,
-                        (unsigned long long)RTO_MAX_KEYS);
-    if (n && (!keys || !sorted))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys or output");
+    rto_status st = rto_sort_args_check(f, keys, n, sorted, msg);
+    if (st)
+        return st;
     size_t np = rto_next_pow2(n);
     uint64_t *a = rto_alloc(np, sizeof *a);
     uint32_t *idx = rto_alloc(np, sizeof *idx);

@@ -86,13 +86,9 @@ DEFINE_SORT(uint64_t, u64, 32u)
 
 rto_status rto_fast_radix_sort(rto_key_format f, const void *keys, size_t n, void *sorted, rto_msg *msg)
 {
-    if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
-    if ((uint64_t)n > RTO_MAX_KEYS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", n,
-                        (unsigned long long)RTO_MAX_KEYS);
-    if (n && (!keys || !sorted))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys or output");
+    rto_status st = rto_sort_args_check(f, keys, n, sorted, msg);
+    if (st)
+        return st;
     const size_t ksz = rto_key_size(f);
     const uintptr_t a = (uintptr_t)keys, b = (uintptr_t)sorted;
     if (n && a < b + n * ksz && b < a + n * ksz)

@@ -19,17 +19,13 @@ size_t rto_radix_tile_count(size_t n, uint32_t tile) { return tile ? (n + tile -
 rto_status rto_radix_sort(rto_key_format f, const void *keys, size_t n, uint32_t bits, uint32_t tile, void *sorted,
                           uint32_t *perm, const rto_radix_trace *trace, rto_msg *msg)
 {
-    if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
+    rto_status st = rto_sort_args_check(f, keys, n, sorted, msg);
+    if (st)
+        return st;
     if (bits != 4 && bits != 8)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "radix digit width %u: must be 4 or 8", bits);
     if (tile == 0)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "tile size must be at least 1");
-    if ((uint64_t)n > RTO_MAX_KEYS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", n,
-                        (unsigned long long)RTO_MAX_KEYS);
-    if (n && (!keys || !sorted))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys or output");
 
     const uint32_t radix = UINT32_C(1) << bits, passes = rto_radix_pass_count(f, bits);
     const size_t tiles = rto_radix_tile_count(n, tile), ksz = rto_key_size(f);
