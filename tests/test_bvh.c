@@ -27,8 +27,8 @@ static int64_t where_of(const rto_report *r, const char *name)
 }
 
 /* The validators through their description structs; an unusable-input status fails the test. */
-static rto_status tlas_check(const rto_tlas_node *g, size_t count, const rto_tlas_node *exp, const rto_aabb *boxes,
-                             size_t n, const double *tol, rto_report *r)
+static rto_bvh_check_desc check_desc(const void *g, size_t count, const void *exp, const rto_aabb *boxes, size_t n,
+                                     const double *tol)
 {
     rto_bvh_check_desc d;
     memset(&d, 0, sizeof d);
@@ -38,6 +38,13 @@ static rto_status tlas_check(const rto_tlas_node *g, size_t count, const rto_tla
     d.prim_boxes = boxes;
     d.prim_count = n;
     d.leaf_tolerance = tol;
+    return d;
+}
+
+static rto_status tlas_check(const rto_tlas_node *g, size_t count, const rto_tlas_node *exp, const rto_aabb *boxes,
+                             size_t n, const double *tol, rto_report *r)
+{
+    rto_bvh_check_desc d = check_desc(g, count, exp, boxes, n, tol);
     rto_msg msg = {{0}};
     rto_status s = rto_tlas_check(&d, r, &msg);
     if (s != RTO_OK && s != RTO_ERR_MISMATCH)
@@ -48,14 +55,7 @@ static rto_status tlas_check(const rto_tlas_node *g, size_t count, const rto_tla
 static rto_status karras_check(const rto_bvh_node *g, size_t count, const rto_bvh_node *exp, const uint32_t *prims,
                                const rto_aabb *boxes, size_t n, const double *tol, rto_report *r)
 {
-    rto_bvh_check_desc d;
-    memset(&d, 0, sizeof d);
-    d.nodes = g;
-    d.node_count = count;
-    d.expected = exp;
-    d.prim_boxes = boxes;
-    d.prim_count = n;
-    d.leaf_tolerance = tol;
+    rto_bvh_check_desc d = check_desc(g, count, exp, boxes, n, tol);
     d.leaf_prims = prims;
     d.leaf_count = n;
     rto_msg msg = {{0}};
