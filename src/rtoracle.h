@@ -814,6 +814,27 @@ RTO_STATIC_ASSERT(offsetof(rto_wf_ray, dir) == 16 && offsetof(rto_wf_ray, t_max)
                       offsetof(rto_wf_ray, pixel) == 32 && offsetof(rto_wf_ray, kind) == 56,
                   "WfRay fields");
 
+/** TraceCounters (16 bytes, DESIGN.md §6): what one ray's traversal did. */
+typedef struct rto_trace_counters {
+    uint32_t nodes_visited;    /* nodes popped and not skipped (TLAS and BLAS, leaves included) */
+    uint32_t box_tests;        /* slab tests run */
+    uint32_t triangle_tests;   /* Möller–Trumbore calls */
+    uint32_t instance_entries; /* BLAS traversals started */
+} rto_trace_counters;
+RTO_STATIC_ASSERT(sizeof(rto_trace_counters) == 16, "TraceCounters is 16 bytes");
+
+/** CameraUniforms (144 bytes, seed 002 §2.2, DESIGN.md §7): column-major mat4x4<f32> inverses (element [4c + r] is
+ * row r of column c), the camera position and one float of padding (0). */
+typedef struct rto_camera_uniforms {
+    float inverse_projection[16];
+    float inverse_view[16];
+    float position[3];
+    float pad;
+} rto_camera_uniforms;
+RTO_STATIC_ASSERT(sizeof(rto_camera_uniforms) == 144, "CameraUniforms is 144 bytes");
+RTO_STATIC_ASSERT(offsetof(rto_camera_uniforms, inverse_view) == 64 && offsetof(rto_camera_uniforms, position) == 128,
+                  "CameraUniforms fields");
+
 /** The GPU structs by name. Values never change; new layouts are appended. */
 typedef enum rto_layout {
     RTO_LAYOUT_TLAS_NODE = 0,  /* "TlasNode", rto_tlas_node, 32 bytes */
@@ -821,9 +842,11 @@ typedef enum rto_layout {
     RTO_LAYOUT_AABB = 2,       /* "Aabb", rto_aabb, 24 bytes */
     RTO_LAYOUT_INSTANCE = 3,   /* "InstanceRecord", rto_instance_record, 128 bytes */
     RTO_LAYOUT_HIT_RECORD = 4, /* "HitRecord", rto_hit_record, 96 bytes; objToWorld as 16 floats (4 padded columns) */
-    RTO_LAYOUT_WF_RAY = 5      /* "WfRay", rto_wf_ray, 64 bytes */
+    RTO_LAYOUT_WF_RAY = 5,     /* "WfRay", rto_wf_ray, 64 bytes */
+    RTO_LAYOUT_TRACE_COUNTERS = 6, /* "TraceCounters", rto_trace_counters, 16 bytes */
+    RTO_LAYOUT_CAMERA = 7          /* "CameraUniforms", rto_camera_uniforms, 144 bytes */
 } rto_layout;
-#define RTO_LAYOUT_COUNT 6
+#define RTO_LAYOUT_COUNT 8
 
 /** The layout's name as written into manifests ("TlasNode", ...); NULL for an unknown value. */
 const char *rto_layout_name(rto_layout layout);
@@ -997,6 +1020,188 @@ rto_status rto_accel_check(const rto_accel *accel, rto_report *report, rto_msg *
  * accel to a bundle begun by the caller, who commits or aborts it.
  */
 rto_status rto_accel_write_bundle(const rto_accel *accel, rto_bundle *bundle, rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Tracing (DESIGN.md §6): the slab test, Möller–Trumbore, ordered TLAS -> BLAS traversal, rays, hit validation     */
+
+/* Ray flags (Vulkan / DXR values). With no any-hit programs every triangle is opaque, so OPAQUE changes nothing;
+ * SKIP_CLOSEST_HIT is for the shading stage: the hit record is written all the same. */
+#define RTO_RAY_FLAG_OPAQUE UINT32_C(0x1)
+#define RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT UINT32_C(0x4)
+#define RTO_RAY_FLAG_SKIP_CLOSEST_HIT UINT32_C(0x8)
+#define RTO_RAY_FLAG_CULL_BACK_FACING UINT32_C(0x10)
+#define RTO_RAY_FLAG_CULL_FRONT_FACING UINT32_C(0x20)
+
+/** The §2 clamp, then 1/d: components with |d| < 1e-20 become copysign(1e-20, d) (+1e-20 for +-0). */
+void rto_ray_inv_dir(const float dir[3], float inv_dir[3]);
+/**
+ * The slab test of §6: t0 = (min - o) * inv_dir, t1 = (max - o) * inv_dir, tNear = max(max3(min(t0, t1)), t_min),
+ * tFar = min(min3(max(t0, t1)), best_t); returns 1 and sets *t_entry = tNear iff tNear <= tFar. min / max take the
+ * second operand when the two compare equal; max3(a, b, c) = max(max(a, b), c).
+ */
+int rto_slab_test(const float bmin[3], const float bmax[3], const float origin[3], const float inv_dir[3],
+                  float t_min, float best_t, float *t_entry);
+
+/** A Möller–Trumbore result: t, barycentrics (u, v) with p = (1-u-v) v0 + u v1 + v v2, and det (> 0: front face). */
+typedef struct rto_tri_hit {
+    float t, u, v, det;
+} rto_tri_hit;
+
+/**
+ * Möller–Trumbore in exactly the §6 operation order. Returns 1 (and fills hit) iff det != 0, u >= 0, v >= 0,
+ * u + v <= 1 and t_min <= t < best_t; 0 otherwise (hit then holds what was computed, for diagnostics).
+ */
+int rto_triangle_intersect(const float v0[3], const float v1[3], const float v2[3], const float origin[3],
+                           const float dir[3], float t_min, float best_t, rto_tri_hit *hit);
+
+/** A world-space ray in object space (§6): o' = W2O (o, 1), d' = W2O (d, 0), each row ((m0 x + m1 y) + m2 z) + m3,
+ * d' not renormalised. */
+void rto_ray_to_object(const rto_mat34 *world_to_obj, const float origin[3], const float dir[3], float obj_origin[3],
+                       float obj_dir[3]);
+
+/** The miss record of a ray (§6): missFlag 1, t = t_max, the four IDs 0xFFFFFFFF, bary and objToWorld 0. */
+rto_hit_record rto_hit_record_miss(float t_max);
+/** The hit record of triangle prim of instance index inst (§6): t, IDs, hitGroup = sbtOffset, bary (u, v), the
+ * instance's customIndex and its objToWorld as a column-major mat4x3 (padding 0). */
+rto_hit_record rto_hit_record_make(const rto_instance *instance, uint32_t inst, uint32_t prim, const rto_tri_hit *hit);
+
+/**
+ * Intersects one triangle of one instance with a ray exactly as traversal does (the ray in object space, the
+ * ray's flags for culling, best_t = the ray's tMax): returns 1 and fills hit when the triangle is hit; 0 when it is
+ * missed, culled, or the instance's mask does not meet the ray's cull mask.
+ */
+int rto_instance_triangle_hit(const rto_instance *instance, const rto_mesh *mesh, uint32_t prim,
+                              const rto_wf_ray *ray, rto_tri_hit *hit);
+
+/** How to trace. Zero-initialised (or a NULL pointer) means the defaults. */
+typedef struct rto_trace_desc {
+    uint32_t threads; /* 0: one per online CPU. Rays are split into equal contiguous ranges, one per thread, so the
+                       * output does not depend on the thread count. */
+} rto_trace_desc;
+
+/**
+ * Traces n rays through an accel (ordered traversal, §6) into n hit records and, when counters is not NULL, n
+ * counter records. TERMINATE_ON_FIRST_HIT rays stop at the first triangle hit found; CULL_BACK_FACING /
+ * CULL_FRONT_FACING skip triangles by the sign of det in object space; an instance is entered only when
+ * instance.mask & ray.cullMask. Rays whose origin, direction, tMin or tMax is not finite, or whose tMin > tMax, are
+ * refused (RTO_ERR_INVALID_ARGUMENT naming the first such ray) before anything is traced.
+ */
+rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
+                     rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg);
+
+/**
+ * The brute-force reference (tests and cross-checks): for each ray, every triangle of every instance in index
+ * order, no tree, with the same object-space ray and Möller–Trumbore as rto_trace, so the same primitive gives the
+ * same t bit for bit; ties go to the first triangle found in index order. Same flags, masks and refusals.
+ */
+rto_status rto_trace_brute(const rto_scene *scene, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
+                           rto_hit_record *hits, rto_msg *msg);
+
+/* Cameras and rays (seed 002 §2.2-2.3, DESIGN.md §7). */
+
+/**
+ * The 144-byte uniform block of a camera for an image of width x height (aspect = width / height unless
+ * camera->aspect is set): right-handed lookAt and OpenGL perspective (clip z in [-1, 1]), both inverted in binary64
+ * and rounded once. RTO_ERR_INVALID_ARGUMENT for a degenerate camera (target at the eye, up parallel to the view
+ * direction, fovY outside (0, pi), near <= 0 or far <= near) or a zero size.
+ */
+rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, uint32_t height,
+                                    rto_camera_uniforms *out, rto_msg *msg);
+/** A camera framing a box: looking at its centre from the Stage-2 direction (0, 2, 5), far enough that the box's
+ * bounding sphere fits the vertical and horizontal field of view (fovY 60 degrees), near and far around it. An empty
+ * box gives rto_camera_default(). */
+rto_camera rto_camera_frame(const rto_aabb *bounds, float aspect);
+
+/** The primary ray of pixel (x, y) per the seed's generateRay (pixel centre x + 0.5, y + 0.5; NDC y flipped; row 0
+ * at the top): origin the camera position, direction normalize((inverseView * (rayEye.xy, -1, 0)).xyz); tMin 0,
+ * tMax RTO_RAY_T_MAX, pixel y * width + x, flags OPAQUE, cullMask 0xFF, kind RTO_RAYS_PRIMARY, payloadSlot pixel. */
+rto_wf_ray rto_camera_ray(const rto_camera_uniforms *u, uint32_t width, uint32_t height, uint32_t x, uint32_t y);
+
+/** tMax of every generated ray: finite, so a miss record's t stays comparable. */
+#define RTO_RAY_T_MAX 1.0e30f
+
+/** The generated ray sets. A ray's kind holds its set; every set is a pure function of the scene, its size and the
+ * seed (the PRNG of §3). */
+typedef enum rto_ray_set {
+    RTO_RAYS_PRIMARY = 0, /* "primary": one camera ray per pixel, row-major */
+    RTO_RAYS_SHADOW = 1,  /* "shadow": from each primary hit towards the light, TERMINATE_ON_FIRST_HIT |
+                           * SKIP_CLOSEST_HIT, tMin a small offset from the surface */
+    RTO_RAYS_RANDOM = 2,  /* "random": origins uniform in the scene bounds, directions uniform on the sphere */
+    RTO_RAYS_GRAZING = 3, /* "grazing": aimed at triangle edges and vertices of random instances */
+    RTO_RAYS_AXIS = 4     /* "axis": axis-parallel and zero-component directions (+0 and -0) aimed at triangles */
+} rto_ray_set;
+#define RTO_RAY_SET_COUNT 5
+
+/** "primary", "shadow", ...; NULL for an unknown value. */
+const char *rto_ray_set_name(rto_ray_set set);
+/** The set of a name; returns 0 for an unknown one, else 1 and sets *set. */
+int rto_ray_set_parse(const char *name, rto_ray_set *set);
+
+/** What to generate. Zero-initialise, then set what the set needs. */
+typedef struct rto_rays_desc {
+    rto_ray_set set;
+    uint32_t seed;
+    uint32_t width, height;   /* primary, shadow: the image */
+    const rto_camera *camera; /* primary, shadow: NULL frames the scene bounds (rto_camera_frame) */
+    size_t count;             /* random, grazing, axis: how many rays */
+    float light_dir[3];       /* shadow: direction towards a distant light; 0 0 0 means (0.3, 1, 0.2) normalised */
+    uint32_t threads;         /* shadow: for tracing the primary rays (0: all CPUs) */
+} rto_rays_desc;
+
+/** The most rays a description can produce (width * height, or count). */
+size_t rto_rays_capacity(const rto_rays_desc *desc);
+/**
+ * Generates a ray set for the scene of an accel into rays (cap records; rto_rays_capacity is enough) and sets *n.
+ * Shadow rays trace the primary rays first and keep one ray per primary hit, in pixel order. camera_out (NULL is
+ * fine) receives the uniform block of the camera used (primary, shadow; zeros otherwise). A scene without
+ * triangles gives 0 random, grazing and axis rays.
+ */
+rto_status rto_rays_generate(const rto_accel *accel, const rto_rays_desc *desc, rto_wf_ray *rays, size_t cap,
+                             size_t *n, rto_camera_uniforms *camera_out, rto_msg *msg);
+
+/* Hit validation (DESIGN.md §9). */
+
+/** Fault classes of rto_hits_check, in diagnosis priority order. Names are stable strings (rto_hit_fault_name). */
+typedef enum rto_hit_fault {
+    RTO_HIT_OK = 0,           /* "none" */
+    RTO_HIT_SIZE = 1,         /* "size": the dump holds another number of records than rays */
+    RTO_HIT_MISS_FLAG = 2,    /* "miss-flag": hit where the oracle misses, or the reverse (or a flag not 0 / 1) */
+    RTO_HIT_INSTANCE = 3,     /* "instance": another instance, not a tie */
+    RTO_HIT_PRIM = 4,         /* "prim": another triangle of the instance, not a tie */
+    RTO_HIT_T = 5,            /* "t": t outside |dt| <= 1e-5 max(1, |t|) (a miss: t != tMax) */
+    RTO_HIT_BARY = 6,         /* "bary": a barycentric off by more than 1e-4 */
+    RTO_HIT_CUSTOM_INDEX = 7, /* "custom-index": not the instance's customIndex */
+    RTO_HIT_HIT_GROUP = 8,    /* "hit-group": not the instance's sbtOffset */
+    RTO_HIT_TRANSFORM = 9     /* "transform": objToWorld not the instance's (column-major mat4x3) */
+} rto_hit_fault;
+
+const char *rto_hit_fault_name(rto_hit_fault f);
+
+/** What a GPU hit dump is checked against. */
+typedef struct rto_hits_check_desc {
+    const rto_wf_ray *rays; /* the traced rays */
+    size_t ray_count;
+    const rto_hit_record *expected; /* the oracle's ray_count records (rto_trace) */
+    const rto_hit_record *gpu;      /* the GPU's records */
+    size_t gpu_count;
+    const rto_instance *instances; /* the scene, to re-intersect a GPU's claimed primitive */
+    uint32_t instance_count;
+    const rto_mesh *meshes;
+    uint32_t mesh_count;
+} rto_hits_check_desc;
+
+/**
+ * Validates a GPU hit dump ray by ray (§9). A different instance or primitive is accepted only when the GPU's
+ * claimed primitive, re-intersected with the same ray (rto_instance_triangle_hit), gives a t within the t tolerance
+ * of the oracle's: a tie, counted in the facts ("ties") and listed in the rows, after which the record is compared
+ * with that primitive's own record. For a TERMINATE_ON_FIRST_HIT ray only hit / miss is defined: a claimed hit must
+ * re-intersect. Returns RTO_OK, RTO_ERR_MISMATCH (report: code an rto_hit_fault, location "ray", checks "size",
+ * "miss", "primitive", "t", "bary", "instance-data"), or another status for unusable input.
+ */
+rto_status rto_hits_check(const rto_hits_check_desc *desc, rto_report *report, rto_msg *msg);
+
+/** The scene instance of an InstanceRecord (what a bundle stores). */
+rto_instance rto_instance_from_record(const rto_instance_record *record);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Output files: atomic writes, interrupted runs, text for JSON                                                     */

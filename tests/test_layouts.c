@@ -47,6 +47,16 @@ static const want_field ray[] = {
     F(rto_wf_ray, cull_mask, "cullMask", RTO_DTYPE_U32, 1),  F(rto_wf_ray, miss_index, "missIndex", RTO_DTYPE_U32, 1),
     F(rto_wf_ray, sbt_offset, "sbtOffset", RTO_DTYPE_U32, 1), F(rto_wf_ray, payload_slot, "payloadSlot", RTO_DTYPE_U32, 1),
     F(rto_wf_ray, kind, "kind", RTO_DTYPE_U32, 1),           F(rto_wf_ray, pad, "pad", RTO_DTYPE_U32, 1)};
+static const want_field counters[] = {
+    F(rto_trace_counters, nodes_visited, "nodesVisited", RTO_DTYPE_U32, 1),
+    F(rto_trace_counters, box_tests, "boxTests", RTO_DTYPE_U32, 1),
+    F(rto_trace_counters, triangle_tests, "triangleTests", RTO_DTYPE_U32, 1),
+    F(rto_trace_counters, instance_entries, "instanceEntries", RTO_DTYPE_U32, 1)};
+static const want_field camera[] = {
+    F(rto_camera_uniforms, inverse_projection, "inverseProjection", RTO_DTYPE_F32, 16),
+    F(rto_camera_uniforms, inverse_view, "inverseView", RTO_DTYPE_F32, 16),
+    F(rto_camera_uniforms, position, "position", RTO_DTYPE_F32, 3),
+    F(rto_camera_uniforms, pad, "pad", RTO_DTYPE_F32, 1)};
 
 static const struct {
     rto_layout layout;
@@ -62,6 +72,8 @@ static const struct {
     {RTO_LAYOUT_INSTANCE, "InstanceRecord", 128, sizeof(rto_instance_record), instance, 8},
     {RTO_LAYOUT_HIT_RECORD, "HitRecord", 96, sizeof(rto_hit_record), hit, 8},
     {RTO_LAYOUT_WF_RAY, "WfRay", 64, sizeof(rto_wf_ray), ray, 12},
+    {RTO_LAYOUT_TRACE_COUNTERS, "TraceCounters", 16, sizeof(rto_trace_counters), counters, 4},
+    {RTO_LAYOUT_CAMERA, "CameraUniforms", 144, sizeof(rto_camera_uniforms), camera, 4},
 };
 #define NLAYOUTS (sizeof layouts / sizeof layouts[0])
 

@@ -82,6 +82,19 @@ rto_npy_desc rto_layout_desc(rto_layout layout, uint64_t n)
         field(&d, "kind", RTO_DTYPE_U32, 1);
         field(&d, "pad", RTO_DTYPE_U32, 1);
         break;
+    case RTO_LAYOUT_TRACE_COUNTERS:
+        field(&d, "nodesVisited", RTO_DTYPE_U32, 1);
+        field(&d, "boxTests", RTO_DTYPE_U32, 1);
+        field(&d, "triangleTests", RTO_DTYPE_U32, 1);
+        field(&d, "instanceEntries", RTO_DTYPE_U32, 1);
+        break;
+    case RTO_LAYOUT_CAMERA:
+        /* mat4x4<f32> column-major: element 4c + r is row r of column c. */
+        field(&d, "inverseProjection", RTO_DTYPE_F32, 16);
+        field(&d, "inverseView", RTO_DTYPE_F32, 16);
+        field(&d, "position", RTO_DTYPE_F32, 3);
+        field(&d, "pad", RTO_DTYPE_F32, 1);
+        break;
     default: break; /* unknown: a struct without fields, which rto_npy_write refuses */
     }
     return d;
@@ -96,6 +109,8 @@ const char *rto_layout_name(rto_layout layout)
     case RTO_LAYOUT_INSTANCE: return "InstanceRecord";
     case RTO_LAYOUT_HIT_RECORD: return "HitRecord";
     case RTO_LAYOUT_WF_RAY: return "WfRay";
+    case RTO_LAYOUT_TRACE_COUNTERS: return "TraceCounters";
+    case RTO_LAYOUT_CAMERA: return "CameraUniforms";
     }
     return NULL;
 }
@@ -109,6 +124,8 @@ size_t rto_layout_size(rto_layout layout)
     case RTO_LAYOUT_INSTANCE: return sizeof(rto_instance_record);
     case RTO_LAYOUT_HIT_RECORD: return sizeof(rto_hit_record);
     case RTO_LAYOUT_WF_RAY: return sizeof(rto_wf_ray);
+    case RTO_LAYOUT_TRACE_COUNTERS: return sizeof(rto_trace_counters);
+    case RTO_LAYOUT_CAMERA: return sizeof(rto_camera_uniforms);
     }
     return 0;
 }
