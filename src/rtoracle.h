@@ -922,7 +922,7 @@ rto_status rto_bundle_read_name(rto_bundle_reader *r, const char *name, rto_npy 
 /** SHA-256 of a file as 64 lowercase hex digits plus NUL. */
 rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg);
 
-/** The files of a build bundle, named once here for writers and readers. Values never change. */
+/** The files of build and trace bundles, named once here for writers and readers. Values never change. */
 typedef enum rto_bundle_file {
     RTO_FILE_INSTANCES = 0,        /* instances.npy           role "instances"        InstanceRecord */
     RTO_FILE_INSTANCE_AABBS = 1,   /* instance_aabbs.npy      role "instance-aabbs"   Aabb, instance world boxes */
@@ -932,9 +932,16 @@ typedef enum rto_bundle_file {
     RTO_FILE_BLAS_SORTED_KEYS = 5, /* blas_M_sorted_keys.npy  role "blas-sorted-keys" u64, one per triangle */
     RTO_FILE_BLAS_ORDER = 6,       /* blas_M_order.npy        role "blas-order"       u32, triangle of each leaf */
     RTO_FILE_BLAS_NODES = 7,       /* blas_M_nodes.npy        role "blas-nodes"       BlasNode */
-    RTO_FILE_BLAS_PRIM_AABBS = 8   /* blas_M_prim_aabbs.npy   role "blas-prim-aabbs"  Aabb, triangle boxes */
+    RTO_FILE_BLAS_PRIM_AABBS = 8,  /* blas_M_prim_aabbs.npy   role "blas-prim-aabbs"  Aabb, triangle boxes */
+    /* Trace bundles add the geometry a GPU uploads, the rays and what tracing them gives. */
+    RTO_FILE_MESH_POSITIONS = 9,   /* mesh_M_positions.npy    role "mesh-positions"   f32 (vertices, 3) */
+    RTO_FILE_MESH_INDICES = 10,    /* mesh_M_indices.npy      role "mesh-indices"     u32 (triangles, 3) */
+    RTO_FILE_RAYS = 11,            /* rays.npy                role "rays"             WfRay */
+    RTO_FILE_HITS = 12,            /* hits.npy                role "hits"             HitRecord, one per ray */
+    RTO_FILE_COUNTERS = 13,        /* counters.npy            role "counters"         TraceCounters, one per ray */
+    RTO_FILE_CAMERA = 14           /* camera.npy              role "camera"           CameraUniforms (1,) */
 } rto_bundle_file;
-#define RTO_BUNDLE_FILE_COUNT 9
+#define RTO_BUNDLE_FILE_COUNT 15
 /** Room for any bundle file name, NUL included. */
 #define RTO_BUNDLE_FILE_NAME_MAX 64
 

@@ -221,6 +221,12 @@ static void test_bundle_file_names(void **state)
         {RTO_FILE_BLAS_ORDER, 0, "blas_0_order.npy", "blas-order"},
         {RTO_FILE_BLAS_NODES, 4294967295u, "blas_4294967295_nodes.npy", "blas-nodes"},
         {RTO_FILE_BLAS_PRIM_AABBS, 12, "blas_12_prim_aabbs.npy", "blas-prim-aabbs"},
+        {RTO_FILE_MESH_POSITIONS, 2, "mesh_2_positions.npy", "mesh-positions"},
+        {RTO_FILE_MESH_INDICES, 0, "mesh_0_indices.npy", "mesh-indices"},
+        {RTO_FILE_RAYS, 7, "rays.npy", "rays"},
+        {RTO_FILE_HITS, 0, "hits.npy", "hits"},
+        {RTO_FILE_COUNTERS, 0, "counters.npy", "counters"},
+        {RTO_FILE_CAMERA, 0, "camera.npy", "camera"},
     };
     assert_int_equal(sizeof want / sizeof want[0], RTO_BUNDLE_FILE_COUNT);
     char name[RTO_BUNDLE_FILE_NAME_MAX];

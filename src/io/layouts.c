@@ -180,7 +180,7 @@ rto_instance_record rto_instance_record_make(const rto_instance *in)
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
-/* Build-bundle files                                                                                               */
+/* Bundle files                                                                                                    */
 
 static const struct {
     const char *pattern; /* printf pattern; per-BLAS names take the mesh index */
@@ -196,6 +196,12 @@ static const struct {
     [RTO_FILE_BLAS_ORDER] = {"blas_%u_order.npy", "blas-order", 1},
     [RTO_FILE_BLAS_NODES] = {"blas_%u_nodes.npy", "blas-nodes", 1},
     [RTO_FILE_BLAS_PRIM_AABBS] = {"blas_%u_prim_aabbs.npy", "blas-prim-aabbs", 1},
+    [RTO_FILE_MESH_POSITIONS] = {"mesh_%u_positions.npy", "mesh-positions", 1},
+    [RTO_FILE_MESH_INDICES] = {"mesh_%u_indices.npy", "mesh-indices", 1},
+    [RTO_FILE_RAYS] = {"rays.npy", "rays", 0},
+    [RTO_FILE_HITS] = {"hits.npy", "hits", 0},
+    [RTO_FILE_COUNTERS] = {"counters.npy", "counters", 0},
+    [RTO_FILE_CAMERA] = {"camera.npy", "camera", 0},
 };
 
 static int known_file(rto_bundle_file f) { return (unsigned)f < RTO_BUNDLE_FILE_COUNT; }
