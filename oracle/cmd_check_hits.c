@@ -329,7 +329,7 @@ int cmd_check_hits(int argc, char **argv)
     int64_t w = 0, h = 0;
     if (rto_bundle_get_int(a.b, "trace", "width", &w) && rto_bundle_get_int(a.b, "trace", "height", &h) && w > 0 &&
         h > 0)
-        snprintf(r.what, sizeof r.what, "%.60s rays %" PRId64 "x%" PRId64, set ? set : "?", w, h);
+        snprintf(r.what, sizeof r.what, "%.50s rays %" PRId64 "x%" PRId64, set ? set : "?", w, h);
     else
         snprintf(r.what, sizeof r.what, "%.80s rays", set ? set : "?");
     rc = cli_report("check-hits", &r, json, !no_artifacts, gpu);

@@ -8,6 +8,7 @@
  * one is the highest-priority fault of the first wrong ray, so a report reads "bary at ray 1234" and not "hits
  * differ"; every class seen anywhere is listed too. */
 #include "report_internal.h"
+#include "trace_internal.h"
 
 #include <inttypes.h>
 #include <math.h>
@@ -371,8 +372,6 @@ static void compare_ray(const rto_hits_check_desc *d, size_t i, ray_result *rr)
 /* ------------------------------------------------------------------------------------------------------------------ */
 /* Input                                                                                                                */
 
-static int finite3(const float v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
-
 /* The scene: every instance names a mesh, every mesh's indices name its vertices, so that re-intersecting any
  * in-range primitive reads only what exists. */
 static rto_status check_scene(const rto_hits_check_desc *d, rto_msg *msg)
@@ -415,14 +414,11 @@ static int same_record(const rto_hit_record *a, const rto_hit_record *b)
  * be the hit record of its primitive, intersected again here; each expected miss the miss record of its ray. */
 static rto_status check_expected(const rto_hits_check_desc *d, rto_msg *msg)
 {
+    rto_status s = rto__rays_check(d->rays, d->ray_count, msg); /* the rays rto_trace would refuse */
+    if (s)
+        return s;
     for (size_t i = 0; i < d->ray_count; i++) {
         const rto_wf_ray *ray = &d->rays[i];
-        if (!finite3(ray->origin) || !finite3(ray->dir) || !isfinite(ray->t_min) || !isfinite(ray->t_max))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has a non-finite origin, direction, tMin or tMax",
-                            i);
-        if (ray->t_min > ray->t_max)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has tMin %.9g > tMax %.9g", i,
-                            (double)ray->t_min, (double)ray->t_max);
         const rto_hit_record *e = &d->expected[i];
         if (e->miss_flag > 1)
             return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "expected record %zu: missFlag %" PRIu32
@@ -497,8 +493,9 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
         first_hit += (d->rays[i].flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0;
     }
     snprintf(r->context, sizeof r->context,
-             "%zu rays (the oracle: %zu hits, %zu misses), GPU dump of %zu records; %" PRIu32 " instances, %" PRIu32
-             " meshes", n, hits, n - hits, gn, d->instance_count, d->mesh_count);
+             "%zu rays (the oracle: %zu hits, %zu misses), GPU dump of %zu records; %" PRIu32 " instance%s, %" PRIu32
+             " mesh%s", n, hits, n - hits, gn, d->instance_count, d->instance_count == 1 ? "" : "s", d->mesh_count,
+             d->mesh_count == 1 ? "" : "es");
     rto_report_fact(r, "rays", (int64_t)n);
     rto_report_fact(r, "gpu_records", (int64_t)gn);
     rto_report_fact(r, "hits", (int64_t)hits);
@@ -511,7 +508,7 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
         rto_report_mark(r, "size", RTO_CHECK_FAILED);
         rto_report_claim(r, RTO_HIT_SIZE, rto_hit_fault_name(RTO_HIT_SIZE));
         rto_report_at(r, "ray", (int64_t)m);
-        rto_report_summary(r, "size: the GPU dump holds %zu hit records for %zu rays (first %s at ray %zu)", gn, n,
+        rto_report_summary(r, "size: the GPU dump holds %zu hit records for %zu rays (the first %s: ray %zu)", gn, n,
                            gn < n ? "ray without a record" : "record without a ray", m);
         rto_report_row *row = rto_report_row_add(r, m, "records");
         if (row) {
