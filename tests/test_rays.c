@@ -824,6 +824,176 @@ static void test_empty_scenes(void **state)
     rto_scene_destroy(s);
 }
 
+/* The light direction as the shadow set stores it, from binary64: normalize((0.3, 1, 0.2)) by default. */
+static void light_d(const float given[3], double l[3])
+{
+    const int zero = given[0] == 0.0f && given[1] == 0.0f && given[2] == 0.0f;
+    l[0] = zero ? 0.3 : given[0];
+    l[1] = zero ? 1.0 : given[1];
+    l[2] = zero ? 0.2 : given[2];
+    /* (0.3f, 1, 0.2f) are the binary32 values the library normalises. */
+    if (zero) {
+        l[0] = (double)0.3f;
+        l[2] = (double)0.2f;
+    }
+    unit3(l);
+}
+
+/* Shadow rays against the brute-force tracer on the same primary rays: one ray per pixel the tracer hits, in pixel
+ * order. A tree hit is a brute-force hit (brute force runs the same Möller–Trumbore on every triangle), and the two
+ * differ only on boundary rays (DESIGN §6), so the shadow pixels are a subset of the brute-force hit pixels missing
+ * at most a handful of them, and each origin is o + t d of the brute-force t, the same bits when the same t. */
+static void check_shadow(const char *spec, uint32_t w, uint32_t h, const float light[3])
+{
+    rto_scene *s = load(spec);
+    rto_accel *a = build(s);
+    rto_rays_desc d = {0};
+    d.set = RTO_RAYS_PRIMARY;
+    d.width = w;
+    d.height = h;
+    size_t np, ns;
+    rto_camera_uniforms cam_p, cam_s;
+    rto_wf_ray *prim = gen(a, &d, &np, &cam_p);
+    d.set = RTO_RAYS_SHADOW;
+    d.seed = 99; /* no effect: shadow rays depend on the camera only */
+    memcpy(d.light_dir, light, sizeof d.light_dir);
+    d.threads = 1;
+    rto_wf_ray *sh = gen(a, &d, &ns, &cam_s);
+    assert_memory_equal(&cam_p, &cam_s, sizeof cam_p);
+    d.threads = 2;
+    size_t ns2;
+    rto_wf_ray *sh2 = gen(a, &d, &ns2, NULL);
+    assert_int_equal(ns, ns2);
+    assert_memory_equal(sh, sh2, ns * sizeof *sh);
+    free(sh2);
+    rto_hit_record *hb = malloc(np * sizeof *hb);
+    assert_non_null(hb);
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_trace_brute(s, prim, np, NULL, hb, &msg), RTO_OK);
+    size_t brute_hits = 0, same_origin = 0;
+    for (size_t i = 0; i < np; i++)
+        brute_hits += !hb[i].miss_flag;
+    /* The offset: 1e-4 max(1, largest magnitude of the scene bounds and the camera position). */
+    const rto_aabb b = rto_scene_aabb(s);
+    const double mags[9] = {b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z, cam_p.position[0],
+                            cam_p.position[1], cam_p.position[2]};
+    double m = 1;
+    for (int k = 0; k < 9; k++)
+        m = fmax(m, fabs(mags[k]));
+    const float eps = (float)(1e-4 * m);
+    double l[3];
+    light_d(light, l);
+    for (size_t k = 0; k < ns; k++) {
+        const rto_wf_ray *r = &sh[k];
+        assert_true(k == 0 || r->pixel > sh[k - 1].pixel);
+        assert_true(r->pixel < np);
+        if (hb[r->pixel].miss_flag)
+            fail_msg("%s: shadow ray %zu from pixel %u, which brute force misses", spec, k, r->pixel);
+        assert_int_equal(r->flags,
+                         RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT | RTO_RAY_FLAG_SKIP_CLOSEST_HIT | RTO_RAY_FLAG_OPAQUE);
+        assert_true(r->t_min == eps);
+        for (int c = 0; c < 3; c++)
+            assert_true(fabs(r->dir[c] - l[c]) <= 2 * 0x1p-24);
+        const rto_wf_ray *p = &prim[r->pixel];
+        const float t = hb[r->pixel].t;
+        int same = 1;
+        for (int c = 0; c < 3; c++)
+            same &= r->origin[c] == p->origin[c] + t * p->dir[c];
+        same_origin += (size_t)same;
+    }
+    check_generated_fields(sh, ns, RTO_RAYS_SHADOW);
+    /* Boundary rays are rare: at most 0.2 % of the pixels (and 2). */
+    const size_t slack = np / 500 + 2;
+    if (ns > brute_hits || brute_hits - ns > slack || ns - same_origin > slack)
+        fail_msg("%s %ux%u: %zu shadow rays, %zu brute-force hits, %zu origins at the brute-force t", spec, w, h, ns,
+                 brute_hits, same_origin);
+    assert_true(ns > 20); /* the framing camera sees the scene */
+    free(hb);
+    free(prim);
+    free(sh);
+    rto_accel_destroy(a);
+    rto_scene_destroy(s);
+}
+
+static void test_shadow_rays(void **state)
+{
+    (void)state;
+    const float def[3] = {0, 0, 0}, low[3] = {-1.0f, 0.25f, 0.5f};
+    check_shadow("rtstress:2", 64, 48, def);
+    check_shadow("random:7", 64, 48, low);
+    check_shadow("random:31", 48, 64, def);
+    /* 300 x 240 = 72,000 pixels: more than one chunk of traced primary rays. */
+    check_shadow("sphere:3", 300, 240, def);
+}
+
+/* The offset keeps shadow rays off their own surface: on a closed convex sphere, a shadow ray from a point whose
+ * face turns towards the light (n . l > 0.05) must escape, and one from a face turned away (n . l < -0.05) must hit
+ * the sphere on its way out. Traced by brute force, normals from the triangle's own vertices in binary64. */
+static void test_shadow_offset(void **state)
+{
+    (void)state;
+    rto_scene *s = load("sphere:4");
+    rto_accel *a = build(s);
+    rto_rays_desc d = {0};
+    d.set = RTO_RAYS_SHADOW;
+    d.width = 96;
+    d.height = 96;
+    d.light_dir[0] = 1.0f; /* from the side: half the visible sphere lit, half dark */
+    d.light_dir[1] = 0.1f;
+    d.light_dir[2] = -0.2f;
+    size_t np;
+    rto_wf_ray *prim;
+    {
+        rto_rays_desc p = d;
+        p.set = RTO_RAYS_PRIMARY;
+        prim = gen(a, &p, &np, NULL);
+    }
+    size_t ns;
+    rto_wf_ray *sh = gen(a, &d, &ns, NULL);
+    rto_hit_record *hp = malloc(np * sizeof *hp), *hs = malloc((ns ? ns : 1) * sizeof *hs);
+    assert_non_null(hp);
+    assert_non_null(hs);
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_trace_brute(s, prim, np, NULL, hp, &msg), RTO_OK);
+    assert_int_equal(rto_trace_brute(s, sh, ns, NULL, hs, &msg), RTO_OK);
+    double l[3];
+    light_d(d.light_dir, l);
+    const rto_mesh *m = &s->meshes[0];
+    size_t lit = 0, dark = 0;
+    for (size_t k = 0; k < ns; k++) {
+        const rto_hit_record *h = &hp[sh[k].pixel];
+        assert_int_equal(h->miss_flag, 0);
+        double v[3][3], e1[3], e2[3], n[3];
+        for (int j = 0; j < 3; j++)
+            for (int c = 0; c < 3; c++)
+                v[j][c] = m->positions[3 * (size_t)m->indices[3 * (size_t)h->prim_id + (size_t)j] + (size_t)c];
+        sub3(v[1], v[0], e1);
+        sub3(v[2], v[0], e2);
+        cross3(e1, e2, n);
+        unit3(n);
+        const double nl = dot3(n, l);
+        if (nl > 0.05) {
+            lit++;
+            if (!hs[k].miss_flag)
+                fail_msg("shadow ray %zu (pixel %u, n.l %.3f) hits triangle %u at t %.9g: self-intersection", k,
+                         sh[k].pixel, nl, hs[k].prim_id, (double)hs[k].t);
+        } else if (nl < -0.05) {
+            dark++;
+            if (hs[k].miss_flag)
+                fail_msg("shadow ray %zu (pixel %u, n.l %.3f) escapes a face turned from the light", k, sh[k].pixel,
+                         nl);
+        }
+    }
+    if (lit < 300 || dark < 300)
+        fail_msg("%zu lit and %zu dark shadow ray origins", lit, dark);
+    free(hp);
+    free(hs);
+    free(prim);
+    free(sh);
+    rto_accel_destroy(a);
+    rto_scene_destroy(s);
+}
+
 static void expect_generate_refusal(const rto_accel *a, const rto_rays_desc *d, rto_wf_ray *rays, size_t cap,
                                     rto_status status, const char *substring)
 {
@@ -1165,6 +1335,8 @@ int main(void)
         cmocka_unit_test(test_grazing_rays),
         cmocka_unit_test(test_axis_rays),
         cmocka_unit_test(test_primary_rays),
+        cmocka_unit_test(test_shadow_rays),
+        cmocka_unit_test(test_shadow_offset),
         cmocka_unit_test(test_empty_scenes),
         cmocka_unit_test(test_generate_refusals),
         cmocka_unit_test(test_sphere),

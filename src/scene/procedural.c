@@ -416,7 +416,7 @@ static uint32_t put_vertex(rto_mesh *m, uint32_t *nv, const double p[3])
  * 32 share an edge of an earlier triangle, run the other way as in a consistently wound mesh, with a third vertex
  * near it (ties on shared edges); 4 in 32 are slivers, the third vertex 1e-4 of the edge length off the line
  * through the other two; 1 in 32 is degenerate (a repeated vertex: det = 0 for every ray); the rest are ordinary
- * triangles of size 0.05 .. 0.6. Every vertex is binary64 rounded once. */
+ * triangles of size 0.1 .. 1. Every vertex is binary64 rounded once. */
 static rto_status random_mesh(draws *d, rto_mesh *m, uint32_t index)
 {
     char name[32];
@@ -448,7 +448,7 @@ static rto_status random_mesh(draws *d, rto_mesh *m, uint32_t index)
             continue;
         }
         random_point(d, -1.0, 1.0, a);
-        const double size = draw_range(d, 0.05, 0.6);
+        const double size = draw_range(d, 0.1, 1.0);
         random_point(d, -1.0, 1.0, off);
         for (int k = 0; k < 3; k++)
             b[k] = a[k] + off[k] * size;
@@ -477,7 +477,7 @@ static rto_status random_mesh(draws *d, rto_mesh *m, uint32_t index)
 }
 
 /* A random rotation (Shoemake's uniform unit quaternion), a scale of 0.3 .. 2 per axis (x negated for a mirroring
- * instance), a translation in [-4, 4]^3: objToWorld = [R diag(s) | t], in binary64. */
+ * instance), a translation in [-3, 3]^3: objToWorld = [R diag(s) | t], in binary64. */
 static void random_transform(draws *d, int mirror, double m[3][4])
 {
     const double u1 = draw_unit(d), u2 = draw_unit(d), u3 = draw_unit(d);
@@ -495,7 +495,7 @@ static void random_transform(draws *d, int mirror, double m[3][4])
     for (int row = 0; row < 3; row++) {
         for (int col = 0; col < 3; col++)
             m[row][col] = r[row][col] * s[col];
-        m[row][3] = draw_range(d, -4.0, 4.0);
+        m[row][3] = draw_range(d, -3.0, 3.0);
     }
 }
 
