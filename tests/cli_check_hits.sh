@@ -23,6 +23,10 @@ for f in words flat; do
     "$MUT" $f "$T/rs/hits.npy" "$T/g.npy" || fail "hits_mutate $f"
     run 0 "$RTO" check-hits --expected "$T/rs" --gpu "$T/g.npy"
 done
+# the committed trace goldens, as a harness loads them
+for g in "$FIX"/golden/trace-*; do
+    run 0 "$RTO" check-hits --expected "$g" --gpu "$g/hits.npy" || fail "golden $g"
+done
 run 0 "$RTO" trace "$FIX/Box/glTF/Box.gltf" --rays primary --width 64 --height 48 -o "$T/box"
 run 0 "$RTO" check-hits --expected "$T/box" --gpu "$T/box/hits.npy"
 
