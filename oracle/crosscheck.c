@@ -113,7 +113,8 @@ double xc_edge_distance(const rto_scene *scene, uint32_t inst, uint32_t prim, co
     double s = fmax(1, fmax(maxabs(o), maxabs(p)));
     for (int k = 0; k < 3; k++)
         s = fmax(s, maxabs(v[k]));
-    return bd / s / cosa;
+    /* distance <= XC_EDGE_REL S / |cos a|  <=>  distance |cos a| / S <= XC_EDGE_REL */
+    return bd / s * cosa;
 }
 
 static int grazes(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, double *rel)

@@ -65,7 +65,7 @@ typedef struct xc_input {
 typedef struct xc_result {
     xc_class cls;
     double rel_dt;   /* both hit the same primitive: |dt| / max(1, |t_oracle|); else 0 */
-    double edge_rel; /* grazing: the distance to the edge relative to S (0 for a parallel ray) */
+    double edge_rel; /* grazing: xc_edge_distance of the grazing hit (0 for a parallel ray) */
     char why[240];   /* one line saying why the class fits (empty for agree) */
 } xc_result;
 
@@ -76,8 +76,9 @@ void xc_classify(const xc_input *in, xc_result *out);
 int xc_agree(const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_record *b, double *rel_dt);
 
 /** How close a ray passes to the boundary of a triangle of an instance, in binary64 (the grazing rule): returns
- * the distance to the nearest edge line relative to S, divided by |cos a|, and sets *parallel when |cos a| <=
- * XC_PARALLEL_COS (or the triangle is degenerate). */
+ * the distance of its hit point on the triangle's plane to the nearest edge line (or, outside, beyond the farthest
+ * edge line) times |cos a| / S, so grazing is a result <= XC_EDGE_REL; sets *parallel (and returns 0) when |cos a|
+ * <= XC_PARALLEL_COS, the triangle is degenerate or the direction zero. */
 double xc_edge_distance(const rto_scene *scene, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, int *parallel);
 
 #endif
