@@ -74,6 +74,18 @@ static inline double rto_box_area(const float *mn, const float *mx)
 rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *index, size_t n, uint32_t *keys,
                                  rto_msg *msg);
 
+/* Static thread partitioning (core/threads.c, DESIGN.md §2). */
+
+/** Most threads a parallel stage starts. */
+#define RTO_THREADS_MAX 256u
+/** Work on items [begin, end) by worker `worker` (0 .. threads - 1; worker 0 runs in the calling thread). */
+typedef void (*rto_range_fn)(void *ctx, uint32_t worker, size_t begin, size_t end);
+/** requested, or the number of online CPUs for 0; at most RTO_THREADS_MAX. */
+uint32_t rto__thread_count(uint32_t requested);
+/** Splits n items into rto__thread_count(threads) contiguous ranges of equal size (+-1) and runs fn on each in
+ * its own thread; returns when all are done. A thread that cannot be created has its range run by the caller. */
+void rto__parallel_ranges(size_t n, uint32_t threads, rto_range_fn fn, void *ctx);
+
 /* Atomic output (io/atomic.c). */
 
 /** Creates `target.tmp.XXXXXX` (a directory with mode 0777, or a file with 0666 whose descriptor goes to *fd; the

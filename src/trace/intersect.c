@@ -1,0 +1,187 @@
+/* The two intersection tests of DESIGN.md §6 and the pieces of a hit record, in exactly the contract's operation
+ * order: every product, sum and comparison below is one binary32 operation (-ffp-contract=off keeps them apart), so a
+ * GPU that evaluates the same expressions without fused multiply-adds gets the same bits, and one that fuses them
+ * stays within the §9 tolerances. */
+#include "internal.h"
+#include "trace_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+/* dot(a, b) = (a.x*b.x + a.y*b.y) + a.z*b.z; cross is the textbook formula. */
+static inline float dot3(const float a[3], const float b[3]) { return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2]; }
+
+static inline void cross3(const float a[3], const float b[3], float out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static inline void sub3(const float a[3], const float b[3], float out[3])
+{
+    out[0] = a[0] - b[0];
+    out[1] = a[1] - b[1];
+    out[2] = a[2] - b[2];
+}
+
+void rto_ray_inv_dir(const float dir[3], float inv_dir[3])
+{
+    for (int a = 0; a < 3; a++) {
+        float d = dir[a];
+        /* §2: no slab test may compute 0 * inf. +-0 becomes +1e-20 (the sign of a zero says nothing about which
+         * side the ray leaves), any other tiny component keeps its sign. */
+        if (fabsf(d) < 1e-20f)
+            d = d < 0.0f ? -1e-20f : 1e-20f;
+        inv_dir[a] = 1.0f / d;
+    }
+}
+
+int rto_slab_test(const float bmin[3], const float bmax[3], const float origin[3], const float inv_dir[3],
+                  float t_min, float best_t, float *t_entry)
+{
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        const float t0 = (bmin[a] - origin[a]) * inv_dir[a];
+        const float t1 = (bmax[a] - origin[a]) * inv_dir[a];
+        lo[a] = rto_minf(t0, t1);
+        hi[a] = rto_maxf(t0, t1);
+    }
+    const float t_near = rto_maxf(rto_maxf(rto_maxf(lo[0], lo[1]), lo[2]), t_min);
+    const float t_far = rto_minf(rto_minf(rto_minf(hi[0], hi[1]), hi[2]), best_t);
+    if (!(t_near <= t_far))
+        return 0;
+    if (t_entry)
+        *t_entry = t_near;
+    return 1;
+}
+
+int rto_triangle_intersect(const float v0[3], const float v1[3], const float v2[3], const float origin[3],
+                           const float dir[3], float t_min, float best_t, rto_tri_hit *hit)
+{
+    rto_tri_hit h = {0.0f, 0.0f, 0.0f, 0.0f};
+    float e1[3], e2[3], p[3], s[3], q[3];
+    sub3(v1, v0, e1);
+    sub3(v2, v0, e2);
+    cross3(dir, e2, p);
+    h.det = dot3(e1, p);
+    int ok = 0;
+    if (h.det != 0.0f) {
+        const float inv = 1.0f / h.det;
+        sub3(origin, v0, s);
+        cross3(s, e1, q);
+        h.u = dot3(s, p) * inv;
+        h.v = dot3(dir, q) * inv;
+        h.t = dot3(e2, q) * inv;
+        ok = h.u >= 0.0f && h.v >= 0.0f && h.u + h.v <= 1.0f && t_min <= h.t && h.t < best_t;
+    }
+    if (hit)
+        *hit = h;
+    return ok;
+}
+
+void rto_ray_to_object(const rto_mat34 *world_to_obj, const float origin[3], const float dir[3], float obj_origin[3],
+                       float obj_dir[3])
+{
+    const float(*m)[4] = world_to_obj->m;
+    for (int r = 0; r < 3; r++) {
+        obj_origin[r] = ((m[r][0] * origin[0] + m[r][1] * origin[1]) + m[r][2] * origin[2]) + m[r][3];
+        obj_dir[r] = (m[r][0] * dir[0] + m[r][1] * dir[1]) + m[r][2] * dir[2];
+    }
+}
+
+rto_hit_record rto_hit_record_miss(float t_max)
+{
+    rto_hit_record h;
+    memset(&h, 0, sizeof h);
+    h.t = t_max;
+    h.instance_id = UINT32_MAX;
+    h.prim_id = UINT32_MAX;
+    h.hit_group = UINT32_MAX;
+    h.custom_index = UINT32_MAX;
+    h.miss_flag = 1;
+    return h;
+}
+
+rto_hit_record rto_hit_record_make(const rto_instance *instance, uint32_t inst, uint32_t prim, const rto_tri_hit *hit)
+{
+    rto_hit_record h;
+    memset(&h, 0, sizeof h);
+    h.t = hit->t;
+    h.instance_id = inst;
+    h.prim_id = prim;
+    h.hit_group = instance->sbt_offset;
+    h.bary[0] = hit->u;
+    h.bary[1] = hit->v;
+    h.custom_index = instance->custom_index;
+    h.miss_flag = 0;
+    /* WGSL mat4x3<f32>: column c holds row-major element [r][c] for r = 0..2, then one float of padding. */
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 3; r++)
+            h.obj_to_world[c][r] = instance->obj_to_world.m[r][c];
+    return h;
+}
+
+int rto__triangle_culled(uint32_t flags, float det)
+{
+    return ((flags & RTO_RAY_FLAG_CULL_BACK_FACING) && det < 0.0f) ||
+           ((flags & RTO_RAY_FLAG_CULL_FRONT_FACING) && det > 0.0f);
+}
+
+int rto__mesh_triangle_hit(const rto_mesh *mesh, uint32_t prim, const float o[3], const float d[3], float t_min,
+                           float best_t, uint32_t flags, rto_tri_hit *hit)
+{
+    const uint32_t *ix = &mesh->indices[3 * (size_t)prim];
+    const float *p = mesh->positions;
+    if (!rto_triangle_intersect(&p[3 * (size_t)ix[0]], &p[3 * (size_t)ix[1]], &p[3 * (size_t)ix[2]], o, d, t_min,
+                                best_t, hit))
+        return 0;
+    return !rto__triangle_culled(flags, hit->det);
+}
+
+int rto_instance_triangle_hit(const rto_instance *instance, const rto_mesh *mesh, uint32_t prim,
+                              const rto_wf_ray *ray, rto_tri_hit *hit)
+{
+    if (!instance || !mesh || !ray || prim >= mesh->triangle_count || !(instance->mask & ray->cull_mask))
+        return 0;
+    float o[3], d[3];
+    rto_ray_to_object(&instance->world_to_obj, ray->origin, ray->dir, o, d);
+    rto_tri_hit h;
+    const int ok = rto__mesh_triangle_hit(mesh, prim, o, d, ray->t_min, ray->t_max, ray->flags, &h);
+    if (hit)
+        *hit = h;
+    return ok;
+}
+
+rto_instance rto_instance_from_record(const rto_instance_record *record)
+{
+    rto_instance in;
+    memset(&in, 0, sizeof in);
+    memcpy(in.obj_to_world.m, record->obj_to_world, sizeof in.obj_to_world.m);
+    memcpy(in.world_to_obj.m, record->world_to_obj, sizeof in.world_to_obj.m);
+    in.blas = record->blas;
+    in.custom_index = record->custom_index;
+    in.mask = record->mask;
+    in.sbt_offset = record->sbt_offset;
+    in.flags = record->flags;
+    return in;
+}
+
+rto_status rto__rays_check(const rto_wf_ray *rays, size_t n, rto_msg *msg)
+{
+    if (n && !rays)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL rays");
+    for (size_t i = 0; i < n; i++) {
+        const rto_wf_ray *r = &rays[i];
+        int finite = isfinite(r->t_min) && isfinite(r->t_max);
+        for (int a = 0; a < 3; a++)
+            finite = finite && isfinite(r->origin[a]) && isfinite(r->dir[a]);
+        if (!finite)
+            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has a non-finite origin, direction, tMin or tMax",
+                            i);
+        if (r->t_min > r->t_max)
+            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has tMin %.9g > tMax %.9g", i, (double)r->t_min,
+                            (double)r->t_max);
+    }
+    return RTO_OK;
+}

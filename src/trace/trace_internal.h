@@ -1,0 +1,23 @@
+/* Private pieces of the tracer shared by its files (src/trace/). Not installed; not exported. */
+#ifndef RTO_TRACE_INTERNAL_H
+#define RTO_TRACE_INTERNAL_H
+
+#include "rtoracle.h"
+
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
+
+/** Whether the ray flags cull a triangle of this det (> 0 front, < 0 back; decided in object space, §6). */
+int rto__triangle_culled(uint32_t flags, float det);
+/** Möller–Trumbore of triangle prim of a mesh with an object-space ray, then culling: 1 for an accepted hit. */
+int rto__mesh_triangle_hit(const rto_mesh *mesh, uint32_t prim, const float o[3], const float d[3], float t_min,
+                           float best_t, uint32_t flags, rto_tri_hit *hit);
+/** Refuses rays that cannot be traced: non-finite origin, direction, tMin or tMax, or tMin > tMax. */
+rto_status rto__rays_check(const rto_wf_ray *rays, size_t n, rto_msg *msg);
+
+#if defined(__GNUC__)
+#pragma GCC visibility pop
+#endif
+
+#endif
