@@ -82,5 +82,6 @@ int cmd_suite(int argc, char **argv);
 int cmd_build(int argc, char **argv);
 int cmd_check_bvh(int argc, char **argv);
 int cmd_info(int argc, char **argv);
+int cmd_crosscheck(int argc, char **argv);
 
 #endif

@@ -345,21 +345,26 @@ const emb_scene_desc *emb_scene_get_desc(const emb_scene *s) { return &s->desc; 
 
 /* ---- tracing -------------------------------------------------------------------------------------------------- */
 
+/* The library's limit on tracing threads (rto_trace_desc.threads), so both sides split rays alike. */
+#define EMB_THREADS_MAX 256u
+
 uint32_t emb_thread_count(uint32_t threads)
 {
     if (threads)
-        return threads;
+        return threads > EMB_THREADS_MAX ? EMB_THREADS_MAX : threads;
     long n = sysconf(_SC_NPROCESSORS_ONLN);
-    return n > 0 ? (uint32_t)n : 1;
+    if (n < 1)
+        return 1;
+    return n > (long)EMB_THREADS_MAX ? EMB_THREADS_MAX : (uint32_t)n;
 }
 
 void emb_partition(size_t n, uint32_t parts, uint32_t k, size_t *begin, size_t *end)
 {
-    /* ceil(n / parts) rays per part, the last part short: the split rto_trace uses. */
-    size_t chunk = parts ? (n + parts - 1) / parts : n;
-    size_t b = (size_t)k * chunk, e = b + chunk;
-    *begin = b < n ? b : n;
-    *end = e < n ? e : n;
+    /* [k n / parts, (k + 1) n / parts): the split rto_trace uses (ranges of equal size +-1). */
+    if (!parts)
+        parts = 1;
+    *begin = (size_t)((uint64_t)n * k / parts);
+    *end = (size_t)((uint64_t)n * (k + 1) / parts);
 }
 
 static bool finite3(const float v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }

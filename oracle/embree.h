@@ -122,9 +122,9 @@ rto_status emb_trace(const emb_scene *s, emb_device *d, const rto_wf_ray *rays, 
  * TERMINATE_ON_FIRST_HIT ray. No checks. */
 void emb_trace_closest(const emb_scene *s, const rto_wf_ray *ray, rto_hit_record *hit);
 
-/** One online CPU per thread for threads == 0 (sysconf), else threads. */
+/** One thread per online CPU for threads == 0, else threads; at most 256 (rto_trace's rule). */
 uint32_t emb_thread_count(uint32_t threads);
-/** The contiguous range [*begin, *end) of part k of n items split into parts equal ranges. */
+/** Part k of n items split into parts contiguous ranges: [k n / parts, (k + 1) n / parts), as rto_trace splits. */
 void emb_partition(size_t n, uint32_t parts, uint32_t k, size_t *begin, size_t *end);
 
 #endif
