@@ -22,6 +22,10 @@ static const char crosscheck_usage[] =
     "  tie          different triangles at the same t (within 1e-5) that share a vertex (index, or world\n"
     "               position within 1e-6 relative)\n"
     "  coplanar     different triangles at the same t lying in one plane and overlapping at the hit\n"
+    "  crossing     different triangles at the same t, not in one plane, both containing the hit point\n"
+    "               (they touch or cross there)\n"
+    "  t-rounding   the same triangle, t apart by more than 1e-5 but the two hit points within 1e-5\n"
+    "               (relative to the coordinates) of each other across its plane\n"
     "  robust-only  (--embree default) Embree robust agrees with the oracle where default did not\n"
     "  grazing      the hit one side missed lies within 1e-5 (relative to the coordinates, over |cos| of\n"
     "               the incidence angle) of an edge of its triangle, or the ray is within 1e-4 of parallel\n"
@@ -226,8 +230,8 @@ static void print_text(const run *r, const char *scene_name, const char *mode)
     printf("crosscheck %s: %u instances, %llu triangles; Embree %d.%d.%d %s (build quality %s), %u threads\n",
            scene_name, r->scene->instance_count, (unsigned long long)tris, RTC_VERSION_MAJOR, RTC_VERSION_MINOR,
            RTC_VERSION_PATCH, mode, emb_quality_name(EMB_QUALITY_DEFAULT), emb_thread_count(r->threads));
-    printf("%-12s %9s %9s %9s %6s %8s %11s %8s %11s %9s %11s\n", "rays", "count", "hits", "agree", "tie", "coplanar",
-           "robust-only", "grazing", "unexplained", "agree %", "max rel dt");
+    printf("%-12s %9s %9s %9s %6s %8s %8s %10s %11s %8s %11s %9s %11s\n", "rays", "count", "hits", "agree", "tie",
+           "coplanar", "crossing", "t-rounding", "robust-only", "grazing", "unexplained", "agree %", "max rel dt");
     row t;
     row_total(r, &t);
     for (size_t i = 0; i <= r->nrows; i++) {
@@ -242,10 +246,11 @@ static void print_text(const run *r, const char *scene_name, const char *mode)
             snprintf(pct, sizeof pct, "%.3f", rate(w));
         else
             snprintf(pct, sizeof pct, "-");
-        printf("%-12s %9llu %9llu %9llu %6llu %8llu %11llu %8llu %11llu %9s %11.3g\n", name,
+        printf("%-12s %9llu %9llu %9llu %6llu %8llu %8llu %10llu %11llu %8llu %11llu %9s %11.3g\n", name,
                (unsigned long long)w->rays, (unsigned long long)w->oracle_hits,
                (unsigned long long)w->count[XC_AGREE], (unsigned long long)w->count[XC_TIE],
-               (unsigned long long)w->count[XC_COPLANAR], (unsigned long long)w->count[XC_ROBUST_ONLY],
+               (unsigned long long)w->count[XC_COPLANAR], (unsigned long long)w->count[XC_CROSSING],
+               (unsigned long long)w->count[XC_T_ROUNDING], (unsigned long long)w->count[XC_ROBUST_ONLY],
                (unsigned long long)w->count[XC_GRAZING], (unsigned long long)w->count[XC_UNEXPLAINED], pct,
                w->max_rel_dt);
     }

@@ -9,8 +9,8 @@
 
 const char *xc_class_name(xc_class c)
 {
-    static const char *const names[XC_CLASS_COUNT] = {"agree", "tie", "coplanar", "robust-only", "grazing",
-                                                      "unexplained"};
+    static const char *const names[XC_CLASS_COUNT] = {"agree",       "tie",         "coplanar", "crossing",
+                                                      "t-rounding",  "robust-only", "grazing",  "unexplained"};
     return (unsigned)c < XC_CLASS_COUNT ? names[c] : "?";
 }
 
@@ -86,35 +86,67 @@ static double boundary_distance(const dvec v[3], dvec p, int *degenerate)
     return out > 0 ? -out : in;
 }
 
+/* A ray against one triangle of an instance in object space, binary64: the ray through worldToObj, the triangle's
+ * normal, |cos a| between ray and normal, the plane crossing p and S, the largest coordinate magnitude among the
+ * origin, p and the vertices (at least 1): the scale of the binary32 rounding both tracers make. Returns 0 when the
+ * ray is (nearly) parallel to the plane (|cos a| <= XC_PARALLEL_COS), the triangle degenerate or the direction 0. */
+typedef struct objray {
+    dvec v[3], o, d, p;
+    double dlen, cosa, s;
+} objray;
+
+static int obj_ray(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, objray *r)
+{
+    const rto_instance *in = &sc->instances[inst];
+    for (int k = 0; k < 3; k++) {
+        const float *p = tri_vertex(sc, inst, prim, k);
+        r->v[k] = (dvec){{p[0], p[1], p[2]}};
+    }
+    r->o = xform(&in->world_to_obj, ray->origin, 1);
+    r->d = xform(&in->world_to_obj, ray->dir, 0);
+    dvec n = cross(sub(r->v[1], r->v[0]), sub(r->v[2], r->v[0]));
+    double nl = len(n);
+    r->dlen = len(r->d);
+    r->cosa = 0;
+    r->s = 1;
+    if (!(nl > 0) || !(r->dlen > 0))
+        return 0;
+    double denom = dot(r->d, n);
+    r->cosa = fabs(denom) / (nl * r->dlen);
+    if (r->cosa <= XC_PARALLEL_COS)
+        return 0;
+    double t = dot(sub(r->v[0], r->o), n) / denom;
+    r->p = (dvec){{r->o.x[0] + t * r->d.x[0], r->o.x[1] + t * r->d.x[1], r->o.x[2] + t * r->d.x[2]}};
+    r->s = fmax(1, fmax(maxabs(r->o), maxabs(r->p)));
+    for (int k = 0; k < 3; k++)
+        r->s = fmax(r->s, maxabs(r->v[k]));
+    return 1;
+}
+
 double xc_edge_distance(const rto_scene *scene, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, int *parallel)
 {
     *parallel = 1;
     if (!valid_tri(scene, inst, prim))
         return INFINITY;
-    const rto_instance *in = &scene->instances[inst];
-    dvec v[3];
-    for (int k = 0; k < 3; k++) {
-        const float *p = tri_vertex(scene, inst, prim, k);
-        v[k] = (dvec){{p[0], p[1], p[2]}};
-    }
-    dvec o = xform(&in->world_to_obj, ray->origin, 1), d = xform(&in->world_to_obj, ray->dir, 0);
-    dvec n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
-    double nl = len(n), dl = len(d);
-    if (!(nl > 0) || !(dl > 0))
-        return 0;
-    double denom = dot(d, n), cosa = fabs(denom) / (nl * dl);
-    if (cosa <= XC_PARALLEL_COS)
+    objray r;
+    if (!obj_ray(scene, inst, prim, ray, &r))
         return 0;
     *parallel = 0;
-    double t = dot(sub(v[0], o), n) / denom;
-    dvec p = {{o.x[0] + t * d.x[0], o.x[1] + t * d.x[1], o.x[2] + t * d.x[2]}};
     int degenerate;
-    double bd = fabs(boundary_distance(v, p, &degenerate));
-    double s = fmax(1, fmax(maxabs(o), maxabs(p)));
-    for (int k = 0; k < 3; k++)
-        s = fmax(s, maxabs(v[k]));
+    double bd = fabs(boundary_distance(r.v, r.p, &degenerate));
     /* distance <= XC_EDGE_REL S / |cos a|  <=>  distance |cos a| / S <= XC_EDGE_REL */
-    return bd / s * cosa;
+    return bd / r.s * r.cosa;
+}
+
+double xc_t_rounding(const rto_scene *scene, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, double dt)
+{
+    if (!valid_tri(scene, inst, prim))
+        return INFINITY;
+    objray r;
+    if (!obj_ray(scene, inst, prim, ray, &r))
+        return 0;
+    /* the two hit points o + t d lie |dt| |d'| |cos a| apart across the triangle's plane */
+    return fabs(dt) * r.dlen * r.cosa / r.s;
 }
 
 static int grazes(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, double *rel)
@@ -211,6 +243,35 @@ static int coplanar(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_re
     return 1;
 }
 
+/* Two triangles that both contain the hit point (within the grazing distance), not in one plane: the ray meets the
+ * line where they touch or cross. */
+static int crossing(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_record *b,
+                    char *why, size_t cap)
+{
+    dvec t[2][3];
+    world_tri(sc, a->instance_id, a->prim_id, t[0]);
+    world_tri(sc, b->instance_id, b->prim_id, t[1]);
+    double th = a->t;
+    dvec p = {{ray->origin[0] + th * ray->dir[0], ray->origin[1] + th * ray->dir[1], ray->origin[2] + th * ray->dir[2]}};
+    double s = fmax(1, maxabs(p));
+    for (int i = 0; i < 2; i++)
+        for (int k = 0; k < 3; k++)
+            s = fmax(s, maxabs(t[i][k]));
+    s = fmax(s, fmax(fabs(ray->origin[0]), fmax(fabs(ray->origin[1]), fabs(ray->origin[2]))));
+    for (int i = 0; i < 2; i++) {
+        int degenerate;
+        dvec n = cross(sub(t[i][1], t[i][0]), sub(t[i][2], t[i][0]));
+        double nl = len(n);
+        /* on the triangle: near its plane, and inside it or near its boundary */
+        if (!(nl > 0) || fabs(dot(n, sub(p, t[i][0]))) / nl > XC_EDGE_REL * s ||
+            boundary_distance(t[i], p, &degenerate) < -XC_EDGE_REL * s || degenerate)
+            return 0;
+    }
+    snprintf(why, cap, "the hit point lies on triangle %u of instance %u and on triangle %u of instance %u, which "
+             "meet there", a->prim_id, a->instance_id, b->prim_id, b->instance_id);
+    return 1;
+}
+
 static void set(xc_result *out, xc_class c, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 static void set(xc_result *out, xc_class c, const char *fmt, ...)
 {
@@ -248,9 +309,27 @@ void xc_classify(const xc_input *in, xc_result *out)
             set(out, XC_COPLANAR, "t %.9g / %.9g: %s", o->t, et->t, why);
             return;
         }
+        if (crossing(sc, ray, o, et, why, sizeof why)) {
+            set(out, XC_CROSSING, "t %.9g / %.9g: %s", o->t, et->t, why);
+            return;
+        }
     }
 
-    if (in->robust) {
+    /* The same triangle at t beyond the t tolerance: within the rounding of the coordinates? */
+    if (names_tri(o) && et == e && names_tri(e) && o->instance_id == e->instance_id && o->prim_id == e->prim_id &&
+        valid_tri(sc, o->instance_id, o->prim_id)) {
+        double dt = (double)e->t - o->t, rel = xc_t_rounding(sc, o->instance_id, o->prim_id, ray, dt);
+        if (rel <= XC_EDGE_REL) {
+            out->edge_rel = rel;
+            set(out, XC_T_ROUNDING, "triangle %u of instance %u at t %.9g / %.9g: the two hit points lie %.3g "
+                "(relative to the coordinates) apart across its plane", o->prim_id, o->instance_id, o->t, e->t, rel);
+            return;
+        }
+    }
+
+    /* Embree default missed the oracle's triangle (or found another) where Embree robust finds it. */
+    int same_tri = names_tri(o) && names_tri(e) && o->instance_id == e->instance_id && o->prim_id == e->prim_id;
+    if (in->robust && is_hit(o) && !same_tri) {
         double rel;
         if (is_hit(in->robust) && xc_agree(ray, o, in->robust, &rel)) {
             set(out, XC_ROBUST_ONLY, "Embree default %s, Embree robust agrees with the oracle (triangle %u of "

@@ -11,8 +11,18 @@
  *   coplanar     both hit, different primitives, t within the t tolerance, the triangles lie in one plane (every
  *                vertex of each within XC_PLANE_REL of the other's plane) and the hit point lies in both (within
  *                the grazing distance below)
- *   robust-only  only when comparing against Embree's default mode: Embree robust agrees with the oracle where
- *                Embree default did not (default's non-watertight intersection or box test missed the hit)
+ *   crossing     both hit, different primitives, t within the t tolerance, not in one plane, and the hit point lies
+ *                on both triangles (within the grazing distance): the ray meets the line where two triangles that
+ *                share no vertex touch or cross (interpenetrating parts, T-junctions). Like a tie, both answers are
+ *                right (DESIGN.md §9 accepts any primitive at the same t).
+ *   t-rounding   both hit the same primitive but t differs by more than the t tolerance, and the two hit points lie
+ *                within XC_EDGE_REL S of each other across the triangle's plane (|dt| |d'| |cos a| <= XC_EDGE_REL S,
+ *                S and a as for grazing): the difference is the rounding of coordinates much larger than t (an
+ *                origin far from a near hit) or the ill-conditioning of t for a ray at a shallow angle, which the
+ *                fixed §9 t rule does not allow for
+ *   robust-only  only when comparing against Embree's default mode: Embree default missed the oracle's triangle (or
+ *                found another one) and Embree robust agrees with the oracle (default's non-watertight intersection
+ *                or box test missed the hit)
  *   grazing      the hit one side found and the other did not lies near the boundary of its triangle: its distance
  *                to the nearest edge line is at most XC_EDGE_REL S / |cos a| in object space, where S = max(1, the
  *                largest coordinate magnitude of the object-space origin, hit point and vertices) and a is the angle
@@ -40,13 +50,15 @@ typedef enum xc_class {
     XC_AGREE = 0,
     XC_TIE = 1,
     XC_COPLANAR = 2,
-    XC_ROBUST_ONLY = 3,
-    XC_GRAZING = 4,
-    XC_UNEXPLAINED = 5
+    XC_CROSSING = 3,
+    XC_T_ROUNDING = 4,
+    XC_ROBUST_ONLY = 5,
+    XC_GRAZING = 6,
+    XC_UNEXPLAINED = 7
 } xc_class;
-#define XC_CLASS_COUNT 6
+#define XC_CLASS_COUNT 8
 
-/** "agree", "tie", "coplanar", "robust-only", "grazing", "unexplained". */
+/** "agree", "tie", "coplanar", "crossing", "t-rounding", "robust-only", "grazing", "unexplained". */
 const char *xc_class_name(xc_class c);
 
 /** One ray's records. */
@@ -65,7 +77,8 @@ typedef struct xc_input {
 typedef struct xc_result {
     xc_class cls;
     double rel_dt;   /* both hit the same primitive: |dt| / max(1, |t_oracle|); else 0 */
-    double edge_rel; /* grazing: xc_edge_distance of the grazing hit (0 for a parallel ray) */
+    double edge_rel; /* grazing: xc_edge_distance of the grazing hit (0 for a parallel ray); t-rounding:
+                      * xc_t_rounding */
     char why[240];   /* one line saying why the class fits (empty for agree) */
 } xc_result;
 
@@ -80,5 +93,9 @@ int xc_agree(const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_recor
  * edge line) times |cos a| / S, so grazing is a result <= XC_EDGE_REL; sets *parallel (and returns 0) when |cos a|
  * <= XC_PARALLEL_COS, the triangle is degenerate or the direction zero. */
 double xc_edge_distance(const rto_scene *scene, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, int *parallel);
+
+/** The t-rounding measure of a t difference dt on one triangle: |dt| |d'| |cos a| / S (object space, binary64); 0 for
+ * a ray parallel to the plane, a degenerate triangle or a zero direction. */
+double xc_t_rounding(const rto_scene *scene, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, double dt);
 
 #endif

@@ -74,34 +74,45 @@ static void scene_free(rto_scene *s)
  * mesh 1: one triangle (0,0,0) (1,0,0) (0,1,0), counter-clockwise seen from +z;
  * mesh 2: empty;
  * mesh 3: the triangle (1,0,0) (2,0,0) (1,1,0) beside the quad (world vertices shared with quad triangle 0);
- * mesh 4: the triangle (0.2,0.2,0) (0.5,0.2,0) (0.2,0.5,0) inside the quad (coplanar, no vertex shared).
+ * mesh 4: the triangle (0.2,0.2,0) (0.5,0.2,0) (0.2,0.5,0) inside the quad (coplanar, no vertex shared);
+ * mesh 5: the triangle (0.6,-0.5,-1) (0.6,1.5,-1) (0.6,0.5,1) in the plane x = 0.6, crossing the quad along
+ *         x = 0.6, 0 <= y <= 1 (no vertex shared);
+ * mesh 6: the quad moved to x = 1000 in its own coordinates (large object-space coordinates).
  * instance 0: quad, identity, mask 0x01, sbt 3, custom 7
  * instance 1: quad scaled by 2, moved to x = 5, mask 0x02
  * instance 2: mesh 1 mirrored in x (x' = 1 - x), moved to z = -5, mask 0x04
  * instance 3: the empty mesh
  * instance 4: mesh 3, identity, mask 0x08
  * instance 5: mesh 4, identity, mask 0x10
+ * instance 6: mesh 5, identity, mask 0x20
+ * instance 7: mesh 6, identity, mask 0x40
  */
 static rto_scene *hand_scene(void)
 {
-    rto_scene *s = scene_new(5, 6);
+    rto_scene *s = scene_new(7, 8);
     static const float quad[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
     static const uint32_t quad_idx[] = {0, 1, 2, 0, 2, 3};
     static const float tri[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
     static const float side[] = {1, 0, 0, 2, 0, 0, 1, 1, 0};
     static const float inner[] = {0.2f, 0.2f, 0, 0.5f, 0.2f, 0, 0.2f, 0.5f, 0};
+    static const float cross_tri[] = {0.6f, -0.5f, -1, 0.6f, 1.5f, -1, 0.6f, 0.5f, 1};
+    static const float far_quad[] = {1000, 0, 0, 1001, 0, 0, 1001, 1, 0, 1000, 1, 0};
     static const uint32_t tri_idx[] = {0, 1, 2};
     mesh_set(s, 0, quad, 4, quad_idx, 2);
     mesh_set(s, 1, tri, 3, tri_idx, 1);
     mesh_set(s, 2, NULL, 0, NULL, 0);
     mesh_set(s, 3, side, 3, tri_idx, 1);
     mesh_set(s, 4, inner, 3, tri_idx, 1);
+    mesh_set(s, 5, cross_tri, 3, tri_idx, 1);
+    mesh_set(s, 6, far_quad, 4, quad_idx, 2);
     inst_set(s, 0, 0, 1, 1, 1, 0, 0, 0, 0x01, 3, 7);
     inst_set(s, 1, 0, 2, 2, 2, 5, 0, 0, 0x02, 0, 0);
     inst_set(s, 2, 1, -1, 1, 1, 1, 0, -5, 0x04, 0, 0);
     inst_set(s, 3, 2, 1, 1, 1, 0, 0, 0, 0xFF, 0, 0);
     inst_set(s, 4, 3, 1, 1, 1, 0, 0, 0, 0x08, 0, 0);
     inst_set(s, 5, 4, 1, 1, 1, 0, 0, 0, 0x10, 0, 0);
+    inst_set(s, 6, 5, 1, 1, 1, 0, 0, 0, 0x20, 0, 0);
+    inst_set(s, 7, 6, 1, 1, 1, 0, 0, 0, 0x40, 0, 0);
     return s;
 }
 
@@ -372,10 +383,9 @@ static void test_partition_and_threads(void **state)
             for (uint32_t k = 0; k < parts; k++) {
                 size_t b, e;
                 emb_partition(n, parts, k, &b, &e);
-                assert_true(b == next || b == e);
-                assert_true(b <= e && e <= n);
-                if (e > b)
-                    next = e;
+                assert_int_equal(b, next);
+                assert_true(b <= e && e <= n && e - b >= n / parts && e - b <= n / parts + 1);
+                next = e;
             }
             assert_int_equal(next, n);
         }
@@ -481,6 +491,44 @@ static void test_class_coplanar(void **state)
     /* the quad and instance 2's triangle are parallel but 5 apart: not coplanar, whatever the records say */
     r = ray_make(0.75f, 0.1f, 1, 0, 0, -1);
     assert_int_equal(classify(s, &r, hit_rec(2, 0, 1), hit_rec(0, 0, 1), NULL, NULL, &res), XC_UNEXPLAINED);
+    scene_free(s);
+}
+
+static void test_class_crossing(void **state)
+{
+    (void)state;
+    rto_scene *s = hand_scene();
+    xc_result res;
+    /* a tilted ray through (0.6, 0.25, 0), on the line where instance 6's triangle crosses the quad */
+    rto_wf_ray r = ray_make(0.6f - 0.6f, 0.25f, 0.8f, 0.6f, 0, -0.8f);
+    assert_int_equal(classify(s, &r, hit_rec(0, 0, 1), hit_rec(6, 0, 1), NULL, NULL, &res), XC_CROSSING);
+    assert_non_null(strstr(res.why, "which meet there"));
+    /* a hit point on the quad but off instance 6's plane: the records' equal t are not a crossing */
+    r = ray_make(0.7f - 0.6f, 0.25f, 0.8f, 0.6f, 0, -0.8f);
+    assert_int_equal(classify(s, &r, hit_rec(0, 0, 1), hit_rec(6, 0, 1), NULL, NULL, &res), XC_UNEXPLAINED);
+    scene_free(s);
+}
+
+static void test_class_t_rounding(void **state)
+{
+    (void)state;
+    rto_scene *s = hand_scene();
+    xc_result res;
+    /* coordinates near 1000, t 0.5: binary32 rounding of the coordinates (~6e-5) dwarfs the 1e-5 t tolerance;
+     * t-rounding allows |dt| |cos a| <= 1e-5 S = 0.01 here */
+    rto_wf_ray r = ray_make(1000.75f, 0.25f, 0.5f, 0, 0, -1);
+    assert_int_equal(classify(s, &r, hit_rec(7, 0, 0.5f), hit_rec(7, 0, 0.501f), NULL, NULL, &res), XC_T_ROUNDING);
+    assert_int_equal(classify(s, &r, hit_rec(7, 0, 0.5f), hit_rec(7, 0, 0.509f), NULL, NULL, &res), XC_T_ROUNDING);
+    assert_int_equal(classify(s, &r, hit_rec(7, 0, 0.5f), hit_rec(7, 0, 0.52f), NULL, NULL, &res), XC_UNEXPLAINED);
+    /* near the origin the same dt is unexplained */
+    r = ray_make(0.75f, 0.25f, 0.5f, 0, 0, -1);
+    assert_int_equal(classify(s, &r, hit_rec(0, 0, 0.5f), hit_rec(0, 0, 0.501f), NULL, NULL, &res), XC_UNEXPLAINED);
+    /* a shallow ray (cos a = 0.01): t is ill-conditioned by 1 / cos a */
+    r = ray_make(0.75f - 0.99995f, 0.25f, 0.01f, 0.99995f, 0, -0.01f);
+    assert_int_equal(classify(s, &r, hit_rec(0, 0, 1), hit_rec(0, 0, 1.0005f), NULL, NULL, &res), XC_T_ROUNDING);
+    assert_int_equal(classify(s, &r, hit_rec(0, 0, 1), hit_rec(0, 0, 1.005f), NULL, NULL, &res), XC_UNEXPLAINED);
+    /* t-rounding is for one triangle only */
+    assert_int_equal(classify(s, &r, hit_rec(0, 0, 1), hit_rec(0, 1, 1.0005f), NULL, NULL, &res), XC_UNEXPLAINED);
     scene_free(s);
 }
 
@@ -672,6 +720,8 @@ int main(void)
         cmocka_unit_test(test_class_agree),
         cmocka_unit_test(test_class_tie),
         cmocka_unit_test(test_class_coplanar),
+        cmocka_unit_test(test_class_crossing),
+        cmocka_unit_test(test_class_t_rounding),
         cmocka_unit_test(test_class_grazing),
         cmocka_unit_test(test_class_robust_only),
         cmocka_unit_test(test_fixtures_against_binary64),
