@@ -1,6 +1,7 @@
 /* Embree 3 beside the oracle (see embree.h for what differs from the oracle and how it is bridged). */
 #include "embree.h"
 
+#include <float.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -423,12 +424,15 @@ static void to_rtc(const rto_wf_ray *r, struct RTCRay *out)
     out->org_x = r->origin[0];
     out->org_y = r->origin[1];
     out->org_z = r->origin[2];
-    out->tnear = r->t_min;
+    /* Embree accepts tnear < t <= tfar, the oracle tMin <= t < tMax: move both ends one float down, so a hit at
+     * exactly tMin counts and one at exactly tMax does not. tMin 0 becomes -FLT_MIN rather than the next float
+     * below (a subnormal), which Embree's scaled test absDen * tnear < T could round to -0. */
+    out->tnear = r->t_min > 0 ? nextafterf(r->t_min, 0) : r->t_min == 0 ? -FLT_MIN : nextafterf(r->t_min, -INFINITY);
     out->dir_x = r->dir[0];
     out->dir_y = r->dir[1];
     out->dir_z = r->dir[2];
     out->time = 0;
-    out->tfar = r->t_max;
+    out->tfar = nextafterf(r->t_max, -INFINITY);
     out->mask = r->cull_mask & 0xFF;
     out->id = 0;
     out->flags = 0;

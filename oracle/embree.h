@@ -14,8 +14,9 @@
  * Semantics that differ from the oracle's and how they are bridged:
  *   - Embree inverts objToWorld itself (in binary32); the oracle uses the scene's worldToObj, inverted in binary64.
  *     t agrees to rounding, not bit for bit: compare with the §9 tolerance.
- *   - Embree accepts tnear < t <= tfar, the oracle tMin <= t < tMax: they differ only for a hit exactly at tMin or
- *     tMax.
+ *   - Embree accepts tnear < t <= tfar, the oracle tMin <= t < tMax: the mirror passes tnear and tfar one float
+ *     below tMin and tMax (tMin 0 as -FLT_MIN), so a hit exactly at tMin counts and one exactly at tMax does not,
+ *     up to Embree's own scaled comparison (absDen tnear < T).
  *   - Cull masks: Embree tests ray.mask & geometry mask, as the oracle tests cullMask & instance.mask, when the
  *     library was built with ray masks (RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED; Debian's is). Without them Embree
  *     ignores masks, so emb_trace refuses (RTO_ERR_UNSUPPORTED, naming the ray) any ray whose cull mask excludes an

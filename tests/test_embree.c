@@ -225,6 +225,22 @@ static void test_mirror_records(void **state)
     r.t_max = 0.5f;
     h = trace1(&f, &r);
     expect_miss(&h, 0.5f);
+    /* the ray interval is the oracle's [tMin, tMax): a hit exactly at tMin counts (an origin on the quad with tMin
+     * 0, or tMin = the hit's t), one exactly at tMax does not */
+    r = ray_make(0.75f, 0.25f, 0, 0, 0, -1);
+    h = trace1(&f, &r);
+    expect_hit(&h, 0, 0, 0);
+    r = ray_make(0.75f, 0.25f, 1, 0, 0, -1);
+    r.t_min = 1;
+    h = trace1(&f, &r);
+    expect_hit(&h, 0, 0, 1);
+    r.t_min = 0;
+    r.t_max = 1;
+    h = trace1(&f, &r);
+    expect_miss(&h, 1);
+    r.t_max = 1.0000001f;
+    h = trace1(&f, &r);
+    expect_hit(&h, 0, 0, 1);
     /* tMin past the quad: instance 2 behind it */
     r = ray_make(0.75f, 0.1f, 1, 0, 0, -1);
     r.t_min = 2;
