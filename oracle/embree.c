@@ -1,7 +1,6 @@
 /* Embree 3 beside the oracle (see embree.h for what differs from the oracle and how it is bridged). */
 #include "embree.h"
 
-#include <float.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -370,6 +369,15 @@ void emb_partition(size_t n, uint32_t parts, uint32_t k, size_t *begin, size_t *
 
 static bool finite3(const float v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
 
+/* Embree's largest accepted origin and direction component (its FLT_LARGE, checked by an assertion in Debian's
+ * build) */
+#define EMB_COORD_MAX 1.844e18f
+
+static bool embree_range(const float v[3])
+{
+    return fabsf(v[0]) <= EMB_COORD_MAX && fabsf(v[1]) <= EMB_COORD_MAX && fabsf(v[2]) <= EMB_COORD_MAX;
+}
+
 rto_status emb_rays_check(const emb_scene *s, const emb_device *d, const rto_wf_ray *rays, size_t n, rto_msg *msg)
 {
     for (size_t i = 0; i < n; i++) {
@@ -378,6 +386,12 @@ rto_status emb_rays_check(const emb_scene *s, const emb_device *d, const rto_wf_
             return rto_msg_set(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu: origin, direction, tMin or tMax not finite", i);
         if (r->t_min > r->t_max)
             return rto_msg_set(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu: tMin %.9g > tMax %.9g", i, r->t_min, r->t_max);
+        if (r->t_min < 0)
+            return rto_msg_set(msg, RTO_ERR_UNSUPPORTED, "ray %zu: tMin %.9g < 0, which Embree does not trace", i,
+                               r->t_min);
+        if (!embree_range(r->origin) || !embree_range(r->dir))
+            return rto_msg_set(msg, RTO_ERR_UNSUPPORTED, "ray %zu: an origin or direction component beyond %.4g, "
+                               "which Embree does not trace", i, (double)EMB_COORD_MAX);
         if (!d->ray_masks && s->mask_excludes[r->cull_mask & 0xFF])
             return rto_msg_set(msg, RTO_ERR_UNSUPPORTED,
                                "ray %zu: cull mask 0x%02x excludes instances, and this Embree was built without ray "
@@ -425,14 +439,14 @@ static void to_rtc(const rto_wf_ray *r, struct RTCRay *out)
     out->org_y = r->origin[1];
     out->org_z = r->origin[2];
     /* Embree accepts tnear < t <= tfar, the oracle tMin <= t < tMax: move both ends one float down, so a hit at
-     * exactly tMin counts and one at exactly tMax does not. tMin 0 becomes -FLT_MIN rather than the next float
-     * below (a subnormal), which Embree's scaled test absDen * tnear < T could round to -0. */
-    out->tnear = r->t_min > 0 ? nextafterf(r->t_min, 0) : r->t_min == 0 ? -FLT_MIN : nextafterf(r->t_min, -INFINITY);
+     * exactly tMin counts and one at exactly tMax does not. Embree asserts tnear >= 0, so tMin 0 stays 0 (a hit at
+     * exactly t = 0, an origin on a surface, may be the oracle's alone). */
+    out->tnear = r->t_min > 0 ? nextafterf(r->t_min, 0) : 0;
     out->dir_x = r->dir[0];
     out->dir_y = r->dir[1];
     out->dir_z = r->dir[2];
     out->time = 0;
-    out->tfar = nextafterf(r->t_max, -INFINITY);
+    out->tfar = fmaxf(nextafterf(r->t_max, -INFINITY), out->tnear);
     out->mask = r->cull_mask & 0xFF;
     out->id = 0;
     out->flags = 0;

@@ -15,8 +15,10 @@
  *   - Embree inverts objToWorld itself (in binary32); the oracle uses the scene's worldToObj, inverted in binary64.
  *     t agrees to rounding, not bit for bit: compare with the §9 tolerance.
  *   - Embree accepts tnear < t <= tfar, the oracle tMin <= t < tMax: the mirror passes tnear and tfar one float
- *     below tMin and tMax (tMin 0 as -FLT_MIN), so a hit exactly at tMin counts and one exactly at tMax does not,
- *     up to Embree's own scaled comparison (absDen tnear < T).
+ *     below tMin and tMax, so a hit exactly at tMin counts and one exactly at tMax does not, up to Embree's own
+ *     scaled comparison (absDen tnear < T). Embree asserts tnear >= 0, so tMin 0 stays 0: a hit at exactly t = 0
+ *     (an origin on a surface) may be the oracle's alone. Rays with tMin < 0, or an origin or direction component
+ *     beyond 1.844e18 (Embree's FLT_LARGE; Debian's build asserts both), are refused (RTO_ERR_UNSUPPORTED).
  *   - Cull masks: Embree tests ray.mask & geometry mask, as the oracle tests cullMask & instance.mask, when the
  *     library was built with ray masks (RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED; Debian's is). Without them Embree
  *     ignores masks, so emb_trace refuses (RTO_ERR_UNSUPPORTED, naming the ray) any ray whose cull mask excludes an

@@ -225,11 +225,8 @@ static void test_mirror_records(void **state)
     r.t_max = 0.5f;
     h = trace1(&f, &r);
     expect_miss(&h, 0.5f);
-    /* the ray interval is the oracle's [tMin, tMax): a hit exactly at tMin counts (an origin on the quad with tMin
-     * 0, or tMin = the hit's t), one exactly at tMax does not */
-    r = ray_make(0.75f, 0.25f, 0, 0, 0, -1);
-    h = trace1(&f, &r);
-    expect_hit(&h, 0, 0, 0);
+    /* the ray interval is the oracle's [tMin, tMax): a hit exactly at tMin counts (tMin = the hit's t), one exactly
+     * at tMax does not */
     r = ray_make(0.75f, 0.25f, 1, 0, 0, -1);
     r.t_min = 1;
     h = trace1(&f, &r);
@@ -342,6 +339,14 @@ static void test_mirror_refusals(void **state)
     r[1].flags |= RTO_RAY_FLAG_CULL_BACK_FACING; /* a mirror made without culling cannot honour it */
     assert_int_equal(emb_trace(f.e, f.d, r, 4, 1, h, &msg), RTO_ERR_UNSUPPORTED);
     assert_non_null(strstr(msg.text, "ray 1: culling"));
+    r[1] = r[0];
+    r[2].t_min = -1; /* Embree asserts tnear >= 0 */
+    assert_int_equal(emb_trace(f.e, f.d, r, 4, 1, h, &msg), RTO_ERR_UNSUPPORTED);
+    assert_non_null(strstr(msg.text, "ray 2: tMin -1 < 0"));
+    r[2] = r[0];
+    r[0].origin[2] = 2e18f; /* and |coordinates| <= 1.844e18 */
+    assert_int_equal(emb_trace(f.e, f.d, r, 4, 1, h, &msg), RTO_ERR_UNSUPPORTED);
+    assert_non_null(strstr(msg.text, "ray 0: an origin or direction component beyond"));
     fixture_free(&f);
 }
 
