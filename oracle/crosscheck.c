@@ -92,7 +92,7 @@ static double boundary_distance(const dvec v[3], dvec p, int *degenerate)
  * ray is (nearly) parallel to the plane (|cos a| <= XC_PARALLEL_COS), the triangle degenerate or the direction 0. */
 typedef struct objray {
     dvec v[3], o, d, p;
-    double dlen, cosa, s;
+    double t, dlen, cosa, s;
 } objray;
 
 static int obj_ray(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, objray *r)
@@ -115,7 +115,8 @@ static int obj_ray(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_
     r->cosa = fabs(denom) / (nl * r->dlen);
     if (r->cosa <= XC_PARALLEL_COS)
         return 0;
-    double t = dot(sub(r->v[0], r->o), n) / denom;
+    const double t = dot(sub(r->v[0], r->o), n) / denom;
+    r->t = t;
     r->p = (dvec){{r->o.x[0] + t * r->d.x[0], r->o.x[1] + t * r->d.x[1], r->o.x[2] + t * r->d.x[2]}};
     r->s = fmax(1, fmax(maxabs(r->o), maxabs(r->p)));
     for (int k = 0; k < 3; k++)
@@ -147,6 +148,25 @@ double xc_t_rounding(const rto_scene *scene, uint32_t inst, uint32_t prim, const
         return 0;
     /* the two hit points o + t d lie |dt| |d'| |cos a| apart across the triangle's plane */
     return fabs(dt) * r.dlen * r.cosa / r.s;
+}
+
+/* Whether a hit record is one its triangle can give: the ray meets the triangle's plane at the record's t (within
+ * the t tolerance, or the t-rounding bound) and there lies inside the triangle or within the grazing distance of its
+ * boundary. A class that explains a disagreement by a record's triangle (tie, coplanar, crossing, grazing) first
+ * checks this, so a record naming a wrong triangle is never explained away. A ray nearly parallel to the plane
+ * passes (nothing can be decided there). */
+static int plausible(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *h)
+{
+    if (!valid_tri(sc, h->instance_id, h->prim_id))
+        return 0;
+    objray r;
+    if (!obj_ray(sc, h->instance_id, h->prim_id, ray, &r))
+        return 1;
+    const double dt = (double)h->t - r.t;
+    if (!(fabs(dt) <= XC_T_REL * fmax(1, fabs(r.t)) || fabs(dt) * r.dlen * r.cosa / r.s <= XC_EDGE_REL))
+        return 0;
+    int degenerate;
+    return boundary_distance(r.v, r.p, &degenerate) * r.cosa / r.s >= -XC_EDGE_REL;
 }
 
 static int grazes(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, double *rel)
@@ -298,9 +318,9 @@ void xc_classify(const xc_input *in, xc_result *out)
     const rto_hit_record *et = names_tri(e) ? e : (is_hit(e) && names_tri(in->embree_closest) ? in->embree_closest : NULL);
     char why[200] = "";
 
-    if (is_hit(o) && is_hit(e) && et && valid_tri(sc, o->instance_id, o->prim_id) &&
-        valid_tri(sc, et->instance_id, et->prim_id) && t_close(o->t, et->t) &&
-        (o->instance_id != et->instance_id || o->prim_id != et->prim_id)) {
+    if (is_hit(o) && is_hit(e) && et && t_close(o->t, et->t) &&
+        (o->instance_id != et->instance_id || o->prim_id != et->prim_id) && plausible(sc, ray, o) &&
+        plausible(sc, ray, et)) {
         if (share_vertex(sc, o, et, why, sizeof why)) {
             set(out, XC_TIE, "t %.9g / %.9g: %s", o->t, et->t, why);
             return;
@@ -362,7 +382,7 @@ void xc_classify(const xc_input *in, xc_result *out)
     for (int c = 0; c < 2; c++) {
         const rto_hit_record *h = cand[c];
         double rel;
-        if (h && valid_tri(sc, h->instance_id, h->prim_id) && grazes(sc, h->instance_id, h->prim_id, ray, &rel)) {
+        if (h && plausible(sc, ray, h) && grazes(sc, h->instance_id, h->prim_id, ray, &rel)) {
             out->edge_rel = rel;
             if (rel == 0)
                 set(out, XC_GRAZING, "%s's hit (triangle %u of instance %u, t %.9g) is on a ray nearly parallel to "

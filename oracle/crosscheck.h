@@ -30,7 +30,11 @@
  *                (|cos a| <= XC_PARALLEL_COS), where neither side's binary32 arithmetic decides hit or miss. When both
  *                hit different triangles, the nearer hit is the one the other side missed; with equal t, either.
  *                Everything is recomputed in binary64 from the scene's vertices and worldToObj.
- *   unexplained  anything else: a bug in one of the two tracers, or a case the classes above do not cover. */
+ *   unexplained  anything else: a bug in one of the two tracers, or a case the classes above do not cover.
+ * tie, coplanar, crossing and grazing explain a disagreement by the triangles the records name, so each such record
+ * must first be one its triangle can give: the ray meets the triangle's plane at the record's t (within the t
+ * tolerance or the t-rounding bound) at a point inside the triangle or within the grazing distance of it (rays
+ * within XC_PARALLEL_COS of the plane pass). A record naming a wrong triangle is therefore never explained away. */
 #ifndef RTO_ORACLE_CROSSCHECK_H
 #define RTO_ORACLE_CROSSCHECK_H
 

@@ -728,6 +728,132 @@ static void test_fixtures_against_binary64(void **state)
     check_fixture("Duck/glTF/Duck.gltf", 400, 14);
 }
 
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* The oracle against Embree, and mutations of the oracle's records                                                 */
+
+static rto_wf_ray *random_rays(const rto_scene *s, uint32_t n, uint32_t seed)
+{
+    rto_aabb b = rto_scene_aabb(s);
+    rto_wf_ray *r = malloc(n * sizeof *r);
+    assert_non_null(r);
+    float lo[3] = {b.min.x, b.min.y, b.min.z}, hi[3] = {b.max.x, b.max.y, b.max.z};
+    for (uint32_t i = 0; i < n; i++) {
+        float o[3];
+        for (int k = 0; k < 3; k++) {
+            float ext = hi[k] - lo[k];
+            o[k] = lo[k] - 0.5f * ext + 2 * ext * rto_unit(seed, 8 * i + (uint32_t)k);
+        }
+        float z = 2 * rto_unit(seed, 8 * i + 3) - 1, phi = 6.2831853f * rto_unit(seed, 8 * i + 4);
+        float rad = sqrtf(fmaxf(0, 1 - z * z));
+        r[i] = ray_make(o[0], o[1], o[2], rad * cosf(phi), rad * sinf(phi), z);
+    }
+    return r;
+}
+
+/* Classifies every ray; returns the number of unexplained ones and the first in *first. */
+static size_t count_unexplained(const rto_scene *s, const rto_wf_ray *r, const rto_hit_record *o,
+                                const rto_hit_record *e, size_t n, size_t *first, xc_result *first_res)
+{
+    size_t bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        xc_input in = {s, &r[i], &o[i], &e[i], NULL, NULL};
+        xc_result res;
+        xc_classify(&in, &res);
+        if (res.cls == XC_UNEXPLAINED && bad++ == 0) {
+            *first = i;
+            *first_res = res;
+        }
+    }
+    return bad;
+}
+
+/* The oracle (rto_trace) and Embree agree on random rays through rtstress:3 (27 instances); then each mutation of
+ * one oracle record (another triangle, t off by 1e-3, the miss flag flipped, another instance, a hit invented on a
+ * missing ray) is caught as unexplained at exactly that ray. */
+static void test_oracle_mutations(void **state)
+{
+    (void)state;
+    rto_scene *s = NULL;
+    rto_accel *acc = NULL;
+    emb_device *d = NULL;
+    emb_scene *e = NULL;
+    rto_msg msg = {{0}};
+    emb_scene_desc desc = {EMB_QUALITY_DEFAULT, true, false};
+    if (rto_scene_load("rtstress:3", &s, &msg) || rto_accel_build(s, NULL, &acc, &msg) ||
+        emb_device_create(1, NULL, &d, &msg) || emb_scene_create(d, s, &desc, &e, &msg))
+        fail_msg("rtstress:3: %s", msg.text);
+    enum { N = 3000 };
+    rto_wf_ray *r = random_rays(s, N, 21);
+    rto_hit_record *o = malloc(N * sizeof *o), *h = malloc(N * sizeof *h), *m = malloc(N * sizeof *m);
+    assert_true(o && h && m);
+    rto_trace_desc td = {2};
+    assert_int_equal(rto_trace(acc, r, N, &td, o, NULL, &msg), RTO_OK);
+    assert_int_equal(emb_trace(e, d, r, N, 2, h, &msg), RTO_OK);
+    size_t first = 0, agree = 0, hits = 0;
+    xc_result res;
+    for (size_t i = 0; i < N; i++) {
+        double rel;
+        agree += (size_t)xc_agree(&r[i], &o[i], &h[i], &rel);
+        hits += o[i].miss_flag == 0;
+    }
+    assert_int_equal(count_unexplained(s, r, o, h, N, &first, &res), 0);
+    assert_true(agree >= N - N / 100 && hits > N / 10);
+
+    /* rays whose oracle hit lies far from every edge (and one missing ray) to mutate */
+    size_t pick[4], npick = 0, miss_ray = N;
+    for (size_t i = 0; i < N && (npick < 4 || miss_ray == N); i++) {
+        int parallel;
+        if (o[i].miss_flag) {
+            if (miss_ray == N)
+                miss_ray = i;
+        } else if (npick < 4 && xc_edge_distance(s, o[i].instance_id, o[i].prim_id, &r[i], &parallel) > 0.05 &&
+                   !parallel) {
+            pick[npick++] = i;
+        }
+    }
+    assert_int_equal(npick, 4);
+    assert_true(miss_ray < N);
+    for (int mut = 0; mut < 5; mut++) {
+        memcpy(m, o, N * sizeof *m);
+        size_t at = mut < 4 ? pick[mut] : miss_ray;
+        const char *what = "";
+        switch (mut) {
+        case 0: /* a triangle on the opposite face of the cube (12 per cube, faces in pairs) */
+            m[at].prim_id = (m[at].prim_id + 6) % 12;
+            what = "another triangle";
+            break;
+        case 1:
+            m[at].t += 1e-3f * fmaxf(1, m[at].t);
+            what = "t off by 1e-3";
+            break;
+        case 2:
+            m[at] = miss_rec();
+            what = "miss flag flipped";
+            break;
+        case 3:
+            m[at].instance_id = (m[at].instance_id + 13) % s->instance_count;
+            what = "another instance";
+            break;
+        default:
+            m[at] = hit_rec(0, 0, 5);
+            what = "a hit invented on a missing ray";
+            break;
+        }
+        size_t bad = count_unexplained(s, r, m, h, N, &first, &res);
+        if (bad != 1 || first != at)
+            fail_msg("mutation '%s' at ray %zu: %zu unexplained, the first at ray %zu", what, at, bad, first);
+        print_message("mutation %-32s ray %4zu: unexplained (%s)\n", what, at, res.why);
+    }
+    free(r);
+    free(o);
+    free(h);
+    free(m);
+    emb_scene_destroy(e);
+    emb_device_destroy(d);
+    rto_accel_destroy(acc);
+    rto_scene_destroy(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -746,6 +872,7 @@ int main(void)
         cmocka_unit_test(test_class_grazing),
         cmocka_unit_test(test_class_robust_only),
         cmocka_unit_test(test_fixtures_against_binary64),
+        cmocka_unit_test(test_oracle_mutations),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
