@@ -99,11 +99,12 @@ npy_rays() { # FILE ROW... (each row 16 words)
         for w in "$@"; do u32 "$w"; done
     } >"$file"
 }
-# binary32 bit patterns: 0, 5, 1, -1, 1e30 (RTO_RAY_T_MAX), NaN
-F0=0 F5=0x40a00000 F1=0x3f800000 FM1=0xbf800000 FMAX=0x7149f2ca FNAN=0x7fc00000
-# ray WORDS: origin (0, 0, 5) toward -z or +z; flags, cull mask, kind vary. Box.gltf is the cube [-0.5, 0.5]^3.
-down() { echo "$F0 $F0 $F5 $F0 $F0 $F0 $FM1 $FMAX 0 $1 $2 0 0 0 $3 0"; }
-up() { echo "$F0 $F0 $F5 $F0 $F0 $F0 $F1 $FMAX 0 $1 $2 0 0 0 $3 0"; }
+# binary32 bit patterns: 0, 0.25, 0.125, 5, 1, -1, 1e30 (RTO_RAY_T_MAX), NaN
+F0=0 FQ=0x3e800000 FE=0x3e000000 F5=0x40a00000 F1=0x3f800000 FM1=0xbf800000 FMAX=0x7149f2ca FNAN=0x7fc00000
+# ray WORDS: origin (0.25, 0.125, 5) toward -z or +z (off the diagonals of the faces, so no ties); flags, cull mask,
+# kind vary. Box.gltf is the cube [-0.5, 0.5]^3.
+down() { echo "$FQ $FE $F5 $F0 $F0 $F0 $FM1 $FMAX 0 $1 $2 0 0 0 $3 0"; }
+up() { echo "$FQ $FE $F5 $F0 $F0 $F0 $F1 $FMAX 0 $1 $2 0 0 0 $3 0"; }
 # shellcheck disable=SC2046
 npy_rays "$T/rays.npy" $(down 0x1 0xff 2) $(down 0x21 0xff 2) $(down 0x11 0xff 2) $(down 0x1 0 2) \
     $(up 0x1 0xff 7) $(down 0xd 0xff 1)
@@ -113,7 +114,7 @@ run 0 "$RTO" crosscheck "$FIX/Box/glTF/Box.gltf" --rays "$T/rays.npy" --json &&
     [ "$(jget classes/1/hits)" = 0 ] && [ "$(jget classes/2/rays)" = shadow ] && [ "$(jget classes/2/hits)" = 1 ] &&
     [ "$(jget total/agree)" = 6 ] || { fail "crosscheck --rays FILE: wrong table"; sed 's/^/    | /' "$T/out" | head -40; }
 # a ray the oracle refuses (NaN direction), and a file that is not WfRay words
-npy_rays "$T/nan.npy" $(down 0x1 0xff 2) "$F0 $F0 $F5 $F0 $F0 $FNAN $FM1 $FMAX 0 1 255 0 0 0 2 0"
+npy_rays "$T/nan.npy" $(down 0x1 0xff 2) $F0 $F0 $F5 $F0 $F0 $FNAN $FM1 $FMAX 0 1 255 0 0 0 2 0
 refused "$FIX/Box/glTF/Box.gltf" --rays "$T/nan.npy"
 has "ray 1" err
 head -c 100 "$T/rays.npy" >"$T/short.npy"
