@@ -10,7 +10,8 @@
 static const char build_usage[] =
     "usage: rtoracle build SCENE [--tlas sweep|karras] [--texture-budget MB] -o OUTDIR\n\n"
     "SCENE is a .gltf / .glb path or a procedural scene: triangle, rtstress:N (1..40),\n"
-    "instances:DIST:N (N boxes around the centroids of a centroid distribution, N <= 65536).\n"
+    "instances:DIST:N (N boxes around the centroids of a centroid distribution, N <= 65536),\n"
+    "sphere:L[:SEED] (a closed icosphere, L 0..7), random:SEED (rtoracle info --help lists them).\n"
     "Writes a bundle (atomically):\n"
     "  instances.npy            InstanceRecord: objToWorld, worldToObj (3x4 row-major), blas, customIndex,\n"
     "                           mask, sbtOffset, flags\n"

@@ -18,7 +18,10 @@ static const char info_usage[] =
     "  triangle            the VulkanTriangle sample: one triangle, one identity instance, its camera\n"
     "  rtstress:N          N x N x N instances of one unit cube, 2 units apart (1 <= N <= 40)\n"
     "  instances:DIST:N    N boxes of half-size 1e-4 on a centroid distribution (rtoracle keys --list),\n"
-    "                      0 <= N <= 65536, seed 1\n";
+    "                      0 <= N <= 65536, seed 1\n"
+    "  sphere:L            a closed unit icosphere, subdivision level L (0 <= L <= 7): 20 * 4^L triangles\n"
+    "  sphere:L:SEED       the same with each vertex moved along its radius to a seeded 0.6 .. 1.4 of it\n"
+    "  random:SEED         a seeded random scene: 1-4 meshes of 1-300 triangles, 1-40 transformed instances\n";
 
 static const char info_epilog[] =
     "Exit status: 0 loaded, 2 bad usage or a refused scene (one line on stderr says why).\n";

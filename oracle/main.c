@@ -15,6 +15,7 @@ static const struct {
     {"suite", cmd_suite, "write the distribution x size matrix of bundles a GPU harness runs"},
     {"build", cmd_build, "build a scene's TLAS and BLAS trees in their GPU layouts into a bundle"},
     {"check-bvh", cmd_check_bvh, "validate a GPU-built TLAS or BLAS node array"},
+    {"trace", cmd_trace, "trace rays (camera, shadow, random, grazing, axis or a file) into hit records"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
     {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
 };

@@ -20,3 +20,7 @@ mkdir -p "$out"
 "$rto" build fixtures/Box/glTF/Box.gltf -o "$out/build-Box" 2>/dev/null
 "$rto" build fixtures/SimpleMeshes/glTF/SimpleMeshes.gltf -o "$out/build-SimpleMeshes" 2>/dev/null
 "$rto" build fixtures/StanfordBunny/bunny.gltf -o "$out/build-bunny" 2>/dev/null
+# Traces: primary rays at 64x48 (with the camera block) and random rays, through the Box fixture and rtstress:2.
+"$rto" trace fixtures/Box/glTF/Box.gltf --rays primary --width 64 --height 48 -o "$out/trace-Box" 2>/dev/null
+"$rto" trace rtstress:2 --rays primary --width 64 --height 48 -o "$out/trace-rtstress-2" 2>/dev/null
+"$rto" trace rtstress:2 --rays random --count 1024 -o "$out/trace-rtstress-2-random" 2>/dev/null

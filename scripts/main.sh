@@ -21,5 +21,18 @@ done < <(find "$fix" \( -name '*.gltf' -o -name '*.glb' \) | sort)
 for spec in triangle rtstress:16 instances:clustered:4097; do
     build/oracle/rtoracle build "$spec" -o "$out/build/${spec//:/-}"
 done
+# Trace bundles: primary and shadow rays at 320x240 through every fixture scene and the procedural ones (the
+# inputs of a GPU's TRACE kernel and the hit records it must write).
+mkdir -p "$out/trace"
+while IFS= read -r f; do
+    name=$(basename "${f%.*}")
+    for set in primary shadow; do
+        build/oracle/rtoracle trace "$f" --rays $set --width 320 --height 240 -o "$out/trace/$name-$set" \
+            2>"$out/build.err" || { cat "$out/build.err" >&2; exit 1; }
+    done
+done < <(find "$fix" \( -name '*.gltf' -o -name '*.glb' \) | sort)
+for spec in triangle rtstress:16; do
+    build/oracle/rtoracle trace "$spec" --rays primary --width 320 --height 240 -o "$out/trace/${spec//:/-}-primary"
+done
 rm -f "$out/build.err"
 echo "rtoracle: built build/oracle/rtoracle; golden bundles in $out/"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite: unit and command-line tests on an optimised build, again under AddressSanitizer +
 # UndefinedBehaviorSanitizer, and a determinism check that builds at -O0 (sanitized), -O2 and -O3 write
-# byte-identical bundles, and that `meson install` gives a library a user's program builds against via pkg-config.
+# byte-identical bundles (traces also with 1 and 2 threads), and that `meson install` gives a library a user's program builds against via pkg-config.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/deps.sh
@@ -28,12 +28,26 @@ for b in build build-asan build-release; do
     "$b/oracle/rtoracle" build "$fix/CornellBox-nvpro-glTF/cornellBox.gltf" -o "$tmp/$b/cornell" 2>/dev/null
     "$b/oracle/rtoracle" build "$fix/StanfordBunny/bunny.gltf" --tlas karras -o "$tmp/$b/bunny" 2>/dev/null
     "$b/oracle/rtoracle" build rtstress:12 -o "$tmp/$b/rtstress" 2>/dev/null
+    # Traces with 1 and 2 threads: every ray set, both TLAS layouts, a fixture with a camera and the bunny.
+    for t in 1 2; do
+        "$b/oracle/rtoracle" trace "$fix/CornellBox-nvpro-glTF/cornellBox.gltf" --rays shadow --width 96 --height 72 \
+            --threads $t -o "$tmp/$b/trace-cornell-$t" 2>/dev/null
+        "$b/oracle/rtoracle" trace "$fix/StanfordBunny/bunny.gltf" --rays primary --width 96 --height 72 \
+            --tlas karras --threads $t -o "$tmp/$b/trace-bunny-$t" 2>/dev/null
+        for set in random grazing axis; do
+            "$b/oracle/rtoracle" trace rtstress:6 --rays $set --count 20000 --threads $t \
+                -o "$tmp/$b/trace-rtstress-$set-$t" 2>/dev/null
+        done
+    done
+    for d in "$tmp/$b"/trace-*-1; do
+        diff -r "$d" "${d%-1}-2" >/dev/null || { echo "FAIL: $d differs between 1 and 2 threads" >&2; exit 1; }
+    done
 done
 diff -r "$tmp/build" "$tmp/build-asan" >/dev/null && diff -r "$tmp/build" "$tmp/build-release" >/dev/null || {
     echo "FAIL: bundles differ between optimisation levels" >&2
     exit 1
 }
-echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases and 3 build bundles byte-identical at -O0/asan, -O2, -O3"
+echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases, 3 build bundles and 5 trace bundles byte-identical at -O0/asan, -O2, -O3 and with 1 and 2 threads"
 echo "== install: a user's program built against the installed library through pkg-config"
 bash tests/install.sh build-release
 echo "== all tests passed"

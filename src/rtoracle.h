@@ -521,7 +521,13 @@ typedef struct rto_scene_load_desc {
 
 /**
  * Loads a scene: a .gltf / .glb path, or a procedural spec: "triangle", "rtstress:N" (N x N x N cube instances,
- * 1 <= N <= 40), "instances:DIST:N" (N small boxes whose centroids follow centroid distribution DIST, N <= 65536).
+ * 1 <= N <= 40), "instances:DIST:N" (N small boxes whose centroids follow centroid distribution DIST, N <= 65536),
+ * "sphere:L" (a closed unit icosphere of subdivision level L, 0 <= L <= 7: 10 * 4^L + 2 shared vertices,
+ * 20 * 4^L triangles, counter-clockwise seen from outside), "sphere:L:SEED" (the same with every vertex moved along
+ * its radius to a seeded 0.6 .. 1.4 of it: still closed), "random:SEED" (a seeded random scene: 1-4 meshes of
+ * 1-300 triangles with shared edges, slivers and degenerate ones, 1-40 instances with rotations, non-uniform and
+ * mirroring scales, varied customIndex and sbtOffset, and one mask-0 instance when there are 3 or more). SEED is a
+ * decimal u32.
  * desc may be NULL (the defaults). Malformed, unsupported or non-finite input is refused with RTO_ERR_PARSE /
  * RTO_ERR_UNSUPPORTED / RTO_ERR_INVALID_ARGUMENT, and a file that cannot be read (missing, or not a regular file:
  * a FIFO, a directory, a device) with RTO_ERR_IO; msg gets one line of valid UTF-8 that names the file once. glTF 1.0
@@ -1115,8 +1121,9 @@ rto_status rto_trace_brute(const rto_scene *scene, const rto_wf_ray *rays, size_
 rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, uint32_t height,
                                     rto_camera_uniforms *out, rto_msg *msg);
 /** A camera framing a box: looking at its centre from the Stage-2 direction (0, 2, 5), far enough that the box's
- * bounding sphere fits the vertical and horizontal field of view (fovY 60 degrees), near and far around it. An empty
- * box gives rto_camera_default(). */
+ * bounding sphere fits the vertical and horizontal field of view (fovY 60 degrees, image aspect `aspect`; <= 0 counts
+ * as 1), near and far around it; its own aspect is left 0 (the image's). An empty or non-finite box gives
+ * rto_camera_default(). docs/trace.md states the formula. */
 rto_camera rto_camera_frame(const rto_aabb *bounds, float aspect);
 
 /** The primary ray of pixel (x, y) per the seed's generateRay (pixel centre x + 0.5, y + 0.5; NDC y flipped; row 0

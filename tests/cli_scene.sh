@@ -65,8 +65,11 @@ run 0 "$RTO" info triangle && has "^instances:  1$" out && has "position (0, 0, 
 run 0 "$RTO" info rtstress:3 && has "^instances:  27$" out && has "12 unique" out && has "324 instanced" out
 run 0 "$RTO" info instances:clustered:4097 --json && has '"instances": 4097' out
 run 0 "$RTO" info instances:uniform:0 && has "^instances:  0$" out
+run 0 "$RTO" info sphere:2 && has "320 unique" out && has "^vertices:   162$" out
+run 0 "$RTO" info sphere:3:7 && has "1280 unique" out && has "icosphere-bumpy" out
+run 0 "$RTO" info random:5 --json && has '"cameras"' out
 for spec in rtstress:0 rtstress:41 rtstress:abc instances:random:5 instances:uniform:65537 nope.obj "$T/missing.gltf" \
-    foo:bar ""; do
+    foo:bar "" sphere:8 sphere:1:x random: random:-1; do
     refused "$RTO" info "$spec"
 done
 refused "$RTO" info instances:random:5 && has "not a centroid distribution" err

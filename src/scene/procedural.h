@@ -9,11 +9,12 @@
 #pragma GCC visibility push(hidden)
 #endif
 
-/** 1 if spec names a procedural scene kind ("triangle", "rtstress:...", "instances:..."), valid or not. */
+/** 1 if spec names a procedural scene kind ("triangle", "rtstress:...", "instances:...", "sphere:...",
+ * "random:..."), valid or not. */
 int rto__procedural_is(const char *spec);
 
-/** Fills an empty scene from a procedural spec ("triangle", "rtstress:N", "instances:DIST:N"); every failure
- * message quotes the spec. */
+/** Fills an empty scene from a procedural spec ("triangle", "rtstress:N", "instances:DIST:N", "sphere:L[:SEED]",
+ * "random:SEED"); every failure message quotes the spec. */
 rto_status rto__procedural_load(const char *spec, rto_scene *scene, rto_msg *msg);
 
 #if defined(__GNUC__)

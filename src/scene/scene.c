@@ -50,7 +50,7 @@ rto_status rto_scene_load_ex(const char *spec, const rto_scene_load_desc *desc, 
     else
         st = rto_fail(&why, RTO_ERR_INVALID_ARGUMENT,
                       "'%.200s' is neither a .gltf / .glb path nor a procedural scene (triangle, rtstress:N, "
-                      "instances:DIST:N)",
+                      "instances:DIST:N, sphere:L[:SEED], random:SEED)",
                       spec);
     if (!st)
         st = rto__scene_validate(s, &why);

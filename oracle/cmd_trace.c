@@ -1,0 +1,349 @@
+/* rtoracle trace: a scene's rays traced by the reference (DESIGN.md §6) into a trace bundle: everything a GPU's TRACE
+ * kernel reads (instances, trees, mesh geometry, rays, the camera block) and what it must write (one 96-byte hit
+ * record per ray), plus per-ray traversal counters and their histograms in the manifest. The library builds the trees
+ * (checked like `rtoracle build`), generates or loads the rays and traces them; the command chooses and writes. */
+#include "cli.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char trace_usage[] =
+    "usage: rtoracle trace SCENE [--rays SET|FILE.npy] [--width W --height H] [--count N] [--seed S]\n"
+    "                      [--camera scene|auto|N|EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY] [--light X,Y,Z]\n"
+    "                      [--tlas sweep|karras] [--threads N] -o OUTDIR\n\n"
+    "SCENE is a .gltf / .glb path or a procedural scene (see rtoracle info --help).\n"
+    "Ray sets: primary (one camera ray per pixel), shadow (from each primary hit towards a distant light),\n"
+    "random (inside the scene bounds), grazing (aimed at triangle edges and vertices), axis (axis-parallel and\n"
+    "zero-component directions); or a .npy file of WfRay records (structured, (n, 16) words or flat).\n"
+    "Camera: scene = the scene's first camera, else an automatic framing (the default); auto = the framing;\n"
+    "N = the scene's camera N; or eye, target, up and the vertical field of view in degrees.\n"
+    "Writes a bundle (atomically): the build bundle's files (rtoracle build --help), and\n"
+    "  mesh_M_positions.npy     f32 (vertices, 3), mesh_M_indices.npy: u32 (triangles, 3), per mesh M\n"
+    "  rays.npy                 WfRay records traced\n"
+    "  hits.npy                 HitRecord, one per ray (96 bytes: t, instanceId, primId, hitGroup, bary,\n"
+    "                           customIndex, missFlag, objToWorld as column-major mat4x3)\n"
+    "  counters.npy             TraceCounters, one per ray: nodesVisited, boxTests, triangleTests,\n"
+    "                           instanceEntries\n"
+    "  camera.npy               CameraUniforms (144 bytes) for camera rays\n"
+    "  manifest.json            ray set, camera, hit and miss counts, counter statistics and histograms\n"
+    "The bytes do not depend on --threads.\n";
+
+static const opt_name tlas_names[] = {{"sweep", 0}, {"karras", 1}, {NULL, 0}};
+
+/* Most rays a command makes or reads: width * height or --count. */
+#define TRACE_MAX_RAYS (UINT64_C(1) << 26)
+
+/* Parses exactly n comma-separated finite numbers. */
+static bool parse_floats(const char *text, float *out, size_t n)
+{
+    const char *p = text;
+    for (size_t i = 0; i < n; i++) {
+        char *end = NULL;
+        const double v = strtod(p, &end);
+        if (end == p || !isfinite(v) || fabs(v) > 3.0e38)
+            return false;
+        out[i] = (float)v;
+        p = end;
+        if (i + 1 < n) {
+            if (*p != ',')
+                return false;
+            p++;
+        }
+    }
+    return *p == '\0';
+}
+
+/* The camera named by --camera into *cam; the automatic framing is resolved here, so the manifest can name the
+ * camera used whichever way it was chosen. Returns false (after one line) on a bad value. */
+static bool pick_camera(const char *spec, const rto_scene *sc, float aspect, rto_camera *cam)
+{
+    uint64_t index = 0;
+    float v[10];
+    const bool scene_camera = (!spec || !strcmp(spec, "scene")) && sc->camera_count;
+    if (scene_camera) {
+        *cam = sc->cameras[0];
+    } else if (!spec || !strcmp(spec, "scene") || !strcmp(spec, "auto")) {
+        const rto_aabb bounds = rto_scene_aabb(sc);
+        *cam = rto_camera_frame(&bounds, aspect);
+        snprintf(cam->name, sizeof cam->name, "auto");
+    } else if (opts_parse_uint(spec, UINT32_MAX, &index)) {
+        if (index >= sc->camera_count) {
+            cli_fail("trace", "--camera %s: the scene has %u camera%s", spec, sc->camera_count,
+                     sc->camera_count == 1 ? "" : "s");
+            return false;
+        }
+        *cam = sc->cameras[index];
+    } else if (parse_floats(spec, v, 10)) {
+        *cam = rto_camera_default();
+        snprintf(cam->name, sizeof cam->name, "command line");
+        cam->position = (rto_vec3){v[0], v[1], v[2]};
+        cam->target = (rto_vec3){v[3], v[4], v[5]};
+        cam->up = (rto_vec3){v[6], v[7], v[8]};
+        cam->fov_y = (float)((double)v[9] * 3.14159265358979323846 / 180.0);
+    } else {
+        cli_fail("trace", "--camera %s: expected scene, auto, a camera index or 10 numbers "
+                          "EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY", spec);
+        return false;
+    }
+    return true;
+}
+
+/* Reads a ray file: WfRay records in any form rto_layout_accept takes. */
+static rto_status read_rays(const char *path, rto_wf_ray **rays, size_t *n, rto_msg *msg)
+{
+    rto_npy npy = {0};
+    rto_status s = rto_npy_read(path, &npy, msg);
+    size_t count = 0;
+    if (!s)
+        s = rto_layout_accept(RTO_LAYOUT_WF_RAY, &npy, &count, msg);
+    if (!s && count > TRACE_MAX_RAYS)
+        s = rto_msg_set(msg, RTO_ERR_UNSUPPORTED, "%s: %zu rays (at most %llu)", path, count,
+                        (unsigned long long)TRACE_MAX_RAYS);
+    if (!s) {
+        *rays = cli_alloc(count, sizeof **rays);
+        if (!*rays)
+            s = rto_msg_set(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", count);
+        else if (count)
+            memcpy(*rays, npy.data, count * sizeof **rays);
+        *n = count;
+    }
+    rto_npy_free(&npy);
+    return s;
+}
+
+/* Counter statistics: min, max, mean and a histogram over power-of-two buckets (0, 1, 2-3, 4-7, ...). */
+static rto_status write_counter_stats(rto_bundle *b, const rto_trace_counters *c, size_t n)
+{
+    static const char *const names[4] = {"nodes_visited", "box_tests", "triangle_tests", "instance_entries"};
+    rto_status bad = RTO_OK;
+    for (int k = 0; k < 4; k++) {
+        uint64_t total = 0, hist[33] = {0};
+        uint32_t lo = UINT32_MAX, hi = 0;
+        for (size_t i = 0; i < n; i++) {
+            const uint32_t v = k == 0 ? c[i].nodes_visited
+                               : k == 1 ? c[i].box_tests
+                               : k == 2 ? c[i].triangle_tests
+                                        : c[i].instance_entries;
+            total += v;
+            lo = v < lo ? v : lo;
+            hi = v > hi ? v : hi;
+            unsigned bucket = 0;
+            while (bucket < 32 && (UINT64_C(1) << bucket) <= v)
+                bucket++;
+            hist[bucket]++;
+        }
+        char key[64], section[64];
+        snprintf(key, sizeof key, "%s_total", names[k]);
+        bad |= rto_bundle_set_int(b, "counters", key, (int64_t)total);
+        snprintf(key, sizeof key, "%s_min", names[k]);
+        bad |= rto_bundle_set_int(b, "counters", key, n ? lo : 0);
+        snprintf(key, sizeof key, "%s_max", names[k]);
+        bad |= rto_bundle_set_int(b, "counters", key, hi);
+        snprintf(key, sizeof key, "%s_mean", names[k]);
+        bad |= rto_bundle_set_real(b, "counters", key, n ? (double)total / (double)n : 0.0);
+        snprintf(section, sizeof section, "histogram_%s", names[k]);
+        for (unsigned j = 0; j <= 32; j++) {
+            if (!hist[j])
+                continue;
+            if (j <= 1)
+                snprintf(key, sizeof key, "%u", j);
+            else
+                snprintf(key, sizeof key, "%llu-%llu", 1ULL << (j - 1), (1ULL << j) - 1);
+            bad |= rto_bundle_set_int(b, section, key, (int64_t)hist[j]);
+        }
+    }
+    return bad;
+}
+
+static rto_status write_geometry(rto_bundle *b, const rto_scene *sc, rto_msg *msg)
+{
+    rto_status s = RTO_OK;
+    for (uint32_t m = 0; m < sc->mesh_count && !s; m++) {
+        const rto_mesh *mesh = &sc->meshes[m];
+        char name[RTO_BUNDLE_FILE_NAME_MAX];
+        rto_npy_desc d = rto_npy_desc_array(RTO_DTYPE_F32, 2, mesh->vertex_count, 3, 0);
+        s = rto_bundle_file_name(RTO_FILE_MESH_POSITIONS, m, name, sizeof name);
+        if (!s)
+            s = rto_bundle_add_npy(b, name, rto_bundle_file_role(RTO_FILE_MESH_POSITIONS), NULL, &d, mesh->positions,
+                                   msg);
+        d = rto_npy_desc_array(RTO_DTYPE_U32, 2, mesh->triangle_count, 3, 0);
+        if (!s)
+            s = rto_bundle_file_name(RTO_FILE_MESH_INDICES, m, name, sizeof name);
+        if (!s)
+            s = rto_bundle_add_npy(b, name, rto_bundle_file_role(RTO_FILE_MESH_INDICES), NULL, &d, mesh->indices, msg);
+    }
+    return s;
+}
+
+static rto_status add_file(rto_bundle *b, rto_bundle_file f, rto_layout layout, const void *data, size_t n,
+                           rto_msg *msg)
+{
+    char name[RTO_BUNDLE_FILE_NAME_MAX];
+    rto_status s = rto_bundle_file_name(f, 0, name, sizeof name);
+    const rto_npy_desc d = rto_layout_desc(layout, n);
+    return s ? s : rto_bundle_add_npy(b, name, rto_bundle_file_role(f), rto_layout_name(layout), &d, data, msg);
+}
+
+static void set_vec(rto_bundle *b, const char *key, rto_vec3 v)
+{
+    char text[96];
+    snprintf(text, sizeof text, "%.9g,%.9g,%.9g", (double)v.x, (double)v.y, (double)v.z);
+    rto_bundle_set_str(b, "camera", key, text);
+}
+
+int cmd_trace(int argc, char **argv)
+{
+    const char *out = NULL, *rays_arg = "primary", *camera_arg = NULL, *light_arg = NULL;
+    uint64_t width = 160, height = 120, count = 4096, seed = 1, threads = 0, budget_mb = 0;
+    unsigned karras = 0;
+    const opt_spec opts[] = {
+        OPT_STRING("rays", &rays_arg, "SET", "primary, shadow, random, grazing, axis, or a WfRay .npy file"),
+        OPT_UINT("width", &width, 1, 65536, "W", "image width (primary, shadow)", "160"),
+        OPT_UINT("height", &height, 1, 65536, "H", "image height (primary, shadow)", "120"),
+        OPT_UINT("count", &count, 1, TRACE_MAX_RAYS, "N", "rays of a random, grazing or axis set", "4096"),
+        OPT_UINT("seed", &seed, 0, CLI_SEED_MAX, "S", "seed of the generated set", "1"),
+        OPT_STRING("camera", &camera_arg, "CAM", "scene, auto, a camera index, or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY"),
+        OPT_STRING("light", &light_arg, "X,Y,Z", "direction towards the light of shadow rays (default 0.3,1,0.2)"),
+        OPT_ENUM("tlas", &karras, tlas_names, "T", "TLAS layout", "sweep"),
+        OPT_UINT("threads", &threads, 0, 256, "N", "threads (0: one per CPU); the output is the same", "0"),
+        OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
+                 "decoded texture memory (RGBA8, MiB) the scene may take", "256"),
+        OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
+        OPT_END,
+    };
+    const opt_command cmd = {"trace", trace_usage, "exit status: 0 written, 2 bad usage or input\n", opts, 1, 1,
+                             "one SCENE"};
+    opt_args args;
+    int rc = opts_parse(&cmd, argc, argv, &args);
+    if (rc >= 0)
+        return rc;
+    static const char *const required[] = {"output", NULL};
+    if ((rc = opts_require(&cmd, &args, required)))
+        return rc;
+    if ((uint64_t)width * height > TRACE_MAX_RAYS)
+        return cli_fail("trace", "--width %llu --height %llu: more than %llu rays", (unsigned long long)width,
+                        (unsigned long long)height, (unsigned long long)TRACE_MAX_RAYS);
+    rto_ray_set set = RTO_RAYS_PRIMARY;
+    const bool from_file = !rto_ray_set_parse(rays_arg, &set);
+    if (from_file && !strstr(rays_arg, ".npy"))
+        return cli_fail("trace", "--rays %s: expected primary, shadow, random, grazing, axis or a .npy ray file",
+                        rays_arg);
+    float light[3] = {0, 0, 0};
+    if (light_arg && !parse_floats(light_arg, light, 3))
+        return cli_fail("trace", "--light %s: expected three numbers X,Y,Z", light_arg);
+
+    rto_msg msg = {{0}};
+    rto_scene *sc = NULL;
+    rto_scene_load_desc load = {0};
+    load.texture_budget_bytes = (size_t)(budget_mb << 20);
+    rto_status s = rto_scene_load_ex(args.arg[0], &load, &sc, &msg);
+    if (s)
+        return cli_fail("trace", "%s", msg.text);
+    for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
+        fprintf(stderr, "rtoracle trace: warning: %s\n", sc->warnings[w]);
+    rto_camera cam;
+    if (!pick_camera(camera_arg, sc, (float)width / (float)height, &cam)) {
+        rto_scene_destroy(sc);
+        return EXIT_BAD_INPUT;
+    }
+    rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+    rto_accel *acc = NULL;
+    rto_wf_ray *rays = NULL;
+    rto_hit_record *hits = NULL;
+    rto_trace_counters *counters = NULL;
+    rto_bundle *b = NULL;
+    rto_camera_uniforms cu;
+    memset(&cu, 0, sizeof cu);
+    size_t n = 0;
+    rto_report r;
+    s = rto_accel_build(sc, &adesc, &acc, &msg);
+    if (!s && (s = rto_accel_check(acc, &r, &msg)) == RTO_ERR_MISMATCH) {
+        rto_scene_destroy(sc);
+        rto_accel_destroy(acc);
+        return cli_fail("trace", "internal self-check of the trees failed: %s", msg.text);
+    }
+    rto_rays_desc rd;
+    memset(&rd, 0, sizeof rd);
+    rd.set = set;
+    rd.seed = (uint32_t)seed;
+    rd.width = (uint32_t)width;
+    rd.height = (uint32_t)height;
+    rd.camera = &cam;
+    rd.count = (size_t)count;
+    memcpy(rd.light_dir, light, sizeof light);
+    rd.threads = (uint32_t)threads;
+    if (!s && from_file) {
+        s = read_rays(rays_arg, &rays, &n, &msg);
+    } else if (!s) {
+        const size_t cap = rto_rays_capacity(&rd);
+        rays = cli_alloc(cap, sizeof *rays);
+        s = rays ? rto_rays_generate(acc, &rd, rays, cap, &n, &cu, &msg)
+                 : rto_msg_set(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", cap);
+    }
+    if (!s) {
+        hits = cli_alloc(n, sizeof *hits);
+        counters = cli_alloc(n, sizeof *counters);
+        if (!hits || !counters)
+            s = rto_msg_set(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu hit records", n);
+    }
+    const rto_trace_desc td = {(uint32_t)threads};
+    if (!s)
+        s = rto_trace(acc, rays, n, &td, hits, counters, &msg);
+    if (!s)
+        s = rto_bundle_begin(out, "trace", &b, &msg);
+    if (!s)
+        s = rto_accel_write_bundle(acc, b, &msg);
+    if (!s)
+        s = write_geometry(b, sc, &msg);
+    if (!s)
+        s = add_file(b, RTO_FILE_RAYS, RTO_LAYOUT_WF_RAY, rays, n, &msg);
+    if (!s)
+        s = add_file(b, RTO_FILE_HITS, RTO_LAYOUT_HIT_RECORD, hits, n, &msg);
+    if (!s)
+        s = add_file(b, RTO_FILE_COUNTERS, RTO_LAYOUT_TRACE_COUNTERS, counters, n, &msg);
+    const bool camera_rays = !from_file && (set == RTO_RAYS_PRIMARY || set == RTO_RAYS_SHADOW);
+    if (!s && camera_rays)
+        s = add_file(b, RTO_FILE_CAMERA, RTO_LAYOUT_CAMERA, &cu, 1, &msg);
+    if (!s) {
+        size_t hit_count = 0;
+        for (size_t i = 0; i < n; i++)
+            hit_count += hits[i].miss_flag == 0;
+        rto_bundle_set_str(b, "trace", "rays", from_file ? rays_arg : rto_ray_set_name(set));
+        rto_bundle_set_int(b, "trace", "count", (int64_t)n);
+        rto_bundle_set_int(b, "trace", "hits", (int64_t)hit_count);
+        rto_bundle_set_int(b, "trace", "misses", (int64_t)(n - hit_count));
+        if (!from_file) {
+            rto_bundle_set_int(b, "trace", "seed", (int64_t)seed);
+            if (camera_rays) {
+                rto_bundle_set_int(b, "trace", "width", (int64_t)width);
+                rto_bundle_set_int(b, "trace", "height", (int64_t)height);
+                rto_bundle_set_str(b, "camera", "name", cam.name);
+                set_vec(b, "position", cam.position);
+                set_vec(b, "target", cam.target);
+                set_vec(b, "up", cam.up);
+                rto_bundle_set_real(b, "camera", "fov_y_degrees", (double)cam.fov_y * 180.0 / 3.14159265358979323846);
+                rto_bundle_set_real(b, "camera", "znear", (double)cam.znear);
+                rto_bundle_set_real(b, "camera", "zfar", (double)cam.zfar);
+            }
+            if (set == RTO_RAYS_SHADOW) {
+                char text[96];
+                snprintf(text, sizeof text, "%.9g,%.9g,%.9g", (double)light[0], (double)light[1], (double)light[2]);
+                rto_bundle_set_str(b, "trace", "light", light_arg ? text : "default");
+            }
+        }
+        s = write_counter_stats(b, counters, n);
+        if (s)
+            rto_msg_set(&msg, s, "writing the manifest's counter statistics");
+    }
+    if (!s)
+        s = rto_bundle_commit(b, &msg);
+    else
+        rto_bundle_abort(b);
+    free(rays);
+    free(hits);
+    free(counters);
+    rto_accel_destroy(acc);
+    rto_scene_destroy(sc);
+    return cli_status("trace", s, &msg);
+}
