@@ -38,8 +38,10 @@ static void mesh_set(rto_scene *s, uint32_t m, const float *pos, uint32_t nv, co
     me->indices = malloc(12 * (size_t)(nt ? nt : 1));
     assert_non_null(me->positions);
     assert_non_null(me->indices);
-    memcpy(me->positions, pos, 12 * (size_t)nv);
-    memcpy(me->indices, idx, 12 * (size_t)nt);
+    if (nv)
+        memcpy(me->positions, pos, 12 * (size_t)nv);
+    if (nt)
+        memcpy(me->indices, idx, 12 * (size_t)nt);
     me->material = -1;
 }
 
