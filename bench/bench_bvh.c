@@ -14,12 +14,13 @@
  * rto_accel_build, so the BLAS cases include its TLAS over the scene's few instances, and the TLAS case the one
  * 12-triangle BLAS of the box.
  * Usage: bench_bvh [bunny.gltf] [2CylinderEngine.glb]. RTO_BENCH_EMBREE_CONFIG is appended to both devices' config
- * (e.g. "verbose=2" prints the builder Embree picked). */
+ * (e.g. "verbose=2" prints the builder Embree picked). Devices and mesh scenes are made by oracle/embree.c, as
+ * crosscheck makes them. */
 #define _GNU_SOURCE
-#include "rtoracle.h"
 #include "bench_util.h"
+#include "embree.h"
+#include "rtoracle.h"
 
-#include <embree3/rtcore.h>
 #include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -34,31 +35,35 @@ static void die(const char *what, const rto_msg *msg)
 /* The Embree configurations, in print order. */
 typedef struct econf {
     const char *name;
-    enum RTCBuildQuality q;
+    emb_quality q;
     int dev; /* 0: threads=1, 1: default thread count */
 } econf;
 
 static const econf confs[] = {
-    {"embree LOW (Morton)", RTC_BUILD_QUALITY_LOW, 0},
-    {"embree LOW (Morton)", RTC_BUILD_QUALITY_LOW, 1},
-    {"embree MEDIUM (SAH)", RTC_BUILD_QUALITY_MEDIUM, 0},
-    {"embree MEDIUM (SAH)", RTC_BUILD_QUALITY_MEDIUM, 1},
+    {"embree LOW (Morton)", EMB_QUALITY_LOW, 0},
+    {"embree LOW (Morton)", EMB_QUALITY_LOW, 1},
+    {"embree MEDIUM (SAH)", EMB_QUALITY_MEDIUM, 0},
+    {"embree MEDIUM (SAH)", EMB_QUALITY_MEDIUM, 1},
 };
 #define NCONF (sizeof confs / sizeof confs[0])
 
-static RTCDevice devices[2];
+static emb_device *devices[2];
 static int hw_threads;
 
-static RTCDevice new_device(const char *base)
+/* Embree errors arrive through the device's callback (oracle/embree.c): stop with the message. */
+static void check(emb_device *d, const char *what)
 {
-    const char *extra = getenv("RTO_BENCH_EMBREE_CONFIG");
-    char cfg[256];
-    snprintf(cfg, sizeof cfg, "%s%s%s", base, *base && extra ? "," : "", extra ? extra : "");
-    RTCDevice d = rtcNewDevice(cfg);
-    if (!d || rtcGetDeviceError(d) != RTC_ERROR_NONE) {
-        fprintf(stderr, "bench_bvh: rtcNewDevice(\"%s\") failed\n", cfg);
-        exit(1);
-    }
+    rto_msg msg = {{0}};
+    if (emb_device_check(d, what, &msg))
+        die(what, &msg);
+}
+
+static emb_device *new_device(uint32_t threads)
+{
+    rto_msg msg = {{0}};
+    emb_device *d = NULL;
+    if (emb_device_create(threads, getenv("RTO_BENCH_EMBREE_CONFIG"), &d, &msg))
+        die("Embree device", &msg);
     return d;
 }
 
@@ -75,19 +80,13 @@ static double oracle_build(const rto_scene *s)
     return t;
 }
 
-static RTCScene embree_mesh_scene(RTCDevice dev, const rto_mesh *m, enum RTCBuildQuality q)
+/* One Embree scene of one mesh, uncommitted (the commit is what is timed). */
+static RTCScene embree_mesh_scene(emb_device *dev, const rto_mesh *m, emb_quality q)
 {
-    RTCScene sc = rtcNewScene(dev);
-    rtcSetSceneBuildQuality(sc, q);
-    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    rtcSetGeometryBuildQuality(g, q);
-    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, m->vertex_count);
-    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, m->triangle_count);
-    memcpy(vb, m->positions, (size_t)m->vertex_count * 12);
-    memcpy(ib, m->indices, (size_t)m->triangle_count * 12);
-    rtcCommitGeometry(g);
-    rtcAttachGeometry(sc, g);
-    rtcReleaseGeometry(g);
+    RTCScene sc = emb_mesh_scene_new(dev, m, q, false);
+    check(dev, "mesh scene");
+    if (!sc)
+        die("mesh scene", NULL);
     return sc;
 }
 
@@ -102,6 +101,7 @@ static double embree_blas(const rto_scene *s, const econf *c)
         double t0 = now();
         rtcCommitScene(sc);
         total += now() - t0;
+        check(devices[c->dev], "BLAS commit");
         rtcReleaseScene(sc);
     }
     return total;
@@ -111,23 +111,17 @@ static double embree_blas(const rto_scene *s, const econf *c)
  * commit's alone in *commit. */
 static double embree_tlas(const rto_scene *s, RTCScene blas, const econf *c, double *commit)
 {
-    RTCDevice dev = devices[c->dev];
+    emb_device *dev = devices[c->dev];
     double t0 = now();
-    RTCScene top = rtcNewScene(dev);
-    rtcSetSceneBuildQuality(top, c->q);
-    for (uint32_t i = 0; i < s->instance_count; i++) {
-        RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
-        rtcSetGeometryBuildQuality(g, c->q);
-        rtcSetGeometryInstancedScene(g, blas);
-        rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, s->instances[i].obj_to_world.m);
-        rtcCommitGeometry(g);
-        rtcAttachGeometry(top, g);
-        rtcReleaseGeometry(g);
-    }
+    RTCScene top = rtcNewScene(emb_device_rtc(dev));
+    rtcSetSceneBuildQuality(top, emb_quality_rtc(c->q));
+    for (uint32_t i = 0; i < s->instance_count; i++)
+        emb_instance_attach(dev, top, blas, &s->instances[i], i, c->q);
     double t1 = now();
     rtcCommitScene(top);
     double t = now() - t0;
     *commit = now() - t1;
+    check(dev, "TLAS commit");
     rtcReleaseScene(top);
     return t;
 }
@@ -153,12 +147,12 @@ static void user_bounds(const struct RTCBoundsFunctionArguments *args)
 /* One user geometry of instance_count boxes and rtcCommitScene. Returns seconds. */
 static double embree_user_tlas(const user_tlas *u, const econf *c)
 {
-    RTCDevice dev = devices[c->dev];
+    RTCDevice dev = emb_device_rtc(devices[c->dev]);
     double t0 = now();
     RTCScene top = rtcNewScene(dev);
-    rtcSetSceneBuildQuality(top, c->q);
+    rtcSetSceneBuildQuality(top, emb_quality_rtc(c->q));
     RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_USER);
-    rtcSetGeometryBuildQuality(g, c->q);
+    rtcSetGeometryBuildQuality(g, emb_quality_rtc(c->q));
     rtcSetGeometryUserPrimitiveCount(g, u->scene->instance_count);
     rtcSetGeometryUserData(g, (void *)(uintptr_t)u);
     rtcSetGeometryBoundsFunction(g, user_bounds, NULL);
@@ -167,6 +161,7 @@ static double embree_user_tlas(const user_tlas *u, const econf *c)
     rtcReleaseGeometry(g);
     rtcCommitScene(top);
     double t = now() - t0;
+    check(devices[c->dev], "user-geometry TLAS commit");
     rtcReleaseScene(top);
     return t;
 }
@@ -228,8 +223,9 @@ static void bench_tlas(const char *spec)
         die(spec, &msg);
     RTCScene blas[2];
     for (int d = 0; d < 2; d++) {
-        blas[d] = embree_mesh_scene(devices[d], &s->meshes[0], RTC_BUILD_QUALITY_MEDIUM);
+        blas[d] = embree_mesh_scene(devices[d], &s->meshes[0], EMB_QUALITY_MEDIUM);
         rtcCommitScene(blas[d]);
+        check(devices[d], "BLAS commit");
     }
     user_tlas u = {s, rto_mesh_aabb(&s->meshes[0])};
     double to[RUNS], te[NCONF][RUNS], tc[NCONF][RUNS], tu[NCONF][RUNS], me[NCONF], mc[NCONF], mu[NCONF];
@@ -271,8 +267,8 @@ int main(int argc, char **argv)
 {
     cpu_set_t set;
     hw_threads = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 0;
-    devices[0] = new_device("threads=1");
-    devices[1] = new_device("");
+    devices[0] = new_device(1);
+    devices[1] = new_device(0);
     print_load("before");
     printf("%-36s %8s  %-24s %7s %9s %9s %12s\n", "case", "prims", "builder", "threads", "ms", "Mprims/s",
            "oracle/this");
@@ -283,7 +279,7 @@ int main(int argc, char **argv)
            "> 1 means the oracle is slower\n",
            RUNS, RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH);
     print_load("after");
-    rtcReleaseDevice(devices[0]);
-    rtcReleaseDevice(devices[1]);
+    emb_device_destroy(devices[0]);
+    emb_device_destroy(devices[1]);
     return 0;
 }

@@ -106,5 +106,6 @@ int cmd_check_bvh(int argc, char **argv);
 int cmd_check_hits(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_trace(int argc, char **argv);
+int cmd_crosscheck(int argc, char **argv);
 
 #endif

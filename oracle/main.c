@@ -18,6 +18,7 @@ static const struct {
     {"trace", cmd_trace, "trace rays (camera, shadow, random, grazing, axis or a file) into hit records"},
     {"check-hits", cmd_check_hits, "validate a GPU's hit records against a trace bundle (ties allowed)"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
+    {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
 };
 
 static void usage(FILE *to)

@@ -1,0 +1,271 @@
+/* Trace benchmark: the oracle's ordered traversal (rto_trace) beside Embree 3 on the same rays in the same process.
+ *
+ * Table 1: Mrays/s for primary, shadow and random rays on the Stanford bunny, 2CylinderEngine and rtstress:16 at
+ * 1920x1080 (random: 1920 * 1080 rays; shadow: one per primary hit), with 1 thread and with all threads:
+ *   - the oracle: rto_trace with rto_trace_desc.threads 1, or 0 (one thread per online CPU);
+ *   - Embree: rtcIntersect1 per ray (rtcOccluded1 for the TERMINATE_ON_FIRST_HIT shadow rays) through the scene
+ *     mirror of oracle/embree.c (one RTCScene per mesh, one instance geometry per instance, as crosscheck builds
+ *     it). 1 thread: a device with "threads=1", traced in the calling thread. All threads: a device with Embree's
+ *     default thread count, traced by emb_trace's own pthreads over the same static partition rto_trace uses
+ *     ([k n / T, (k + 1) n / T)), so both sides get identical slices of work.
+ *   Embree is built with RTC_BUILD_QUALITY_HIGH (SAH with spatial splits, its fastest structure to trace) and its
+ *   default, non-robust intersection; a second column gives Embree with RTC_SCENE_FLAG_ROBUST, the mode crosscheck
+ *   compares against (same build quality).
+ * Table 2: the oracle's trace time for rtstress:N, N = 8, 16, 24, 32, 40 (512 to 64,000 instances), primary rays at
+ *   1920x1080, 1 thread and all threads, relative to N = 8.
+ * The timed region is the tracing call alone: scenes, trees, Embree mirrors and rays are made before the clock starts,
+ * and the hit records are allocated once. Each figure is the median of RUNS runs, oracle and Embree interleaved.
+ * oracle/embree is time(oracle) / time(Embree): > 1 means the oracle is slower. Hits of both sides are counted
+ * outside the clock and printed, so a reader sees both traced the same rays to the same surfaces.
+ * Usage: bench_trace [--width W] [--height H] [--json] [bunny.gltf] [2CylinderEngine.glb]. */
+#define _GNU_SOURCE
+#include "bench_util.h"
+#include "embree.h"
+#include "rtoracle.h"
+
+#include <jansson.h>
+#include <sched.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static uint32_t width = 1920, height = 1080;
+static int hw_threads;
+static emb_device *devices[2]; /* 0: threads=1, 1: all */
+static json_t *jrows, *jstress;
+
+static void die(const char *what, const rto_msg *msg)
+{
+    fprintf(stderr, "bench_trace: %s: %s\n", what, msg ? msg->text : "");
+    exit(1);
+}
+
+typedef struct rayset {
+    rto_ray_set set;
+    rto_wf_ray *rays;
+    size_t n;
+} rayset;
+
+static rayset make_rays(const rto_accel *acc, rto_ray_set set)
+{
+    rto_rays_desc d;
+    memset(&d, 0, sizeof d);
+    d.set = set;
+    d.seed = 1;
+    d.width = width;
+    d.height = height;
+    d.count = (size_t)width * height;
+    rayset r = {set, NULL, 0};
+    size_t cap = rto_rays_capacity(&d);
+    r.rays = malloc((cap ? cap : 1) * sizeof *r.rays);
+    rto_msg msg = {{0}};
+    if (!r.rays || rto_rays_generate(acc, &d, r.rays, cap, &r.n, NULL, &msg))
+        die("rto_rays_generate", &msg);
+    return r;
+}
+
+static double time_oracle(const rto_accel *acc, const rayset *r, uint32_t threads, rto_hit_record *hits)
+{
+    rto_msg msg = {{0}};
+    rto_trace_desc td = {threads};
+    double t0 = now();
+    if (rto_trace(acc, r->rays, r->n, &td, hits, NULL, &msg))
+        die("rto_trace", &msg);
+    return now() - t0;
+}
+
+static double time_embree(const emb_scene *e, emb_device *d, const rayset *r, uint32_t threads, rto_hit_record *hits)
+{
+    rto_msg msg = {{0}};
+    double t0 = now();
+    if (emb_trace(e, d, r->rays, r->n, threads, hits, &msg))
+        die("emb_trace", &msg);
+    return now() - t0;
+}
+
+static size_t count_hits(const rto_hit_record *h, size_t n)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++)
+        k += h[i].miss_flag == 0;
+    return k;
+}
+
+static void bench_scene(const char *spec, const char *label)
+{
+    rto_msg msg = {{0}};
+    rto_scene *s = NULL;
+    rto_accel *acc = NULL;
+    if (rto_scene_load(spec, &s, &msg)) {
+        fprintf(stderr, "bench_trace: skipping %s: %s\n", spec, msg.text);
+        return;
+    }
+    if (rto_accel_build(s, NULL, &acc, &msg))
+        die(spec, &msg);
+    /* [device][0: fast, 1: robust] */
+    emb_scene *e[2][2];
+    for (int d = 0; d < 2; d++)
+        for (int rb = 0; rb < 2; rb++) {
+            emb_scene_desc desc = {EMB_QUALITY_HIGH, rb == 1, false};
+            if (emb_scene_create(devices[d], s, &desc, &e[d][rb], &msg))
+                die("emb_scene_create", &msg);
+        }
+    const rto_ray_set sets[3] = {RTO_RAYS_PRIMARY, RTO_RAYS_SHADOW, RTO_RAYS_RANDOM};
+    for (int k = 0; k < 3; k++) {
+        rayset r = make_rays(acc, sets[k]);
+        rto_hit_record *ho = malloc((r.n ? r.n : 1) * sizeof *ho), *he = malloc((r.n ? r.n : 1) * sizeof *he);
+        if (!ho || !he)
+            die("out of memory", NULL);
+        for (int d = 0; d < 2; d++) {
+            uint32_t threads = d ? 0 : 1;
+            double to[RUNS], te[RUNS], tr[RUNS];
+            for (int run = 0; run < RUNS; run++) {
+                to[run] = time_oracle(acc, &r, threads, ho);
+                te[run] = time_embree(e[d][0], devices[d], &r, threads, he);
+                tr[run] = time_embree(e[d][1], devices[d], &r, threads, he);
+            }
+            size_t hits_o = count_hits(ho, r.n), hits_e = count_hits(he, r.n);
+            double mo = median(to), me = median(te), mr = median(tr);
+            double n = (double)r.n;
+            char th[16];
+            snprintf(th, sizeof th, d ? "all(%d)" : "1", hw_threads);
+            printf("%-16s %-8s %8s %9zu %9zu %9zu %9.1f %8.2f %9.1f %8.2f %7.2f %9.1f %8.2f %7.2f\n", label,
+                   rto_ray_set_name(sets[k]), th, r.n, hits_o, hits_e, mo * 1e3, n / mo * 1e-6, me * 1e3,
+                   n / me * 1e-6, mo / me, mr * 1e3, n / mr * 1e-6, mo / mr);
+            json_array_append_new(jrows, json_pack("{s:s, s:s, s:i, s:I, s:I, s:I, s:f, s:f, s:f, s:f, s:f, s:f}",
+                "scene", label, "rays", rto_ray_set_name(sets[k]), "threads", d ? hw_threads : 1, "count",
+                (json_int_t)r.n, "oracle_hits", (json_int_t)hits_o, "embree_hits", (json_int_t)hits_e,
+                "oracle_ms", mo * 1e3, "oracle_mrays", n / mo * 1e-6, "embree_ms", me * 1e3, "embree_mrays",
+                n / me * 1e-6, "embree_robust_ms", mr * 1e3, "embree_robust_mrays", n / mr * 1e-6));
+            fflush(stdout);
+        }
+        free(ho);
+        free(he);
+        free(r.rays);
+    }
+    for (int d = 0; d < 2; d++)
+        for (int rb = 0; rb < 2; rb++)
+            emb_scene_destroy(e[d][rb]);
+    rto_accel_destroy(acc);
+    rto_scene_destroy(s);
+}
+
+static void bench_stress(void)
+{
+    printf("\noracle trace cost for rtstress:N, primary rays at %ux%u (median of %d runs)\n", width, height, RUNS);
+    printf("%-12s %9s %9s %9s | %10s %8s %7s | %10s %8s %7s\n", "scene", "instances", "rays", "hits", "1 thr ms",
+           "Mrays/s", "vs N=8", "all ms", "Mrays/s", "vs N=8");
+    double base[2] = {0, 0};
+    for (uint32_t n = 8; n <= 40; n += 8) {
+        char spec[32];
+        snprintf(spec, sizeof spec, "rtstress:%u", n);
+        rto_msg msg = {{0}};
+        rto_scene *s = NULL;
+        rto_accel *acc = NULL;
+        if (rto_scene_load(spec, &s, &msg) || rto_accel_build(s, NULL, &acc, &msg))
+            die(spec, &msg);
+        rayset r = make_rays(acc, RTO_RAYS_PRIMARY);
+        rto_hit_record *h = malloc(r.n * sizeof *h);
+        if (!h)
+            die("out of memory", NULL);
+        double m[2];
+        for (int d = 0; d < 2; d++) {
+            double t[RUNS];
+            for (int run = 0; run < RUNS; run++)
+                t[run] = time_oracle(acc, &r, d ? 0 : 1, h);
+            m[d] = median(t);
+            if (n == 8)
+                base[d] = m[d];
+        }
+        size_t hits = count_hits(h, r.n);
+        printf("%-12s %9u %9zu %9zu | %10.1f %8.2f %7.2f | %10.1f %8.2f %7.2f\n", spec, s->instance_count, r.n, hits,
+               m[0] * 1e3, (double)r.n / m[0] * 1e-6, m[0] / base[0], m[1] * 1e3, (double)r.n / m[1] * 1e-6,
+               m[1] / base[1]);
+        json_array_append_new(jstress, json_pack("{s:s, s:i, s:I, s:I, s:f, s:f, s:f, s:f}", "scene", spec,
+            "instances", (int)s->instance_count, "rays", (json_int_t)r.n, "hits", (json_int_t)hits, "ms_1_thread",
+            m[0] * 1e3, "ms_all_threads", m[1] * 1e3, "rel_1_thread", m[0] / base[0], "rel_all_threads",
+            m[1] / base[1]));
+        fflush(stdout);
+        free(h);
+        free(r.rays);
+        rto_accel_destroy(acc);
+        rto_scene_destroy(s);
+    }
+}
+
+static void print_load(const char *when)
+{
+    FILE *f = fopen("/proc/loadavg", "r");
+    char line[128] = "?\n";
+    if (f) {
+        if (!fgets(line, sizeof line, f))
+            snprintf(line, sizeof line, "?\n");
+        fclose(f);
+    }
+    printf("load average %s: %s", when, line);
+}
+
+static uint32_t arg_u32(const char *text)
+{
+    char *end;
+    unsigned long v = strtoul(text, &end, 10);
+    if (*end || v == 0 || v > 16384) {
+        fprintf(stderr, "bench_trace: bad size '%s'\n", text);
+        exit(2);
+    }
+    return (uint32_t)v;
+}
+
+int main(int argc, char **argv)
+{
+    const char *scenes[8];
+    int nscenes = 0;
+    int json = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--width") && i + 1 < argc)
+            width = arg_u32(argv[++i]);
+        else if (!strcmp(argv[i], "--height") && i + 1 < argc)
+            height = arg_u32(argv[++i]);
+        else if (!strcmp(argv[i], "--json"))
+            json = 1;
+        else if (nscenes < 6)
+            scenes[nscenes++] = argv[i];
+    }
+    cpu_set_t set;
+    hw_threads = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 0;
+    rto_msg msg = {{0}};
+    if (emb_device_create(1, NULL, &devices[0], &msg) || emb_device_create(0, NULL, &devices[1], &msg))
+        die("Embree device", &msg);
+    jrows = json_array();
+    jstress = json_array();
+    print_load("before");
+    printf("rays at %ux%u (random: %u rays; shadow: one per primary hit), median of %d runs; Embree %d.%d.%d, build "
+           "quality %s; oracle/x = time(oracle) / time(x)\n", width, height, width * height, RUNS, RTC_VERSION_MAJOR,
+           RTC_VERSION_MINOR, RTC_VERSION_PATCH, emb_quality_name(EMB_QUALITY_HIGH));
+    printf("%-16s %-8s %8s %9s %9s %9s %9s %8s %9s %8s %7s %9s %8s %7s\n", "scene", "rays", "threads", "count",
+           "hits", "emb hits", "oracle ms", "Mrays/s", "embree ms", "Mrays/s", "oracle/", "robust ms", "Mrays/s",
+           "oracle/");
+    printf("%-16s %-8s %8s %9s %9s %9s %9s %8s %9s %8s %7s %9s %8s %7s\n", "", "", "", "", "(oracle)", "", "", "",
+           "", "", "embree", "", "", "robust");
+    for (int i = 0; i < nscenes; i++) {
+        const char *base = strrchr(scenes[i], '/');
+        bench_scene(scenes[i], base ? base + 1 : scenes[i]);
+    }
+    bench_scene("rtstress:16", "rtstress:16");
+    bench_stress();
+    print_load("after");
+    if (json) {
+        json_t *root = json_pack("{s:i, s:i, s:i, s:o, s:o}", "width", (int)width, "height", (int)height, "threads",
+                                 hw_threads, "rows", jrows, "rtstress", jstress);
+        char *text = json_dumps(root, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
+        printf("%s\n", text ? text : "null");
+        free(text);
+        json_decref(root);
+    } else {
+        json_decref(jrows);
+        json_decref(jstress);
+    }
+    emb_device_destroy(devices[0]);
+    emb_device_destroy(devices[1]);
+    return 0;
+}
