@@ -2,6 +2,7 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <inttypes.h>
 #include <math.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -36,6 +37,57 @@ void *cli_alloc(size_t count, size_t size)
         return NULL;
     size_t bytes = count * size;
     return malloc(bytes ? bytes : 1);
+}
+
+int cli_bundle_refuse(const cli_bundle *cb, const char *file, const char *fmt, ...)
+{
+    char text[400];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    return cli_fail(cb->cmd, "--expected %s: %s: %s", cb->dir, file, text);
+}
+
+const char *cli_bundle_file_name(rto_bundle_file f, uint32_t mesh, char name[RTO_BUNDLE_FILE_NAME_MAX])
+{
+    if (rto_bundle_file_name(f, mesh, name, RTO_BUNDLE_FILE_NAME_MAX))
+        snprintf(name, RTO_BUNDLE_FILE_NAME_MAX, "(bundle file %d)", (int)f); /* unreachable: every name fits */
+    return name;
+}
+
+int cli_bundle_count(const cli_bundle *cb, const char *section, const char *key, uint64_t max, size_t *out)
+{
+    int64_t v = -1;
+    if (!rto_bundle_get_int(cb->b, section, key, &v) || v < 0 || (uint64_t)v > max)
+        return cli_bundle_refuse(cb, "manifest.json", "%s.%s is missing or outside 0 .. %" PRIu64, section, key, max);
+    *out = (size_t)v;
+    return EXIT_PASS;
+}
+
+int cli_bundle_load(const cli_bundle *cb, const char *name, const rto_npy_desc *want, const char *layout, rto_npy *out)
+{
+    rto_msg msg = {{0}};
+    char have[160], need[160];
+    if (rto_bundle_read_name(cb->b, name, out, &msg))
+        return cli_fail(cb->cmd, "--expected %s: %s", cb->dir, msg.text);
+    rto_npy_desc w = *want;
+    const int any_rows = want->shape[0] == UINT64_MAX;
+    if (any_rows && out->desc.ndim >= 1)
+        w.shape[0] = out->desc.shape[0];
+    if (!cli_npy_same(&out->desc, &w)) {
+        /* the layout's name for what has its fields, whatever its shape */
+        rto_npy_desc same_fields = out->desc;
+        memcpy(same_fields.shape, w.shape, sizeof same_fields.shape);
+        same_fields.ndim = w.ndim;
+        const char *have_layout = cli_npy_same(&same_fields, &w) ? layout : NULL;
+        cli_npy_what(&w, layout, need, sizeof need);
+        if (any_rows) /* "shape (N, 3)", not the count of whatever was found */
+            snprintf(need, sizeof need, "dtype <f4, shape (N, 3)");
+        return cli_bundle_refuse(cb, name, "holds %s; expected %s",
+                                 cli_npy_what(&out->desc, have_layout, have, sizeof have), need);
+    }
+    return EXIT_PASS;
 }
 
 const opt_name cli_format_names[] = {{"u32", RTO_KEY_U32}, {"u64", RTO_KEY_U64}, {NULL, 0}};

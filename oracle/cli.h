@@ -39,6 +39,28 @@ bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want);
 /** "dtype <u4, shape (1,)": what an array holds, for messages; a structured dtype is named by layout ("Aabb
  * records, shape (3,)") or, with layout NULL, by its record size. Returns buf. */
 const char *cli_npy_what(const rto_npy_desc *d, const char *layout, char *buf, size_t cap);
+/** A bundle a validator reads (check-bvh, check-hits): the command and the --expected directory, for messages. */
+typedef struct cli_bundle {
+    const char *cmd;
+    rto_bundle_reader *b;
+    const char *dir;
+} cli_bundle;
+/** One line naming the bundle, the file and what is wrong with it ("--expected DIR: FILE: text"); returns
+ * EXIT_BAD_INPUT. */
+int cli_bundle_refuse(const cli_bundle *cb, const char *file, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+/** The name of a bundle file, as the library names it for the writer (per-BLAS files take the mesh index). Returns
+ * name. */
+const char *cli_bundle_file_name(rto_bundle_file f, uint32_t mesh, char name[RTO_BUNDLE_FILE_NAME_MAX]);
+/** A count the manifest must state, within 0 .. max; refused otherwise. */
+int cli_bundle_count(const cli_bundle *cb, const char *section, const char *key, uint64_t max, size_t *out);
+/** Loads a bundle file (sha256 checked) and requires exactly the dtype and shape of want (records of layout, NULL
+ * for a plain array). A want->shape[0] of UINT64_MAX accepts any first dimension (vertex positions; the message then
+ * asks for "dtype <f4, shape (N, 3)"). */
+int cli_bundle_load(const cli_bundle *cb, const char *name, const rto_npy_desc *want, const char *layout, rto_npy *out);
 /** Removes the temporaries of unfinished outputs on SIGINT / SIGTERM / SIGHUP, then exits by that signal. */
 void cli_cleanup_on_signals(void);
 /* Names of the key formats and sort algorithms, for option tables and manifests. */

@@ -6,7 +6,6 @@
 
 #include <inttypes.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -35,8 +34,7 @@ static const char check_bvh_epilog[] =
 
 /* What check-bvh reads from a build bundle, each array validated before use. */
 typedef struct build_arrays {
-    rto_bundle_reader *b;
-    const char *dir;
+    cli_bundle in; /* the bundle, for cli_bundle_* */
     int64_t meshes;
     rto_npy nodes, boxes, order, keys, inst; /* the oracle's tree, primitive boxes, BLAS leaf order, TLAS sorted keys,
                                               * instance records */
@@ -54,61 +52,6 @@ static void arrays_free(build_arrays *a)
     rto_npy_free(&a->inst);
     free(a->prims);
     free(a->tol);
-}
-
-/* One line naming the bundle, the file and what is wrong with it; exit status 2. */
-static int refuse(const build_arrays *a, const char *file, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-static int refuse(const build_arrays *a, const char *file, const char *fmt, ...)
-{
-    char text[400];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
-    va_end(ap);
-    return cli_fail("check-bvh", "--expected %s: %s: %s", a->dir, file, text);
-}
-
-/* The name of a bundle file, as the library names it for the writer (per-BLAS files take the mesh index). */
-static const char *file_name(rto_bundle_file f, uint32_t mesh, char name[RTO_BUNDLE_FILE_NAME_MAX])
-{
-    if (rto_bundle_file_name(f, mesh, name, RTO_BUNDLE_FILE_NAME_MAX))
-        snprintf(name, RTO_BUNDLE_FILE_NAME_MAX, "(bundle file %d)", (int)f); /* unreachable: every name fits */
-    return name;
-}
-
-/* A count the manifest must state, within 0 .. max. */
-static int manifest_count(const build_arrays *a, const char *section, const char *key, uint64_t max, size_t *out)
-{
-    int64_t v = -1;
-    if (!rto_bundle_get_int(a->b, section, key, &v) || v < 0 || (uint64_t)v > max)
-        return refuse(a, "manifest.json", "%s.%s is missing or outside 0 .. %" PRIu64, section, key, max);
-    *out = (size_t)v;
-    return EXIT_PASS;
-}
-
-/* Loads a bundle file (sha256 checked) and requires exactly the dtype and shape of want (records of layout, NULL
- * for a plain array). */
-static int load_array(const build_arrays *a, const char *name, const rto_npy_desc *want, const char *layout,
-                      rto_npy *out)
-{
-    rto_msg msg = {{0}};
-    char have[160], need[160];
-    if (rto_bundle_read_name(a->b, name, out, &msg))
-        return cli_fail("check-bvh", "--expected %s: %s", a->dir, msg.text);
-    if (!cli_npy_same(&out->desc, want)) {
-        /* the layout's name for what has its fields, whatever its shape */
-        rto_npy_desc same_fields = out->desc;
-        memcpy(same_fields.shape, want->shape, sizeof same_fields.shape);
-        same_fields.ndim = want->ndim;
-        const char *have_layout = cli_npy_same(&same_fields, want) ? layout : NULL;
-        return refuse(a, name, "holds %s; expected %s", cli_npy_what(&out->desc, have_layout, have, sizeof have),
-                      cli_npy_what(want, layout, need, sizeof need));
-    }
-    return EXIT_PASS;
 }
 
 /* Exactly (+inf, -inf) on every axis: the one empty box a bundle holds (rto_aabb_is_empty accepts any min > max). */
@@ -132,8 +75,8 @@ static int check_boxes(const build_arrays *a, const char *name, const rto_aabb *
 {
     for (size_t i = 0; i < n; i++)
         if (!box_finite(&boxes[i]) && !(allow_empty && box_empty(&boxes[i])))
-            return refuse(a, name, "box %zu is neither finite with min <= max%s", i,
-                          allow_empty ? " nor the empty box (+inf, -inf)" : "");
+            return cli_bundle_refuse(&a->in, name, "box %zu is neither finite with min <= max%s", i,
+                                     allow_empty ? " nor the empty box (+inf, -inf)" : "");
     return EXIT_PASS;
 }
 
@@ -141,12 +84,12 @@ static int check_boxes(const build_arrays *a, const char *name, const rto_aabb *
 static int load_prim_boxes(const build_arrays *a, uint32_t m, rto_npy *out, size_t *triangles)
 {
     char name[RTO_BUNDLE_FILE_NAME_MAX], section[32];
-    file_name(RTO_FILE_BLAS_PRIM_AABBS, m, name);
+    cli_bundle_file_name(RTO_FILE_BLAS_PRIM_AABBS, m, name);
     snprintf(section, sizeof section, "blas_%" PRIu32, m);
-    int rc = manifest_count(a, section, "triangles", UINT32_MAX, triangles);
+    int rc = cli_bundle_count(&a->in, section, "triangles", UINT32_MAX, triangles);
     rto_npy_desc want = rto_layout_desc(RTO_LAYOUT_AABB, *triangles);
     if (!rc)
-        rc = load_array(a, name, &want, rto_layout_name(RTO_LAYOUT_AABB), out);
+        rc = cli_bundle_load(&a->in, name, &want, rto_layout_name(RTO_LAYOUT_AABB), out);
     return rc ? rc : check_boxes(a, name, out->data, *triangles, 0);
 }
 
@@ -166,9 +109,9 @@ static int self_check(const build_arrays *a, const char *name, int sweep)
     rto_msg msg = {{0}};
     rto_status s = sweep ? rto_tlas_check(&d, &r, &msg) : rto_karras_check(&d, &r, &msg);
     if (s == RTO_ERR_MISMATCH)
-        return refuse(a, name, "not a valid tree over the bundle's primitives: %s", r.summary);
+        return cli_bundle_refuse(&a->in, name, "not a valid tree over the bundle's primitives: %s", r.summary);
     if (s)
-        return refuse(a, name, "%s", msg.text);
+        return cli_bundle_refuse(&a->in, name, "%s", msg.text);
     return EXIT_PASS;
 }
 
@@ -180,15 +123,15 @@ static int load_blas(build_arrays *a, uint32_t m)
     if (rc)
         return rc;
     snprintf(section, sizeof section, "blas_%" PRIu32, m);
-    if ((rc = manifest_count(a, section, "nodes", UINT32_MAX, &nodes)))
+    if ((rc = cli_bundle_count(&a->in, section, "nodes", UINT32_MAX, &nodes)))
         return rc;
     if (nodes != (t >= 2 ? t - 1 : 0))
-        return refuse(a, "manifest.json", "%s.nodes is %zu; a Karras tree over %zu triangles has %zu", section, nodes,
-                      t, t >= 2 ? t - 1 : 0);
+        return cli_bundle_refuse(&a->in, "manifest.json", "%s.nodes is %zu; a Karras tree over %zu triangles has %zu",
+                                 section, nodes, t, t >= 2 ? t - 1 : 0);
     /* the leaf order: a permutation of the triangles */
-    file_name(RTO_FILE_BLAS_ORDER, m, name);
+    cli_bundle_file_name(RTO_FILE_BLAS_ORDER, m, name);
     rto_npy_desc od = rto_npy_desc_array(RTO_DTYPE_U32, 1, t, 0, 0);
-    if ((rc = load_array(a, name, &od, NULL, &a->order)))
+    if ((rc = cli_bundle_load(&a->in, name, &od, NULL, &a->order)))
         return rc;
     const uint32_t *order = a->order.data;
     unsigned char *seen = calloc(t ? t : 1, 1);
@@ -196,10 +139,11 @@ static int load_blas(build_arrays *a, uint32_t m)
         return cli_fail("check-bvh", "out of memory");
     for (size_t j = 0; j < t && !rc; j++) {
         if (order[j] >= t)
-            rc = refuse(a, name, "entry %zu names triangle %" PRIu32 " of %zu", j, order[j], t);
+            rc = cli_bundle_refuse(&a->in, name, "entry %zu names triangle %" PRIu32 " of %zu", j, order[j], t);
         else if (seen[order[j]]++)
-            rc = refuse(a, name, "triangle %" PRIu32 " appears twice (again at entry %zu): not a permutation",
-                        order[j], j);
+            rc = cli_bundle_refuse(&a->in, name,
+                                   "triangle %" PRIu32 " appears twice (again at entry %zu): not a permutation",
+                                   order[j], j);
     }
     free(seen);
     if (rc)
@@ -211,9 +155,9 @@ static int load_blas(build_arrays *a, uint32_t m)
         memcpy(a->prims, order, t * sizeof *order);
     a->prim_count = a->leaves = t;
     a->node_count = nodes;
-    file_name(RTO_FILE_BLAS_NODES, m, name);
+    cli_bundle_file_name(RTO_FILE_BLAS_NODES, m, name);
     rto_npy_desc nd = rto_layout_desc(RTO_LAYOUT_BLAS_NODE, nodes);
-    if ((rc = load_array(a, name, &nd, rto_layout_name(RTO_LAYOUT_BLAS_NODE), &a->nodes)))
+    if ((rc = cli_bundle_load(&a->in, name, &nd, rto_layout_name(RTO_LAYOUT_BLAS_NODE), &a->nodes)))
         return rc;
     return self_check(a, name, 0);
 }
@@ -231,12 +175,12 @@ static int same_box(const rto_aabb *x, const rto_aabb *y)
 static int load_instances(build_arrays *a, size_t n)
 {
     char inst_name[RTO_BUNDLE_FILE_NAME_MAX], box_name[RTO_BUNDLE_FILE_NAME_MAX];
-    file_name(RTO_FILE_INSTANCES, 0, inst_name);
-    file_name(RTO_FILE_INSTANCE_AABBS, 0, box_name);
+    cli_bundle_file_name(RTO_FILE_INSTANCES, 0, inst_name);
+    cli_bundle_file_name(RTO_FILE_INSTANCE_AABBS, 0, box_name);
     rto_npy_desc id = rto_layout_desc(RTO_LAYOUT_INSTANCE, n), bd = rto_layout_desc(RTO_LAYOUT_AABB, n);
-    int rc = load_array(a, inst_name, &id, rto_layout_name(RTO_LAYOUT_INSTANCE), &a->inst);
+    int rc = cli_bundle_load(&a->in, inst_name, &id, rto_layout_name(RTO_LAYOUT_INSTANCE), &a->inst);
     if (!rc)
-        rc = load_array(a, box_name, &bd, rto_layout_name(RTO_LAYOUT_AABB), &a->boxes);
+        rc = cli_bundle_load(&a->in, box_name, &bd, rto_layout_name(RTO_LAYOUT_AABB), &a->boxes);
     if (!rc)
         rc = check_boxes(a, box_name, a->boxes.data, n, 1);
     if (rc)
@@ -254,11 +198,12 @@ static int load_instances(build_arrays *a, size_t n)
         memcpy(xf[i].m, rec.obj_to_world, sizeof xf[i].m);
         blas[i] = rec.blas;
         if ((int64_t)blas[i] >= a->meshes)
-            rc = refuse(a, inst_name, "instance %zu names BLAS %" PRIu32 "; the bundle has %" PRId64 " meshes", i,
-                        blas[i], a->meshes);
+            rc = cli_bundle_refuse(&a->in, inst_name,
+                                   "instance %zu names BLAS %" PRIu32 "; the bundle has %" PRId64 " meshes", i, blas[i],
+                                   a->meshes);
         for (int k = 0; !rc && k < 12; k++)
             if (!isfinite(xf[i].m[k / 4][k % 4]))
-                rc = refuse(a, inst_name, "objToWorld of instance %zu is not finite", i);
+                rc = cli_bundle_refuse(&a->in, inst_name, "objToWorld of instance %zu is not finite", i);
     }
     /* each referenced BLAS's object box: the union of its triangle boxes */
     for (size_t i = 0; !rc && i < n; i++) {
@@ -286,8 +231,10 @@ static int load_instances(build_arrays *a, size_t n)
     for (size_t i = 0; !rc && i < n; i++) {
         rto_aabb w = rto_aabb_transform(&xf[i], &obj[blas[i]]);
         if (!same_box(&w, &wb[i]))
-            rc = refuse(a, box_name, "the box of instance %zu is not the box of BLAS %" PRIu32
-                        " through its objToWorld (instances.npy)", i, blas[i]);
+            rc = cli_bundle_refuse(&a->in, box_name,
+                                   "the box of instance %zu is not the box of BLAS %" PRIu32
+                                   " through its objToWorld (instances.npy)",
+                                   i, blas[i]);
         else
             rto_transform_box_tolerance(&xf[i], &obj[blas[i]], &a->tol[3 * i]);
     }
@@ -303,9 +250,9 @@ static int load_instances(build_arrays *a, size_t n)
 static int load_sorted_keys(build_arrays *a, size_t np)
 {
     char name[RTO_BUNDLE_FILE_NAME_MAX];
-    file_name(RTO_FILE_TLAS_SORTED_KEYS, 0, name);
+    cli_bundle_file_name(RTO_FILE_TLAS_SORTED_KEYS, 0, name);
     rto_npy_desc kd = rto_npy_desc_keys(RTO_KEY_U32, np);
-    int rc = load_array(a, name, &kd, NULL, &a->keys);
+    int rc = cli_bundle_load(&a->in, name, &kd, NULL, &a->keys);
     if (rc)
         return rc;
     const uint32_t *k = a->keys.data;
@@ -318,18 +265,22 @@ static int load_sorted_keys(build_arrays *a, size_t np)
         const uint32_t p = rto_key_prim(RTO_KEY_U32, k[j]);
         if (j >= a->leaves) {
             if (k[j] != RTO_SENTINEL_U32)
-                rc = refuse(a, name, "slot %zu holds 0x%08" PRIx32 "; the %zu slots after the %zu keyed instances "
-                            "must be the sentinel", j, k[j], np - a->leaves, a->leaves);
+                rc = cli_bundle_refuse(&a->in, name,
+                                       "slot %zu holds 0x%08" PRIx32 "; the %zu slots after the %zu keyed instances "
+                                       "must be the sentinel",
+                                       j, k[j], np - a->leaves, a->leaves);
         } else if (k[j] & 0x80000000u) {
-            rc = refuse(a, name, "key %zu is 0x%08" PRIx32 ": a TLAS key's top bit is 0", j, k[j]);
+            rc = cli_bundle_refuse(&a->in, name, "key %zu is 0x%08" PRIx32 ": a TLAS key's top bit is 0", j, k[j]);
         } else if (j && k[j] <= k[j - 1]) {
-            rc = refuse(a, name, "key %zu (0x%08" PRIx32 ") does not ascend from key %zu (0x%08" PRIx32 ")", j, k[j],
-                        j - 1, k[j - 1]);
+            rc = cli_bundle_refuse(&a->in, name,
+                                   "key %zu (0x%08" PRIx32 ") does not ascend from key %zu (0x%08" PRIx32 ")", j, k[j],
+                                   j - 1, k[j - 1]);
         } else if (p >= a->prim_count || box_empty(&boxes[p])) {
-            rc = refuse(a, name, "key %zu (0x%08" PRIx32 ") names instance %" PRIu32 ", %s", j, k[j], p,
-                        p >= a->prim_count ? "which does not exist" : "whose BLAS is empty (it has no key)");
+            rc = cli_bundle_refuse(&a->in, name, "key %zu (0x%08" PRIx32 ") names instance %" PRIu32 ", %s", j, k[j], p,
+                                   p >= a->prim_count ? "which does not exist" : "whose BLAS is empty (it has no key)");
         } else if (seen[p]++) {
-            rc = refuse(a, name, "key %zu (0x%08" PRIx32 ") names instance %" PRIu32 " a second time", j, k[j], p);
+            rc = cli_bundle_refuse(&a->in, name, "key %zu (0x%08" PRIx32 ") names instance %" PRIu32 " a second time",
+                                   j, k[j], p);
         } else {
             a->prims[j] = p;
         }
@@ -341,7 +292,7 @@ static int load_sorted_keys(build_arrays *a, size_t np)
 static int load_tlas(build_arrays *a, int sweep)
 {
     size_t n = 0, np = 0, nodes = 0;
-    int rc = manifest_count(a, "counts", "instances", RTO_TLAS_MAX_INSTANCES, &n);
+    int rc = cli_bundle_count(&a->in, "counts", "instances", RTO_TLAS_MAX_INSTANCES, &n);
     if (!rc)
         rc = load_instances(a, n);
     if (rc)
@@ -353,37 +304,41 @@ static int load_tlas(build_arrays *a, int sweep)
     a->prim_count = n;
     a->leaves = keyed;
     const size_t want = sweep ? rto_tlas_sweep_node_count(keyed) : (keyed >= 2 ? keyed - 1 : 0);
-    if ((rc = manifest_count(a, "tlas", "instances", RTO_TLAS_MAX_INSTANCES, &tlas_n)) ||
-        (rc = manifest_count(a, "tlas", "n_padded", (uint64_t)1 << 17, &np)) ||
-        (rc = manifest_count(a, "tlas", "nodes", (uint64_t)1 << 18, &nodes)))
+    if ((rc = cli_bundle_count(&a->in, "tlas", "instances", RTO_TLAS_MAX_INSTANCES, &tlas_n)) ||
+        (rc = cli_bundle_count(&a->in, "tlas", "n_padded", (uint64_t)1 << 17, &np)) ||
+        (rc = cli_bundle_count(&a->in, "tlas", "nodes", (uint64_t)1 << 18, &nodes)))
         return rc;
     if (tlas_n != n)
-        return refuse(a, "manifest.json", "tlas.instances is %zu; counts.instances is %zu", tlas_n, n);
+        return cli_bundle_refuse(&a->in, "manifest.json", "tlas.instances is %zu; counts.instances is %zu", tlas_n, n);
     /* The manifest states the keyed count when instances of an empty BLAS make it differ (rtoracle build writes it
      * only then, so older bundles keep their bytes): absent, every instance must have a leaf. */
     int64_t stated = -1;
-    if (!rto_bundle_get_int(a->b, "tlas", "keyed_instances", &stated)) {
+    if (!rto_bundle_get_int(a->in.b, "tlas", "keyed_instances", &stated)) {
         if (keyed != n)
-            return refuse(a, "manifest.json", "tlas.keyed_instances is missing; %zu of the %zu instances have a "
-                          "non-empty box", keyed, n);
-    } else if ((rc = manifest_count(a, "tlas", "keyed_instances", n, &tlas_keyed))) {
+            return cli_bundle_refuse(&a->in, "manifest.json",
+                                     "tlas.keyed_instances is missing; %zu of the %zu instances have a "
+                                     "non-empty box",
+                                     keyed, n);
+    } else if ((rc = cli_bundle_count(&a->in, "tlas", "keyed_instances", n, &tlas_keyed))) {
         return rc;
     } else if (tlas_keyed != keyed) {
-        return refuse(a, "manifest.json", "tlas.keyed_instances is %zu; %zu of the %zu instances have a non-empty box",
-                      tlas_keyed, keyed, n);
+        return cli_bundle_refuse(&a->in, "manifest.json",
+                                 "tlas.keyed_instances is %zu; %zu of the %zu instances have a non-empty box",
+                                 tlas_keyed, keyed, n);
     }
     if (np != rto_next_pow2(keyed))
-        return refuse(a, "manifest.json", "tlas.n_padded is %zu; %zu instances have a leaf (next power of two %zu)",
-                      np, keyed, rto_next_pow2(keyed));
+        return cli_bundle_refuse(&a->in, "manifest.json",
+                                 "tlas.n_padded is %zu; %zu instances have a leaf (next power of two %zu)", np, keyed,
+                                 rto_next_pow2(keyed));
     if (nodes != want)
-        return refuse(a, "manifest.json", "tlas.nodes is %zu; a %s TLAS over %zu leaves has %zu", nodes,
-                      sweep ? "sweep" : "Karras", keyed, want);
+        return cli_bundle_refuse(&a->in, "manifest.json", "tlas.nodes is %zu; a %s TLAS over %zu leaves has %zu", nodes,
+                                 sweep ? "sweep" : "Karras", keyed, want);
     a->node_count = nodes;
     const rto_layout lk = sweep ? RTO_LAYOUT_TLAS_NODE : RTO_LAYOUT_BLAS_NODE;
     char name[RTO_BUNDLE_FILE_NAME_MAX];
-    file_name(RTO_FILE_TLAS_NODES, 0, name);
+    cli_bundle_file_name(RTO_FILE_TLAS_NODES, 0, name);
     rto_npy_desc nd = rto_layout_desc(lk, nodes);
-    if ((rc = load_array(a, name, &nd, rto_layout_name(lk), &a->nodes)))
+    if ((rc = cli_bundle_load(&a->in, name, &nd, rto_layout_name(lk), &a->nodes)))
         return rc;
     if (!sweep && (rc = load_sorted_keys(a, np)))
         return rc;
@@ -420,20 +375,22 @@ int cmd_check_bvh(int argc, char **argv)
     rto_msg msg = {{0}};
     build_arrays a;
     memset(&a, 0, sizeof a);
-    a.dir = expected;
+    a.in.cmd = "check-bvh";
+    a.in.dir = expected;
     rto_npy g = {0}, order = {0};
     int rc = EXIT_PASS;
-    if (rto_bundle_open(expected, &a.b, &msg)) {
+    if (rto_bundle_open(expected, &a.in.b, &msg)) {
         rc = cli_fail("check-bvh", "--expected: %s", msg.text);
         goto out;
     }
-    const char *kind = rto_bundle_get_str(a.b, "", "kind"), *tlas_mode = rto_bundle_get_str(a.b, "params", "tlas");
+    const char *kind = rto_bundle_get_str(a.in.b, "", "kind"),
+               *tlas_mode = rto_bundle_get_str(a.in.b, "params", "tlas");
     if (!kind || strcmp(kind, "build") || !tlas_mode || (strcmp(tlas_mode, "sweep") && strcmp(tlas_mode, "karras"))) {
         rc = cli_fail("check-bvh", "--expected %s is not a build bundle (rtoracle build)", expected);
         goto out;
     }
     size_t meshes = 0;
-    if ((rc = manifest_count(&a, "counts", "meshes", UINT32_MAX, &meshes)))
+    if ((rc = cli_bundle_count(&a.in, "counts", "meshes", UINT32_MAX, &meshes)))
         goto out;
     a.meshes = (int64_t)meshes;
     if (blas >= a.meshes) {
@@ -443,7 +400,7 @@ int cmd_check_bvh(int argc, char **argv)
     const int sweep = blas < 0 && !strcmp(tlas_mode, "sweep");
     if (sweep && order_path) {
         rc = cli_fail("check-bvh", "--gpu-order applies to Karras trees (a BLAS, or a TLAS built with --tlas karras); "
-                      "a sweep TLAS's leaf order is its items");
+                                   "a sweep TLAS's leaf order is its items");
         goto out;
     }
     const rto_layout lk = sweep ? RTO_LAYOUT_TLAS_NODE : RTO_LAYOUT_BLAS_NODE;
@@ -498,6 +455,6 @@ out:
     rto_npy_free(&g);
     rto_npy_free(&order);
     arrays_free(&a);
-    rto_bundle_close(a.b);
+    rto_bundle_close(a.in.b);
     return rc;
 }

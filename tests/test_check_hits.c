@@ -8,56 +8,11 @@
 
 #include <math.h>
 
-/* splitmix64: the test's own random stream. */
-static uint64_t rng_next(uint64_t *s)
-{
-    uint64_t z = (*s += UINT64_C(0x9E3779B97F4A7C15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
-    return z ^ (z >> 31);
-}
-
-static double rng_unit(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53; }
-
-static void rng_dir(uint64_t *s, double d[3])
-{
-    const double z = 2.0 * rng_unit(s) - 1.0, phi = 6.283185307179586 * rng_unit(s), r = sqrt(1.0 - z * z);
-    d[0] = r * cos(phi);
-    d[1] = r * sin(phi);
-    d[2] = z;
-}
-
 static void normalize(double v[3])
 {
     const double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     for (int a = 0; a < 3; a++)
         v[a] /= l;
-}
-
-static rto_scene *load(const char *spec)
-{
-    char path[1024];
-    const char *fx = getenv("RTO_FIXTURES");
-    if (strchr(spec, '/') && fx && spec[0] != '/') {
-        snprintf(path, sizeof path, "%s/%s", fx, spec);
-        spec = path;
-    }
-    rto_scene *s = NULL;
-    rto_msg msg = {{0}};
-    if (rto_scene_load(spec, &s, &msg))
-        fail_msg("load %s: %s", spec, msg.text);
-    return s;
-}
-
-/* Vertex c (0..2) of triangle p of instance k in world space, through objToWorld in binary64. */
-static void world_vertex(const rto_scene *s, uint32_t k, uint32_t p, int c, double out[3])
-{
-    const rto_instance *in = &s->instances[k];
-    const rto_mesh *m = &s->meshes[in->blas];
-    const float *v = &m->positions[3 * (size_t)m->indices[3 * (size_t)p + (size_t)c]];
-    for (int r = 0; r < 3; r++)
-        out[r] = (double)in->obj_to_world.m[r][0] * v[0] + (double)in->obj_to_world.m[r][1] * v[1] +
-                 (double)in->obj_to_world.m[r][2] * v[2] + (double)in->obj_to_world.m[r][3];
 }
 
 /* The hit record a correct GPU writes, from the scene alone: column c of objToWorld is row-major column c. */
@@ -127,7 +82,7 @@ static void fixture_trace(fixture *f)
 static void fixture_alloc(fixture *f, const char *spec, size_t n)
 {
     memset(f, 0, sizeof *f);
-    f->scene = load(spec);
+    f->scene = tu_load(spec);
     rto_msg msg = {{0}};
     if (rto_accel_build(f->scene, NULL, &f->accel, &msg))
         fail_msg("build %s: %s", spec, msg.text);
@@ -153,23 +108,23 @@ static void fixture_make(fixture *f, const char *spec, size_t n, uint64_t seed)
     for (size_t i = 0; i < n; i++) {
         double o[3], d[3];
         if (i % 5 == 4) {
-            rng_dir(&seed, d);
+            tu_rng_dir(&seed, d);
             for (int a = 0; a < 3; a++)
                 o[a] = c[a] + 1.5 * radius * d[a];
             f->rays[i] = ray_of(o, d, RTO_RAY_FLAG_OPAQUE, (uint32_t)i);
             f->gpu[i] = miss_of(f->rays[i].t_max);
             continue;
         }
-        const uint32_t k = (uint32_t)(rng_next(&seed) % s->instance_count);
-        const uint32_t p = (uint32_t)(rng_next(&seed) % s->meshes[s->instances[k].blas].triangle_count);
-        double u = 0.05 + 0.85 * rng_unit(&seed), v = 0.05 + 0.85 * rng_unit(&seed);
+        const uint32_t k = (uint32_t)(tu_rng_next(&seed) % s->instance_count);
+        const uint32_t p = (uint32_t)(tu_rng_next(&seed) % s->meshes[s->instances[k].blas].triangle_count);
+        double u = 0.05 + 0.85 * tu_rng_unit(&seed), v = 0.05 + 0.85 * tu_rng_unit(&seed);
         if (u + v > 0.9) {
             u = 0.95 - u;
             v = 0.95 - v;
         }
         double w[3][3], e1[3], e2[3], nrm[3], pt[3], jitter[3];
         for (int q = 0; q < 3; q++)
-            world_vertex(s, k, p, q, w[q]);
+            tu_world_vertex(s, k, p, q, w[q]);
         for (int a = 0; a < 3; a++) {
             e1[a] = w[1][a] - w[0][a];
             e2[a] = w[2][a] - w[0][a];
@@ -186,7 +141,7 @@ static void fixture_make(fixture *f, const char *spec, size_t n, uint64_t seed)
         double side = 0;
         for (int a = 0; a < 3; a++)
             side += nrm[a] * (pt[a] - ic[a]);
-        rng_dir(&seed, jitter);
+        tu_rng_dir(&seed, jitter);
         for (int a = 0; a < 3; a++)
             d[a] = (side < 0 ? -nrm[a] : nrm[a]) + 0.3 * jitter[a];
         normalize(d);
@@ -677,7 +632,7 @@ static void test_tie_on_shared_edge(void **state)
     /* the diagonal's midpoint and the face normal, in world space */
     double wa[3], wb[3], mid[3], w[3][3], e1[3], e2[3], nrm[3], o[3], d[3];
     for (int c = 0; c < 3; c++)
-        world_vertex(s, 0, p, c, w[c]);
+        tu_world_vertex(s, 0, p, c, w[c]);
     for (int r = 0; r < 3; r++) {
         const rto_mat34 *M = &s->instances[0].obj_to_world;
         const float *va = &m->positions[3 * a], *vb = &m->positions[3 * b];
@@ -831,7 +786,7 @@ static void test_first_hit_rays(void **state)
     for (uint32_t p = 0; p < m->triangle_count; p++) {
         double w[3][3];
         for (int c = 0; c < 3; c++)
-            world_vertex(s, 1, p, c, w[c]);
+            tu_world_vertex(s, 1, p, c, w[c]);
         rto_tri_hit h;
         if (w[0][0] == 1.5 && w[1][0] == 1.5 && w[2][0] == 1.5 &&
             rto_instance_triangle_hit(&s->instances[1], m, p, &f.rays[1], &h)) {
@@ -853,7 +808,7 @@ static void test_first_hit_rays(void **state)
     for (uint32_t p = 0; p < m->triangle_count && missed == UINT32_MAX; p++) {
         double w[3][3];
         for (int c = 0; c < 3; c++)
-            world_vertex(s, f.expected[2].instance_id, p, c, w[c]);
+            tu_world_vertex(s, f.expected[2].instance_id, p, c, w[c]);
         if (w[0][1] == w[1][1] && w[1][1] == w[2][1])
             missed = p;
     }
@@ -879,7 +834,7 @@ static void generated(const char *spec, rto_ray_set set, size_t count, int want_
 {
     fixture f;
     memset(&f, 0, sizeof f);
-    f.scene = load(spec);
+    f.scene = tu_load(spec);
     rto_msg msg = {{0}};
     if (rto_accel_build(f.scene, NULL, &f.accel, &msg))
         fail_msg("build %s: %s", spec, msg.text);

@@ -11,15 +11,6 @@
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Helpers                                                                                                          */
 
-static rto_scene *load(const char *spec)
-{
-    rto_scene *s = NULL;
-    rto_msg msg = {{0}};
-    if (rto_scene_load(spec, &s, &msg))
-        fail_msg("rto_scene_load(%s): %s", spec, msg.text);
-    return s;
-}
-
 static rto_accel *build(const rto_scene *s)
 {
     rto_accel *a = NULL;
@@ -514,7 +505,7 @@ static void test_random_rays(void **state)
 {
     (void)state;
     for (size_t sc = 0; sc < sizeof set_scenes / sizeof set_scenes[0]; sc++) {
-        rto_scene *s = load(set_scenes[sc]);
+        rto_scene *s = tu_load(set_scenes[sc]);
         rto_accel *a = build(s);
         check_determinism(a, RTO_RAYS_RANDOM, 500);
         rto_rays_desc d = {0};
@@ -587,17 +578,6 @@ static double segment_distance(const double p0[3], const double u[3], const doub
     return sqrt(dot3(d, d));
 }
 
-/* World position (binary64) of vertex j of triangle t of instance i: objToWorld applied exactly. */
-static void world_vertex(const rto_scene *s, uint32_t i, uint32_t t, int j, double w[3])
-{
-    const rto_instance *in = &s->instances[i];
-    const rto_mesh *m = &s->meshes[in->blas];
-    const float *p = &m->positions[3 * (size_t)m->indices[3 * (size_t)t + (size_t)j]];
-    for (int r = 0; r < 3; r++)
-        w[r] = (double)in->obj_to_world.m[r][0] * p[0] + (double)in->obj_to_world.m[r][1] * p[1] +
-               (double)in->obj_to_world.m[r][2] * p[2] + (double)in->obj_to_world.m[r][3];
-}
-
 static double scene_diagonal(const rto_scene *s)
 {
     const rto_aabb b = rto_scene_aabb(s);
@@ -620,7 +600,7 @@ static void test_grazing_rays(void **state)
 {
     (void)state;
     for (size_t sc = 0; sc < sizeof set_scenes / sizeof set_scenes[0]; sc++) {
-        rto_scene *s = load(set_scenes[sc]);
+        rto_scene *s = tu_load(set_scenes[sc]);
         rto_accel *a = build(s);
         check_determinism(a, RTO_RAYS_GRAZING, 300);
         rto_rays_desc d = {0};
@@ -646,7 +626,7 @@ static void test_grazing_rays(void **state)
                 for (uint32_t t = 0; t < s->meshes[s->instances[inst].blas].triangle_count; t++) {
                     double v[3][3];
                     for (int j = 0; j < 3; j++)
-                        world_vertex(s, inst, t, j, v[j]);
+                        tu_world_vertex(s, inst, t, j, v[j]);
                     for (int j = 0; j < 3; j++) {
                         double e[3];
                         sub3(v[(j + 1) % 3], v[j], e);
@@ -672,7 +652,7 @@ static void test_axis_rays(void **state)
 {
     (void)state;
     for (size_t sc = 0; sc < sizeof set_scenes / sizeof set_scenes[0]; sc++) {
-        rto_scene *s = load(set_scenes[sc]);
+        rto_scene *s = tu_load(set_scenes[sc]);
         rto_accel *a = build(s);
         check_determinism(a, RTO_RAYS_AXIS, 300);
         rto_rays_desc d = {0};
@@ -711,7 +691,7 @@ static void test_axis_rays(void **state)
                 for (uint32_t t = 0; t < s->meshes[s->instances[inst].blas].triangle_count; t++) {
                     double v[3][3], c[3];
                     for (int j = 0; j < 3; j++)
-                        world_vertex(s, inst, t, j, v[j]);
+                        tu_world_vertex(s, inst, t, j, v[j]);
                     for (int k = 0; k < 3; k++)
                         c[k] = (v[0][k] + v[1][k] + v[2][k]) / 3;
                     best = fmin(best, segment_distance(o, u, c, zero));
@@ -730,7 +710,7 @@ static void test_axis_rays(void **state)
 static void test_primary_rays(void **state)
 {
     (void)state;
-    rto_scene *s = load("rtstress:2");
+    rto_scene *s = tu_load("rtstress:2");
     rto_accel *a = build(s);
     rto_rays_desc d = {0};
     d.set = RTO_RAYS_PRIMARY;
@@ -780,7 +760,7 @@ static void test_empty_scenes(void **state)
     (void)state;
     /* No instances at all, and instances of an empty mesh only (a glTF mesh without triangles loads so; here the
      * cube's instances are given a scene of their own with the mesh emptied). */
-    rto_scene *s = load("instances:uniform:0");
+    rto_scene *s = tu_load("instances:uniform:0");
     rto_accel *a = build(s);
     for (int set = RTO_RAYS_RANDOM; set <= RTO_RAYS_AXIS; set++) {
         rto_rays_desc d = {0};
@@ -808,7 +788,7 @@ static void test_empty_scenes(void **state)
     rto_accel_destroy(a);
     rto_scene_destroy(s);
 
-    s = load("rtstress:1");
+    s = tu_load("rtstress:1");
     s->meshes[0].triangle_count = 0; /* the scene's only mesh, emptied: its instance is skipped */
     a = build(s);
     for (int set = RTO_RAYS_RANDOM; set <= RTO_RAYS_AXIS; set++) {
@@ -845,7 +825,7 @@ static void light_d(const float given[3], double l[3])
  * at most a handful of them, and each origin is o + t d of the brute-force t, the same bits when the same t. */
 static void check_shadow(const char *spec, uint32_t w, uint32_t h, const float light[3])
 {
-    rto_scene *s = load(spec);
+    rto_scene *s = tu_load(spec);
     rto_accel *a = build(s);
     rto_rays_desc d = {0};
     d.set = RTO_RAYS_PRIMARY;
@@ -934,7 +914,7 @@ static void test_shadow_rays(void **state)
 static void test_shadow_offset(void **state)
 {
     (void)state;
-    rto_scene *s = load("sphere:3");
+    rto_scene *s = tu_load("sphere:3");
     rto_accel *a = build(s);
     rto_rays_desc d = {0};
     d.set = RTO_RAYS_SHADOW;
@@ -1015,7 +995,7 @@ static void expect_generate_refusal(const rto_accel *a, const rto_rays_desc *d, 
 static void test_generate_refusals(void **state)
 {
     (void)state;
-    rto_scene *s = load("triangle");
+    rto_scene *s = tu_load("triangle");
     rto_accel *a = build(s);
     rto_wf_ray r[64];
     rto_rays_desc d = {0};
@@ -1109,7 +1089,7 @@ static void test_sphere(void **state)
         char spec[32], bumpy[32];
         snprintf(spec, sizeof spec, "sphere:%u", level);
         snprintf(bumpy, sizeof bumpy, "sphere:%u:%u", level, 1000 + level);
-        rto_scene *s = load(spec), *b = load(bumpy);
+        rto_scene *s = tu_load(spec), *b = tu_load(bumpy);
         assert_int_equal(s->mesh_count, 1);
         assert_int_equal(s->instance_count, 1);
         assert_int_equal(s->camera_count, 1);
@@ -1158,7 +1138,7 @@ static void test_sphere(void **state)
         rto_scene_destroy(b);
     }
     /* Seeded: the same seed gives the same bytes, another seed other radii. */
-    rto_scene *a = load("sphere:3:17"), *b = load("sphere:3:17"), *c = load("sphere:3:18");
+    rto_scene *a = tu_load("sphere:3:17"), *b = tu_load("sphere:3:17"), *c = tu_load("sphere:3:18");
     const size_t bytes = 3 * (size_t)a->meshes[0].vertex_count * sizeof(float);
     assert_memory_equal(a->meshes[0].positions, b->meshes[0].positions, bytes);
     assert_memory_not_equal(a->meshes[0].positions, c->meshes[0].positions, bytes);
@@ -1184,7 +1164,7 @@ static void test_random_scene(void **state)
     for (uint32_t seed = 0; seed < 200; seed++) {
         char spec[32];
         snprintf(spec, sizeof spec, "random:%u", seed);
-        rto_scene *s = load(spec), *again = load(spec);
+        rto_scene *s = tu_load(spec), *again = tu_load(spec);
         /* Deterministic: the same meshes and instances, byte for byte. */
         assert_int_equal(s->mesh_count, again->mesh_count);
         assert_int_equal(s->instance_count, again->instance_count);
@@ -1274,12 +1254,12 @@ static void test_random_scene(void **state)
     assert_int_equal(meshes_seen, 0x1E); /* 1, 2, 3 and 4 meshes */
     assert_true(sbt_seen == 0xFF);       /* sbtOffset 0 .. 7 */
     /* Different seeds, different scenes. */
-    rto_scene *a = load("random:1"), *b = load("random:2");
+    rto_scene *a = tu_load("random:1"), *b = tu_load("random:2");
     assert_true(a->instance_count != b->instance_count || a->mesh_count != b->mesh_count ||
                 memcmp(a->instances, b->instances, a->instance_count * sizeof *a->instances));
     rto_scene_destroy(a);
     rto_scene_destroy(b);
-    a = load("random:4294967295");
+    a = tu_load("random:4294967295");
     rto_scene_destroy(a);
 }
 
@@ -1322,7 +1302,7 @@ static void test_procedural_refusals(void **state)
     /* Controls: both ends of each range load. */
     const char *ok[] = {"sphere:0", "sphere:0:0", "sphere:1:4294967295", "random:0", "random:4294967295"};
     for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++)
-        rto_scene_destroy(load(ok[i]));
+        rto_scene_destroy(tu_load(ok[i]));
 }
 
 int main(void)

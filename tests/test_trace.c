@@ -1,34 +1,10 @@
 /* The tracer (DESIGN.md §6) against independent references: hand-derived Möller–Trumbore values, the brute-force
  * tracer (no tree) on every fixture and on seeded random scenes, both TLAS layouts, ray flags, masks, culling,
- * counters, and byte-identical output for any thread count. Rays come from this file's own generator (splitmix64),
- * not from the library's ray sets, so a bug there cannot hide one here. */
+ * counters, and byte-identical output for any thread count. Rays come from the tests' own generator (splitmix64 of
+ * testutil.h), not from the library's ray sets, so a bug there cannot hide one here. */
 #include "testutil.h"
 
 #include <math.h>
-
-/* splitmix64: the test's own random stream. */
-typedef struct tu_rng {
-    uint64_t s;
-} tu_rng;
-
-static uint64_t rng_next(tu_rng *r)
-{
-    uint64_t z = (r->s += UINT64_C(0x9E3779B97F4A7C15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
-    return z ^ (z >> 31);
-}
-
-/* Uniform in [0, 1). */
-static double rng_unit(tu_rng *r) { return (double)(rng_next(r) >> 11) * 0x1.0p-53; }
-
-static void rng_dir(tu_rng *r, float d[3])
-{
-    const double z = 2.0 * rng_unit(r) - 1.0, phi = 6.283185307179586 * rng_unit(r), s = sqrt(1.0 - z * z);
-    d[0] = (float)(s * cos(phi));
-    d[1] = (float)(s * sin(phi));
-    d[2] = (float)z;
-}
 
 static double axis(rto_vec3 v, int a) { return a == 0 ? v.x : a == 1 ? v.y : v.z; }
 
@@ -43,21 +19,6 @@ static rto_wf_ray make_ray(const float o[3], const float d[3], uint32_t flags)
     r.flags = flags;
     r.cull_mask = 0xFF;
     return r;
-}
-
-static rto_scene *load(const char *spec)
-{
-    char path[1024];
-    const char *fx = getenv("RTO_FIXTURES");
-    if (strchr(spec, '/') && fx && spec[0] != '/') {
-        snprintf(path, sizeof path, "%s/%s", fx, spec);
-        spec = path;
-    }
-    rto_scene *s = NULL;
-    rto_msg msg = {{0}};
-    if (rto_scene_load(spec, &s, &msg))
-        fail_msg("load %s: %s", spec, msg.text);
-    return s;
 }
 
 static rto_accel *build(const rto_scene *s, rto_tlas_kind kind)
@@ -92,7 +53,7 @@ static rto_wf_ray *test_rays(const rto_scene *s, uint64_t seed, size_t n, uint32
 {
     rto_wf_ray *rays = calloc(n ? n : 1, sizeof *rays);
     assert_non_null(rays);
-    tu_rng r = {seed};
+    uint64_t r = seed;
     const rto_aabb b = rto_scene_aabb(s);
     double ext = 0;
     for (int a = 0; a < 3; a++)
@@ -102,24 +63,27 @@ static rto_wf_ray *test_rays(const rto_scene *s, uint64_t seed, size_t n, uint32
         with_tris += s->meshes[s->instances[k].blas].triangle_count > 0;
     for (size_t i = 0; i < n; i++) {
         float o[3], d[3];
-        rng_dir(&r, d);
+        double dd[3];
+        tu_rng_dir(&r, dd);
+        for (int a = 0; a < 3; a++)
+            d[a] = (float)dd[a];
         const int kind = with_tris ? (int)(i % 3) : 0;
         if (kind == 0) {
             for (int a = 0; a < 3; a++)
-                o[a] = (float)(axis(b.min, a) + rng_unit(&r) * (axis(b.max, a) - axis(b.min, a)));
+                o[a] = (float)(axis(b.min, a) + tu_rng_unit(&r) * (axis(b.max, a) - axis(b.min, a)));
         } else {
             uint32_t k;
             do
-                k = (uint32_t)(rng_next(&r) % s->instance_count);
+                k = (uint32_t)(tu_rng_next(&r) % s->instance_count);
             while (!s->meshes[s->instances[k].blas].triangle_count);
-            const uint32_t p = (uint32_t)(rng_next(&r) % s->meshes[s->instances[k].blas].triangle_count);
-            double b1 = rng_unit(&r), b2 = rng_unit(&r);
+            const uint32_t p = (uint32_t)(tu_rng_next(&r) % s->meshes[s->instances[k].blas].triangle_count);
+            double b1 = tu_rng_unit(&r), b2 = tu_rng_unit(&r);
             if (b1 + b2 > 1) {
                 b1 = 1 - b1;
                 b2 = 1 - b2;
             }
             if (kind == 2) { /* a vertex or a point of an edge, exactly in barycentric terms */
-                const uint64_t c = rng_next(&r) % 6;
+                const uint64_t c = tu_rng_next(&r) % 6;
                 if (c < 3) {
                     b1 = c == 1;
                     b2 = c == 2;
@@ -238,7 +202,7 @@ static brute_stats compare_with_brute(const char *what, uint64_t seed, const rto
 
 static void check_scene(const char *spec, uint64_t seed, size_t n)
 {
-    rto_scene *s = load(spec);
+    rto_scene *s = tu_load(spec);
     for (int kind = 0; kind < 2; kind++) {
         rto_accel *acc = build(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
         rto_wf_ray *rays = test_rays(s, seed, n, RTO_RAY_FLAG_OPAQUE);
@@ -310,7 +274,7 @@ static void test_fixtures_match_brute_force(void **state)
 static void test_triangle_by_hand(void **state)
 {
     (void)state;
-    rto_scene *s = load("triangle");
+    rto_scene *s = tu_load("triangle");
     rto_accel *acc = build(s, RTO_TLAS_SWEEP);
     const float o[3] = {0.0f, 0.5f, 5.0f}, d[3] = {0.0f, 0.0f, -1.0f};
     rto_wf_ray rays[3] = {make_ray(o, d, 0), make_ray(o, d, RTO_RAY_FLAG_CULL_FRONT_FACING), make_ray(o, d, 0)};
@@ -379,7 +343,7 @@ static void test_inv_dir_clamp(void **state)
 static void test_threads_byte_identical(void **state)
 {
     (void)state;
-    rto_scene *s = load("rtstress:4");
+    rto_scene *s = tu_load("rtstress:4");
     rto_accel *acc = build(s, RTO_TLAS_SWEEP);
     const size_t n = 20000;
     rto_wf_ray *rays = test_rays(s, 77, n, RTO_RAY_FLAG_OPAQUE);
@@ -415,7 +379,7 @@ static void test_threads_byte_identical(void **state)
 static void test_masks(void **state)
 {
     (void)state;
-    rto_scene *s = load("rtstress:3");
+    rto_scene *s = tu_load("rtstress:3");
     for (uint32_t k = 0; k < s->instance_count; k++)
         s->instances[k].mask = k % 3 == 0 ? 0x01 : 0x02;
     rto_accel *acc = build(s, RTO_TLAS_SWEEP);
@@ -447,7 +411,7 @@ static void test_masks(void **state)
 static void test_bad_rays(void **state)
 {
     (void)state;
-    rto_scene *s = load("triangle");
+    rto_scene *s = tu_load("triangle");
     rto_accel *acc = build(s, RTO_TLAS_SWEEP);
     const float o[3] = {0, 0, 5}, d[3] = {0, 0, -1};
     rto_wf_ray rays[2] = {make_ray(o, d, 0), make_ray(o, d, 0)};

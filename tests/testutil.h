@@ -1,7 +1,9 @@
-/* Shared helpers for the cmocka tests: independent references (qsort, literal schedules) and seeds. */
+/* Shared helpers for the cmocka tests: independent references (qsort, literal schedules), seeds, the tests' own
+ * random stream and scene loading. */
 #ifndef RTO_TESTUTIL_H
 #define RTO_TESTUTIL_H
 
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -64,6 +66,55 @@ static inline int tu_dist_applies(const rto_dist_info *d, rto_key_format f, size
     if (d->kind == RTO_DIST_CENTROID && f == RTO_KEY_U32 && n > RTO_TLAS_MAX_INSTANCES)
         return 0;
     return 1;
+}
+
+/* splitmix64: a test's own random stream, not the library's generators, so a bug there cannot hide one here. */
+static inline uint64_t tu_rng_next(uint64_t *s)
+{
+    uint64_t z = (*s += UINT64_C(0x9E3779B97F4A7C15));
+    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
+    return z ^ (z >> 31);
+}
+
+/* Uniform in [0, 1). */
+static inline double tu_rng_unit(uint64_t *s) { return (double)(tu_rng_next(s) >> 11) * 0x1.0p-53; }
+
+/* A direction uniform on the unit sphere, in binary64: z uniform in [-1, 1), then an angle around the z axis. */
+static inline void tu_rng_dir(uint64_t *s, double d[3])
+{
+    const double z = 2.0 * tu_rng_unit(s) - 1.0, phi = 6.283185307179586 * tu_rng_unit(s), r = sqrt(1.0 - z * z);
+    d[0] = r * cos(phi);
+    d[1] = r * sin(phi);
+    d[2] = z;
+}
+
+/* Loads a scene or fails the test with the library's message. A spec naming a relative path is taken under
+ * $RTO_FIXTURES, so the tests run from any directory. */
+static inline rto_scene *tu_load(const char *spec)
+{
+    char path[1024];
+    const char *fx = getenv("RTO_FIXTURES");
+    if (strchr(spec, '/') && fx && spec[0] != '/') {
+        snprintf(path, sizeof path, "%s/%s", fx, spec);
+        spec = path;
+    }
+    rto_scene *s = NULL;
+    rto_msg msg = {{0}};
+    if (rto_scene_load(spec, &s, &msg))
+        fail_msg("load %s: %s", spec, msg.text);
+    return s;
+}
+
+/* Vertex c (0..2) of triangle p of instance k in world space: objToWorld applied in binary64. */
+static inline void tu_world_vertex(const rto_scene *s, uint32_t k, uint32_t p, int c, double out[3])
+{
+    const rto_instance *in = &s->instances[k];
+    const rto_mesh *m = &s->meshes[in->blas];
+    const float *v = &m->positions[3 * (size_t)m->indices[3 * (size_t)p + (size_t)c]];
+    for (int r = 0; r < 3; r++)
+        out[r] = (double)in->obj_to_world.m[r][0] * v[0] + (double)in->obj_to_world.m[r][1] * v[1] +
+                 (double)in->obj_to_world.m[r][2] * v[2] + (double)in->obj_to_world.m[r][3];
 }
 
 #endif
