@@ -81,6 +81,7 @@ int cmd_check_sort(int argc, char **argv);
 int cmd_suite(int argc, char **argv);
 int cmd_build(int argc, char **argv);
 int cmd_check_bvh(int argc, char **argv);
+int cmd_check_hits(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_trace(int argc, char **argv);
 int cmd_crosscheck(int argc, char **argv);

@@ -16,6 +16,7 @@ static const struct {
     {"build", cmd_build, "build a scene's TLAS and BLAS trees in their GPU layouts into a bundle"},
     {"check-bvh", cmd_check_bvh, "validate a GPU-built TLAS or BLAS node array"},
     {"trace", cmd_trace, "trace rays (camera, shadow, random, grazing, axis or a file) into hit records"},
+    {"check-hits", cmd_check_hits, "validate a GPU's hit records against a trace bundle (ties allowed)"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
     {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
 };

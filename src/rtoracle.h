@@ -1209,8 +1209,13 @@ typedef struct rto_hits_check_desc {
  * claimed primitive, re-intersected with the same ray (rto_instance_triangle_hit), gives a t within the t tolerance
  * of the oracle's: a tie, counted in the facts ("ties") and listed in the rows, after which the record is compared
  * with that primitive's own record. For a TERMINATE_ON_FIRST_HIT ray only hit / miss is defined: a claimed hit must
- * re-intersect. Returns RTO_OK, RTO_ERR_MISMATCH (report: code an rto_hit_fault, location "ray", checks "size",
- * "miss", "primitive", "t", "bary", "instance-data"), or another status for unusable input.
+ * re-intersect, at its t. A miss must be exactly the miss record of its ray; objToWorld's padding is not compared.
+ * The primary fault is the highest-priority fault of the first wrong ray; faults_seen lists every class found.
+ * Returns RTO_OK, RTO_ERR_MISMATCH (report: code an rto_hit_fault, location "ray", checks "size", "miss",
+ * "primitive", "t", "bary", "instance-data"; facts "rays", "gpu_records", "hits", "misses", "first_hit_rays",
+ * "ties", "wrong_rays"), or RTO_ERR_INVALID_ARGUMENT for unusable input: NULL arrays, an instance naming a missing
+ * mesh, an index past its mesh's vertices, a ray rto_trace refuses, or an expected record that is neither the miss
+ * record of its ray nor the hit record of the primitive it names (msg names it). docs/trace.md has the details.
  */
 rto_status rto_hits_check(const rto_hits_check_desc *desc, rto_report *report, rto_msg *msg);
 

@@ -468,6 +468,20 @@ static void test_bad_rays(void **state)
     rto_scene_destroy(s);
 }
 
+/* Seeded random scenes (random:SEED: triangle soups with shared edges and slivers, instanced with rotations,
+ * non-uniform and mirroring scales, a mask-0 instance) and closed meshes: the seed is in every failure message. */
+static void test_random_scenes_match_brute_force(void **state)
+{
+    (void)state;
+    char spec[32];
+    for (uint32_t seed = 1; seed <= 12; seed++) {
+        snprintf(spec, sizeof spec, "random:%u", seed);
+        check_scene(spec, seed, 1500);
+    }
+    check_scene("sphere:3", 21, 1500);
+    check_scene("sphere:3:9", 22, 1500);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -477,6 +491,7 @@ int main(void)
         cmocka_unit_test(test_masks),
         cmocka_unit_test(test_threads_byte_identical),
         cmocka_unit_test(test_fixtures_match_brute_force),
+        cmocka_unit_test(test_random_scenes_match_brute_force),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -282,7 +282,7 @@ size_t rto_rays_capacity(const rto_rays_desc *desc)
 }
 
 /* Streams of the PRNG (§3), one per purpose: stream p of a seed is rng(seed + p * 0x9E3779B9, i), the golden-ratio
- * offset dist.c uses for its streams; the numbers are distinct from dist.c's (0 .. 7), so ray sets and key
+ * offset dist.c uses for its streams; the numbers are distinct from dist.c's (0 .. 14), so ray sets and key
  * distributions of one seed never share a stream. Ray i of a set draws counters 8 i + k, k = 0 .. 7. */
 enum {
     STREAM_RANDOM = 0x100,

@@ -1,0 +1,1032 @@
+/* The hit validator (rto_hits_check, DESIGN.md §9). Rays are aimed by this file at known points of known triangles,
+ * and the "GPU" dump of a correct tracer is written here too, in binary64 from the scene alone (t as the distance to
+ * the aimed point, bary as the aimed barycentrics, the instance's IDs and transform), so the passing case does not
+ * rest on the oracle agreeing with itself. Each mutation is then caught, named with its fault class, and located at
+ * the ray where it was made; a legitimate tie (a ray through the shared diagonal of a Box face answered with the
+ * neighbour triangle) is accepted and listed, and a near-tie just outside the t tolerance is not. */
+#include "testutil.h"
+
+#include <math.h>
+
+/* splitmix64: the test's own random stream. */
+static uint64_t rng_next(uint64_t *s)
+{
+    uint64_t z = (*s += UINT64_C(0x9E3779B97F4A7C15));
+    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
+    return z ^ (z >> 31);
+}
+
+static double rng_unit(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53; }
+
+static void rng_dir(uint64_t *s, double d[3])
+{
+    const double z = 2.0 * rng_unit(s) - 1.0, phi = 6.283185307179586 * rng_unit(s), r = sqrt(1.0 - z * z);
+    d[0] = r * cos(phi);
+    d[1] = r * sin(phi);
+    d[2] = z;
+}
+
+static void normalize(double v[3])
+{
+    const double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int a = 0; a < 3; a++)
+        v[a] /= l;
+}
+
+static rto_scene *load(const char *spec)
+{
+    char path[1024];
+    const char *fx = getenv("RTO_FIXTURES");
+    if (strchr(spec, '/') && fx && spec[0] != '/') {
+        snprintf(path, sizeof path, "%s/%s", fx, spec);
+        spec = path;
+    }
+    rto_scene *s = NULL;
+    rto_msg msg = {{0}};
+    if (rto_scene_load(spec, &s, &msg))
+        fail_msg("load %s: %s", spec, msg.text);
+    return s;
+}
+
+/* Vertex c (0..2) of triangle p of instance k in world space, through objToWorld in binary64. */
+static void world_vertex(const rto_scene *s, uint32_t k, uint32_t p, int c, double out[3])
+{
+    const rto_instance *in = &s->instances[k];
+    const rto_mesh *m = &s->meshes[in->blas];
+    const float *v = &m->positions[3 * (size_t)m->indices[3 * (size_t)p + (size_t)c]];
+    for (int r = 0; r < 3; r++)
+        out[r] = (double)in->obj_to_world.m[r][0] * v[0] + (double)in->obj_to_world.m[r][1] * v[1] +
+                 (double)in->obj_to_world.m[r][2] * v[2] + (double)in->obj_to_world.m[r][3];
+}
+
+/* The hit record a correct GPU writes, from the scene alone: column c of objToWorld is row-major column c. */
+static rto_hit_record record_of(const rto_scene *s, uint32_t k, uint32_t p, double t, double u, double v)
+{
+    rto_hit_record h;
+    memset(&h, 0, sizeof h);
+    const rto_instance *in = &s->instances[k];
+    h.t = (float)t;
+    h.instance_id = k;
+    h.prim_id = p;
+    h.hit_group = in->sbt_offset;
+    h.bary[0] = (float)u;
+    h.bary[1] = (float)v;
+    h.custom_index = in->custom_index;
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 3; r++)
+            h.obj_to_world[c][r] = in->obj_to_world.m[r][c];
+    return h;
+}
+
+static rto_hit_record miss_of(float t_max)
+{
+    rto_hit_record h;
+    memset(&h, 0, sizeof h);
+    h.t = t_max;
+    h.instance_id = h.prim_id = h.hit_group = h.custom_index = UINT32_MAX;
+    h.miss_flag = 1;
+    return h;
+}
+
+static rto_wf_ray ray_of(const double o[3], const double d[3], uint32_t flags, uint32_t index)
+{
+    rto_wf_ray r;
+    memset(&r, 0, sizeof r);
+    for (int a = 0; a < 3; a++) {
+        r.origin[a] = (float)o[a];
+        r.dir[a] = (float)d[a];
+    }
+    r.t_max = RTO_RAY_T_MAX;
+    r.flags = flags;
+    r.cull_mask = 0xFF;
+    r.pixel = r.payload_slot = index;
+    return r;
+}
+
+/* A scene, rays aimed by the test, the oracle's records (rto_trace) and a correct GPU dump written by the test. */
+typedef struct fixture {
+    rto_scene *scene;
+    rto_accel *accel;
+    size_t n;
+    rto_wf_ray *rays;
+    rto_hit_record *expected;
+    rto_hit_record *gpu;
+} fixture;
+
+static void fixture_trace(fixture *f)
+{
+    rto_msg msg = {{0}};
+    free(f->expected);
+    f->expected = calloc(f->n ? f->n : 1, sizeof *f->expected);
+    assert_non_null(f->expected);
+    if (rto_trace(f->accel, f->rays, f->n, NULL, f->expected, NULL, &msg))
+        fail_msg("rto_trace: %s", msg.text);
+}
+
+static void fixture_alloc(fixture *f, const char *spec, size_t n)
+{
+    memset(f, 0, sizeof *f);
+    f->scene = load(spec);
+    rto_msg msg = {{0}};
+    if (rto_accel_build(f->scene, NULL, &f->accel, &msg))
+        fail_msg("build %s: %s", spec, msg.text);
+    f->n = n;
+    f->rays = calloc(n ? n : 1, sizeof *f->rays);
+    f->gpu = calloc(n ? n : 1, sizeof *f->gpu);
+    assert_true(f->rays && f->gpu);
+}
+
+/* n rays: every fifth one leaves the scene's bounding sphere outwards (a miss); the others are aimed from just
+ * outside a random triangle's plane (0.3 away, in the gap between rtstress cubes) at an interior point of it with
+ * barycentrics in [0.05, 0.9], so for these convex objects that triangle is the only closest hit. */
+static void fixture_make(fixture *f, const char *spec, size_t n, uint64_t seed)
+{
+    fixture_alloc(f, spec, n);
+    const rto_scene *s = f->scene;
+    const rto_aabb b = rto_scene_aabb(s);
+    const double c[3] = {0.5 * ((double)b.min.x + b.max.x), 0.5 * ((double)b.min.y + b.max.y),
+                         0.5 * ((double)b.min.z + b.max.z)};
+    const double radius = sqrt(((double)b.max.x - b.min.x) * ((double)b.max.x - b.min.x) +
+                               ((double)b.max.y - b.min.y) * ((double)b.max.y - b.min.y) +
+                               ((double)b.max.z - b.min.z) * ((double)b.max.z - b.min.z));
+    for (size_t i = 0; i < n; i++) {
+        double o[3], d[3];
+        if (i % 5 == 4) {
+            rng_dir(&seed, d);
+            for (int a = 0; a < 3; a++)
+                o[a] = c[a] + 1.5 * radius * d[a];
+            f->rays[i] = ray_of(o, d, RTO_RAY_FLAG_OPAQUE, (uint32_t)i);
+            f->gpu[i] = miss_of(f->rays[i].t_max);
+            continue;
+        }
+        const uint32_t k = (uint32_t)(rng_next(&seed) % s->instance_count);
+        const uint32_t p = (uint32_t)(rng_next(&seed) % s->meshes[s->instances[k].blas].triangle_count);
+        double u = 0.05 + 0.85 * rng_unit(&seed), v = 0.05 + 0.85 * rng_unit(&seed);
+        if (u + v > 0.9) {
+            u = 0.95 - u;
+            v = 0.95 - v;
+        }
+        double w[3][3], e1[3], e2[3], nrm[3], pt[3], jitter[3];
+        for (int q = 0; q < 3; q++)
+            world_vertex(s, k, p, q, w[q]);
+        for (int a = 0; a < 3; a++) {
+            e1[a] = w[1][a] - w[0][a];
+            e2[a] = w[2][a] - w[0][a];
+            pt[a] = (1.0 - u - v) * w[0][a] + u * w[1][a] + v * w[2][a];
+        }
+        nrm[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        nrm[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        nrm[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        normalize(nrm);
+        /* outwards: away from the centre of the instance's world box (a flat mesh: either side) */
+        const rto_aabb ib = rto_instance_aabb(s, k);
+        const double ic[3] = {0.5 * ((double)ib.min.x + ib.max.x), 0.5 * ((double)ib.min.y + ib.max.y),
+                              0.5 * ((double)ib.min.z + ib.max.z)};
+        double side = 0;
+        for (int a = 0; a < 3; a++)
+            side += nrm[a] * (pt[a] - ic[a]);
+        rng_dir(&seed, jitter);
+        for (int a = 0; a < 3; a++)
+            d[a] = (side < 0 ? -nrm[a] : nrm[a]) + 0.3 * jitter[a];
+        normalize(d);
+        for (int a = 0; a < 3; a++) {
+            o[a] = pt[a] + 0.3 * d[a];
+            d[a] = -d[a];
+        }
+        f->rays[i] = ray_of(o, d, RTO_RAY_FLAG_OPAQUE, (uint32_t)i);
+        /* t of the aimed point along the binary32 ray, in binary64: the projection onto the direction */
+        double num = 0, den = 0;
+        for (int a = 0; a < 3; a++) {
+            num += (pt[a] - f->rays[i].origin[a]) * f->rays[i].dir[a];
+            den += (double)f->rays[i].dir[a] * f->rays[i].dir[a];
+        }
+        f->gpu[i] = record_of(s, k, p, num / den, u, v);
+    }
+    fixture_trace(f);
+    /* The rays must be what the test thinks they are: the oracle hits the aimed triangles and misses the rest. */
+    for (size_t i = 0; i < n; i++)
+        if (f->expected[i].miss_flag != f->gpu[i].miss_flag || f->expected[i].instance_id != f->gpu[i].instance_id ||
+            f->expected[i].prim_id != f->gpu[i].prim_id)
+            fail_msg("%s ray %zu: aimed at instance %u triangle %u, the oracle has %u / %u (miss %u)", spec, i,
+                     f->gpu[i].instance_id, f->gpu[i].prim_id, f->expected[i].instance_id, f->expected[i].prim_id,
+                     f->expected[i].miss_flag);
+}
+
+static void fixture_free(fixture *f)
+{
+    rto_accel_destroy(f->accel);
+    rto_scene_destroy(f->scene);
+    free(f->rays);
+    free(f->expected);
+    free(f->gpu);
+}
+
+static rto_hits_check_desc desc_of(const fixture *f, const rto_hit_record *gpu, size_t gn)
+{
+    rto_hits_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.rays = f->rays;
+    d.ray_count = f->n;
+    d.expected = f->expected;
+    d.gpu = gpu;
+    d.gpu_count = gn;
+    d.instances = f->scene->instances;
+    d.instance_count = f->scene->instance_count;
+    d.meshes = f->scene->meshes;
+    d.mesh_count = f->scene->mesh_count;
+    return d;
+}
+
+static int64_t fact(const rto_report *r, const char *name)
+{
+    for (uint32_t i = 0; i < r->nfacts; i++)
+        if (!strcmp(r->facts[i].name, name))
+            return r->facts[i].value;
+    fail_msg("no fact %s", name);
+    return -1;
+}
+
+static int has_fault_seen(const rto_report *r, const char *name)
+{
+    for (uint32_t i = 0; i < r->nfaults_seen; i++)
+        if (!strcmp(r->faults_seen[i], name))
+            return 1;
+    return 0;
+}
+
+/* A row of the table at ray i with this field. */
+static const rto_report_row *row_at(const rto_report *r, size_t i, const char *field)
+{
+    for (uint32_t k = 0; k < r->nrows; k++)
+        if (r->rows[k].index == i && !strcmp(r->rows[k].field, field))
+            return &r->rows[k];
+    return NULL;
+}
+
+/* The report renders as text and JSON. */
+static void renders(const rto_report *r)
+{
+    char buf[8192];
+    size_t len = 0;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_report_text(r, buf, sizeof buf, &len), RTO_OK);
+    assert_non_null(strstr(buf, "check-hits"));
+    assert_int_equal(rto_report_json(r, buf, sizeof buf, &len, &msg), RTO_OK);
+    assert_non_null(strstr(buf, "\"command\": \"check-hits\""));
+}
+
+static void expect_pass(const fixture *f, const rto_hit_record *gpu, int64_t ties, rto_report *r)
+{
+    rto_msg msg = {{0}};
+    rto_hits_check_desc d = desc_of(f, gpu, f->n);
+    rto_status s = rto_hits_check(&d, r, &msg);
+    if (s != RTO_OK)
+        fail_msg("expected a pass, got %s: %s %s", rto_status_string(s), r->summary, msg.text);
+    assert_int_equal(r->code, RTO_HIT_OK);
+    assert_string_equal(r->fault, "none");
+    assert_string_equal(r->validator, "check-hits");
+    assert_int_equal(fact(r, "ties"), ties);
+    assert_int_equal(fact(r, "rays"), (int64_t)f->n);
+    for (int k = 0; k < 6; k++)
+        assert_int_equal(r->checks[k].state, RTO_CHECK_PASSED);
+    assert_true(!strncmp(r->summary, "ok: ", 4));
+    renders(r);
+}
+
+/* The dump fails with fault `want` as the primary one, located at ray `ray`, and the summary names both. */
+static void expect_fault(const fixture *f, const rto_hit_record *gpu, size_t gn, rto_hit_fault want, size_t ray,
+                         rto_report *r)
+{
+    rto_msg msg = {{0}};
+    rto_hits_check_desc d = desc_of(f, gpu, gn);
+    rto_status s = rto_hits_check(&d, r, &msg);
+    if (s != RTO_ERR_MISMATCH)
+        fail_msg("want fault %s at ray %zu, got status %s: %s", rto_hit_fault_name(want), ray, rto_status_string(s),
+                 s ? msg.text : r->summary);
+    if (r->code != (int)want)
+        fail_msg("want fault %s at ray %zu, got %s: %s", rto_hit_fault_name(want), ray, r->fault, r->summary);
+    assert_string_equal(r->fault, rto_hit_fault_name(want));
+    int64_t where = -1;
+    assert_true(rto_report_where(r, "ray", &where));
+    if (where != (int64_t)ray)
+        fail_msg("fault %s at ray %lld, want ray %zu: %s", r->fault, (long long)where, ray, r->summary);
+    char name[64], at[64];
+    snprintf(name, sizeof name, "%s: ", rto_hit_fault_name(want));
+    snprintf(at, sizeof at, "ray %zu", ray);
+    if (strncmp(r->summary, name, strlen(name)) || !strstr(r->summary, at))
+        fail_msg("summary does not name %s and %s: %s", name, at, r->summary);
+    assert_string_equal(r->faults_seen[0], rto_hit_fault_name(want));
+    assert_true(r->nrows > 0);
+    renders(r);
+}
+
+/* The first ray at or after `from` that the oracle hits, with barycentrics apart by more than 0.01. */
+static size_t hit_ray(const fixture *f, size_t from)
+{
+    for (size_t i = from; i < f->n; i++)
+        if (!f->expected[i].miss_flag && fabs((double)f->expected[i].bary[0] - f->expected[i].bary[1]) > 0.01)
+            return i;
+    fail_msg("no hit ray after %zu", from);
+    return 0;
+}
+
+static size_t miss_ray(const fixture *f, size_t from)
+{
+    for (size_t i = from; i < f->n; i++)
+        if (f->expected[i].miss_flag)
+            return i;
+    fail_msg("no miss ray after %zu", from);
+    return 0;
+}
+
+static rto_hit_record *copy_gpu(const fixture *f)
+{
+    rto_hit_record *g = malloc((f->n ? f->n : 1) * sizeof *g);
+    assert_non_null(g);
+    memcpy(g, f->gpu, f->n * sizeof *g);
+    return g;
+}
+
+/* ------------------------------------------------------------------------------------------------------------------ */
+
+/* The control cases: the test's own dump, the oracle's records and the brute-force tracer's all pass. */
+static void test_correct_dumps_pass(void **state)
+{
+    (void)state;
+    const char *specs[] = {"triangle", "rtstress:2", "Box/glTF/Box.gltf"};
+    for (size_t sc = 0; sc < 3; sc++) {
+        fixture f;
+        fixture_make(&f, specs[sc], 200, 7 + sc);
+        rto_report r;
+        expect_pass(&f, f.gpu, 0, &r);
+        assert_int_equal(fact(&r, "hits") + fact(&r, "misses"), 200);
+        assert_int_equal(fact(&r, "misses"), 40);
+        expect_pass(&f, f.expected, 0, &r);
+        rto_hit_record *b = calloc(f.n, sizeof *b);
+        assert_non_null(b);
+        rto_msg msg = {{0}};
+        assert_int_equal(rto_trace_brute(f.scene, f.rays, f.n, NULL, b, &msg), RTO_OK);
+        expect_pass(&f, b, 0, &r);
+        free(b);
+        fixture_free(&f);
+    }
+}
+
+/* Every mutation of a correct dump, one at a time, named and located at the mutated ray. */
+static void test_mutations_named(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f, "rtstress:2", 300, 11);
+    rto_report r;
+    rto_hit_record *g = copy_gpu(&f);
+    const size_t i = hit_ray(&f, 150), j = miss_ray(&f, 100);
+    const rto_hit_record keep = g[i], keepm = g[j];
+    const rto_scene *s = f.scene;
+
+    /* another triangle of the same instance, which the ray does not hit at the oracle's t: not a tie */
+    const uint32_t tris = s->meshes[s->instances[g[i].instance_id].blas].triangle_count;
+    g[i].prim_id = (keep.prim_id + tris / 2) % tris;
+    expect_fault(&f, g, f.n, RTO_HIT_PRIM, i, &r);
+    assert_non_null(row_at(&r, i, "primId"));
+    assert_non_null(row_at(&r, i, "claimed.t"));
+    assert_int_equal(rto_report_check_state(&r, "primitive"), RTO_CHECK_FAILED);
+    g[i] = keep;
+
+    /* t off by 1e-3 relative */
+    g[i].t = keep.t * 1.001f;
+    expect_fault(&f, g, f.n, RTO_HIT_T, i, &r);
+    const rto_report_row *row = row_at(&r, i, "t");
+    assert_non_null(row);
+    assert_int_equal(row->tolerance.type, RTO_VALUE_F64);
+    assert_true(fabs(row->tolerance.v.f - 1e-5 * fmax(1.0, fabs((double)f.expected[i].t))) < 1e-12);
+    assert_true(r.tolerance_bound > 0);
+    assert_int_equal(rto_report_check_state(&r, "t"), RTO_CHECK_FAILED);
+    g[i] = keep;
+
+    /* barycentrics swapped */
+    g[i].bary[0] = keep.bary[1];
+    g[i].bary[1] = keep.bary[0];
+    expect_fault(&f, g, f.n, RTO_HIT_BARY, i, &r);
+    assert_non_null(row_at(&r, i, "bary.u"));
+    assert_non_null(row_at(&r, i, "bary.v"));
+    g[i] = keep;
+
+    /* the miss flag flipped, both ways, and a flag that is neither 0 nor 1 */
+    g[i].miss_flag = 1;
+    expect_fault(&f, g, f.n, RTO_HIT_MISS_FLAG, i, &r);
+    assert_non_null(row_at(&r, i, "missFlag"));
+    g[i] = miss_of(f.rays[i].t_max);
+    expect_fault(&f, g, f.n, RTO_HIT_MISS_FLAG, i, &r);
+    g[i] = keep;
+    g[j].miss_flag = 0;
+    expect_fault(&f, g, f.n, RTO_HIT_MISS_FLAG, j, &r);
+    g[j].miss_flag = 2;
+    expect_fault(&f, g, f.n, RTO_HIT_MISS_FLAG, j, &r);
+    g[j] = keepm;
+    g[i].miss_flag = 7;
+    expect_fault(&f, g, f.n, RTO_HIT_MISS_FLAG, i, &r);
+    g[i] = keep;
+
+    /* another instance (the same triangle of the next cube: not on the ray) */
+    g[i].instance_id = (keep.instance_id + 1) % s->instance_count;
+    expect_fault(&f, g, f.n, RTO_HIT_INSTANCE, i, &r);
+    assert_non_null(row_at(&r, i, "instanceId"));
+    g[i] = keep;
+
+    /* customIndex, hitGroup */
+    g[i].custom_index = keep.custom_index + 1;
+    expect_fault(&f, g, f.n, RTO_HIT_CUSTOM_INDEX, i, &r);
+    assert_int_equal(rto_report_check_state(&r, "instance-data"), RTO_CHECK_FAILED);
+    assert_non_null(row_at(&r, i, "customIndex"));
+    g[i] = keep;
+    g[i].hit_group = keep.hit_group + 3;
+    expect_fault(&f, g, f.n, RTO_HIT_HIT_GROUP, i, &r);
+    assert_non_null(row_at(&r, i, "hitGroup"));
+    g[i] = keep;
+
+    /* objToWorld written row-major (the 12 floats of the 3x4 in order) instead of as mat4x3 columns: the
+     * translation moves */
+    const float *m = &s->instances[keep.instance_id].obj_to_world.m[0][0];
+    for (int c = 0; c < 4; c++)
+        for (int rr = 0; rr < 3; rr++)
+            g[i].obj_to_world[c][rr] = m[3 * c + rr];
+    expect_fault(&f, g, f.n, RTO_HIT_TRANSFORM, i, &r);
+    assert_int_equal(rto_report_check_state(&r, "instance-data"), RTO_CHECK_FAILED);
+    g[i] = keep;
+    /* the padding is not compared */
+    for (int c = 0; c < 4; c++)
+        g[i].obj_to_world[c][3] = 12345.0f;
+    expect_pass(&f, g, 0, &r);
+    g[i] = keep;
+
+    /* a truncated dump: size, at the first ray without a record; a longer one too */
+    expect_fault(&f, g, f.n - 1, RTO_HIT_SIZE, f.n - 1, &r);
+    assert_int_equal(rto_report_check_state(&r, "size"), RTO_CHECK_FAILED);
+    assert_int_equal(r.nfaults_seen, 1);
+    assert_int_equal(fact(&r, "gpu_records"), (int64_t)f.n - 1);
+    rto_hit_record *longer = calloc(f.n + 1, sizeof *longer);
+    assert_non_null(longer);
+    memcpy(longer, g, f.n * sizeof *g);
+    expect_fault(&f, longer, f.n + 1, RTO_HIT_SIZE, f.n, &r);
+    free(longer);
+    /* ... whose remaining records are still compared */
+    g[i].t = keep.t * 1.001f;
+    expect_fault(&f, g, f.n - 1, RTO_HIT_SIZE, f.n - 1, &r);
+    assert_true(has_fault_seen(&r, "t"));
+    g[i] = keep;
+
+    expect_pass(&f, g, 0, &r);
+    free(g);
+    fixture_free(&f);
+}
+
+/* The Box node rotates its mesh (-90 degrees about x): a transposed rotation is a transform fault. */
+static void test_transposed_rotation(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f, "Box/glTF/Box.gltf", 60, 3);
+    rto_hit_record *g = copy_gpu(&f);
+    const size_t i = hit_ray(&f, 20);
+    int changed = 0;
+    for (int c = 0; c < 3; c++)
+        for (int rr = 0; rr < 3; rr++) {
+            g[i].obj_to_world[c][rr] = f.gpu[i].obj_to_world[rr][c];
+            changed |= g[i].obj_to_world[c][rr] != f.gpu[i].obj_to_world[c][rr];
+        }
+    assert_true(changed);
+    rto_report r;
+    expect_fault(&f, g, f.n, RTO_HIT_TRANSFORM, i, &r);
+    assert_non_null(row_at(&r, i, "objToWorld[1][2]"));
+    assert_non_null(row_at(&r, i, "objToWorld[2][1]"));
+    assert_null(row_at(&r, i, "objToWorld[0][0]"));
+    free(g);
+    fixture_free(&f);
+}
+
+/* A miss record is exactly the miss record: each field off is its own fault. */
+static void test_miss_record_fields(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f, "triangle", 50, 5);
+    rto_hit_record *g = copy_gpu(&f);
+    const size_t j = miss_ray(&f, 10);
+    const rto_hit_record keep = g[j];
+    rto_report r;
+    g[j].t = 0.0f;
+    expect_fault(&f, g, f.n, RTO_HIT_T, j, &r);
+    g[j] = keep;
+    g[j].instance_id = 0;
+    expect_fault(&f, g, f.n, RTO_HIT_INSTANCE, j, &r);
+    g[j] = keep;
+    g[j].prim_id = 0;
+    expect_fault(&f, g, f.n, RTO_HIT_PRIM, j, &r);
+    g[j] = keep;
+    g[j].custom_index = 0;
+    expect_fault(&f, g, f.n, RTO_HIT_CUSTOM_INDEX, j, &r);
+    g[j] = keep;
+    g[j].hit_group = 0;
+    expect_fault(&f, g, f.n, RTO_HIT_HIT_GROUP, j, &r);
+    g[j] = keep;
+    g[j].bary[1] = 0.25f;
+    expect_fault(&f, g, f.n, RTO_HIT_BARY, j, &r);
+    g[j] = keep;
+    g[j].obj_to_world[3][0] = 1.0f;
+    expect_fault(&f, g, f.n, RTO_HIT_TRANSFORM, j, &r);
+    assert_non_null(row_at(&r, j, "objToWorld[3][0]"));
+    g[j] = keep;
+    /* several at once: the primary is the first in priority order, the others are listed */
+    g[j].t = 1.0f;
+    g[j].hit_group = 0;
+    g[j].bary[0] = 0.5f;
+    expect_fault(&f, g, f.n, RTO_HIT_T, j, &r);
+    assert_true(has_fault_seen(&r, "bary") && has_fault_seen(&r, "hit-group"));
+    assert_int_equal(r.nfaults_seen, 3);
+    free(g);
+    fixture_free(&f);
+}
+
+/* IDs past the scene are faults of the dump, never reads past the arrays. */
+static void test_out_of_range_ids(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f, "rtstress:2", 100, 13);
+    rto_hit_record *g = copy_gpu(&f);
+    const size_t i = hit_ray(&f, 30);
+    const rto_hit_record keep = g[i];
+    rto_report r;
+    g[i].instance_id = 1000000;
+    expect_fault(&f, g, f.n, RTO_HIT_INSTANCE, i, &r);
+    assert_non_null(strstr(r.summary, "does not exist"));
+    g[i].instance_id = UINT32_MAX;
+    expect_fault(&f, g, f.n, RTO_HIT_INSTANCE, i, &r);
+    g[i] = keep;
+    g[i].prim_id = 12;
+    expect_fault(&f, g, f.n, RTO_HIT_PRIM, i, &r);
+    assert_non_null(strstr(r.summary, "does not exist"));
+    g[i].prim_id = UINT32_MAX;
+    expect_fault(&f, g, f.n, RTO_HIT_PRIM, i, &r);
+    g[i] = keep;
+    /* first-hit rays take the same range checks */
+    f.rays[i].flags = RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT | RTO_RAY_FLAG_SKIP_CLOSEST_HIT;
+    fixture_trace(&f);
+    g[i] = f.expected[i];
+    g[i].instance_id = 1000000;
+    expect_fault(&f, g, f.n, RTO_HIT_INSTANCE, i, &r);
+    g[i] = f.expected[i];
+    g[i].prim_id = 1000000;
+    expect_fault(&f, g, f.n, RTO_HIT_PRIM, i, &r);
+    free(g);
+    fixture_free(&f);
+}
+
+/* The primary fault is the highest-priority fault of the first wrong ray; every class seen is listed. */
+static void test_priority_and_faults_seen(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f, "rtstress:2", 200, 17);
+    rto_hit_record *g = copy_gpu(&f);
+    const size_t a = hit_ray(&f, 20), b = hit_ray(&f, a + 1), c = miss_ray(&f, b + 1);
+    rto_report r;
+    /* one ray, two faults: t before custom-index */
+    g[a].custom_index += 1;
+    g[a].t *= 1.01f;
+    expect_fault(&f, g, f.n, RTO_HIT_T, a, &r);
+    assert_true(has_fault_seen(&r, "custom-index"));
+    assert_non_null(row_at(&r, a, "customIndex"));
+    /* a later ray's higher-priority fault does not take over, but is listed */
+    g[c].miss_flag = 0;
+    g[b].bary[0] += 0.01f;
+    expect_fault(&f, g, f.n, RTO_HIT_T, a, &r);
+    assert_true(has_fault_seen(&r, "miss-flag") && has_fault_seen(&r, "bary"));
+    assert_int_equal(r.nfaults_seen, 4);
+    assert_int_equal(fact(&r, "wrong_rays"), 3);
+    assert_int_equal(rto_report_check_state(&r, "miss"), RTO_CHECK_FAILED);
+    assert_int_equal(rto_report_check_state(&r, "bary"), RTO_CHECK_FAILED);
+    assert_int_equal(rto_report_check_state(&r, "primitive"), RTO_CHECK_PASSED);
+    /* rows of later wrong rays follow the primary ray's */
+    assert_non_null(row_at(&r, b, "bary.u"));
+    assert_non_null(row_at(&r, c, "missFlag"));
+    assert_int_equal(r.rows[0].index, a);
+    free(g);
+    fixture_free(&f);
+}
+
+/* Within tolerance passes: t within 1e-5 relative, bary within 1e-4. */
+static void test_tolerances(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f, "Box/glTF/Box.gltf", 50, 19);
+    rto_hit_record *g = copy_gpu(&f);
+    const size_t i = hit_ray(&f, 5);
+    const float t = f.expected[i].t;
+    const double tol = 1e-5 * fmax(1.0, fabs((double)t));
+    rto_report r;
+    g[i].t = (float)((double)t + 0.9 * tol);
+    g[i].bary[0] = (float)((double)f.expected[i].bary[0] - 0.9e-4);
+    expect_pass(&f, g, 0, &r);
+    g[i].t = (float)((double)t + 1.1 * tol);
+    expect_fault(&f, g, f.n, RTO_HIT_T, i, &r);
+    g[i].t = t;
+    g[i].bary[0] = (float)((double)f.expected[i].bary[0] - 1.1e-4);
+    expect_fault(&f, g, f.n, RTO_HIT_BARY, i, &r);
+    g[i].bary[0] = NAN;
+    expect_fault(&f, g, f.n, RTO_HIT_BARY, i, &r);
+    g[i] = f.gpu[i];
+    g[i].t = NAN;
+    expect_fault(&f, g, f.n, RTO_HIT_T, i, &r);
+    g[i].t = INFINITY;
+    expect_fault(&f, g, f.n, RTO_HIT_T, i, &r);
+    free(g);
+    fixture_free(&f);
+}
+
+/* Two triangles of one Box face share its diagonal: a ray through the diagonal's midpoint, along the face normal,
+ * computes exactly (the Box's coordinates are +-0.5 and its rotation exact), so it hits both at the same t. The GPU
+ * answering with the neighbour is a tie: accepted, counted, listed, and then held to the neighbour's own bary. */
+static void test_tie_on_shared_edge(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_alloc(&f, "Box/glTF/Box.gltf", 1);
+    const rto_scene *s = f.scene;
+    const rto_mesh *m = &s->meshes[s->instances[0].blas];
+    /* the first two triangles sharing two vertex indices: one face's diagonal */
+    uint32_t p = 0, q = 0, a = 0, b = 0;
+    int found = 0;
+    for (uint32_t x = 0; x < m->triangle_count && !found; x++)
+        for (uint32_t y = x + 1; y < m->triangle_count && !found; y++) {
+            int shared = 0;
+            uint32_t sv[3];
+            for (int i = 0; i < 3; i++)
+                for (int j = 0; j < 3; j++)
+                    if (m->indices[3 * x + i] == m->indices[3 * y + j])
+                        sv[shared++] = m->indices[3 * x + i];
+            if (shared == 2) {
+                p = x, q = y, a = sv[0], b = sv[1];
+                found = 1;
+            }
+        }
+    assert_true(found);
+    /* the diagonal's midpoint and the face normal, in world space */
+    double wa[3], wb[3], mid[3], w[3][3], e1[3], e2[3], nrm[3], o[3], d[3];
+    for (int c = 0; c < 3; c++)
+        world_vertex(s, 0, p, c, w[c]);
+    for (int r = 0; r < 3; r++) {
+        const rto_mat34 *M = &s->instances[0].obj_to_world;
+        const float *va = &m->positions[3 * a], *vb = &m->positions[3 * b];
+        wa[r] = (double)M->m[r][0] * va[0] + (double)M->m[r][1] * va[1] + (double)M->m[r][2] * va[2] + M->m[r][3];
+        wb[r] = (double)M->m[r][0] * vb[0] + (double)M->m[r][1] * vb[1] + (double)M->m[r][2] * vb[2] + M->m[r][3];
+        mid[r] = 0.5 * (wa[r] + wb[r]);
+        e1[r] = w[1][r] - w[0][r];
+        e2[r] = w[2][r] - w[0][r];
+    }
+    nrm[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    nrm[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    nrm[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    normalize(nrm);
+    const double side = nrm[0] * mid[0] + nrm[1] * mid[1] + nrm[2] * mid[2]; /* the Box is centred on the origin */
+    for (int r = 0; r < 3; r++) {
+        d[r] = side < 0 ? nrm[r] : -nrm[r];
+        o[r] = mid[r] - 2.0 * d[r];
+    }
+    f.rays[0] = ray_of(o, d, RTO_RAY_FLAG_OPAQUE, 0);
+    fixture_trace(&f);
+    rto_hit_record *e = f.expected;
+    assert_int_equal(e[0].miss_flag, 0);
+    assert_true(e[0].prim_id == p || e[0].prim_id == q);
+    const uint32_t other = e[0].prim_id == p ? q : p;
+    /* precondition: the ray meets both triangles (the exact arithmetic above) */
+    rto_tri_hit hp, hq;
+    assert_true(rto_instance_triangle_hit(&s->instances[0], m, p, &f.rays[0], &hp));
+    assert_true(rto_instance_triangle_hit(&s->instances[0], m, q, &f.rays[0], &hq));
+
+    /* the neighbour's record, from the scene alone: the midpoint weighs its two diagonal vertices 1/2 each */
+    double wt[3] = {0, 0, 0};
+    for (int c = 0; c < 3; c++)
+        wt[c] = (m->indices[3 * other + c] == a || m->indices[3 * other + c] == b) ? 0.5 : 0.0;
+    f.gpu[0] = record_of(s, 0, other, 2.0, wt[1], wt[2]);
+    rto_report r;
+    expect_pass(&f, f.gpu, 1, &r);
+    const rto_report_row *row = row_at(&r, 0, "tie.primId");
+    assert_non_null(row);
+    assert_int_equal(row->expected.v.u, e[0].prim_id);
+    assert_int_equal(row->actual.v.u, other);
+    assert_non_null(row_at(&r, 0, "tie.t"));
+    assert_null(row_at(&r, 0, "tie.instanceId"));
+    assert_non_null(strstr(r.summary, "1 tie"));
+    /* a tie is held to the neighbour's values: the oracle's own bary with the neighbour's ID is wrong (the midpoint
+     * of the diagonal has one barycentric 0 in one triangle and 1/2 in the other at the same slot, or the slots
+     * differ) unless both coincide */
+    rto_hit_record mixed = e[0];
+    mixed.prim_id = other;
+    if (fabs((double)mixed.bary[0] - wt[1]) > 1e-4 || fabs((double)mixed.bary[1] - wt[2]) > 1e-4) {
+        expect_fault(&f, &mixed, 1, RTO_HIT_BARY, 0, &r);
+        assert_int_equal(fact(&r, "ties"), 1);
+        assert_non_null(row_at(&r, 0, "tie.primId")); /* the wrong ray's rows show the tie it rests on */
+    }
+    /* and a wrong t for the tied primitive is a t fault */
+    f.gpu[0].t = 2.1f;
+    expect_fault(&f, f.gpu, 1, RTO_HIT_T, 0, &r);
+    fixture_free(&f);
+}
+
+/* Two parallel triangles, delta apart along a ray that meets them at t = 10 and 10 + delta (tolerance 1e-4 there):
+ * claiming the farther one is a tie for delta = 0.9e-4 and a prim fault for delta = 1.1e-4. */
+static void near_tie(double delta, int want_tie)
+{
+    const float z = (float)-delta;
+    float pos[18] = {-1, -1, 0, 1, -1, 0, 0, 1, 0, -1, -1, z, 1, -1, z, 0, 1, z};
+    uint32_t idx[6] = {0, 1, 2, 3, 4, 5};
+    rto_mesh mesh;
+    memset(&mesh, 0, sizeof mesh);
+    mesh.vertex_count = 6;
+    mesh.positions = pos;
+    mesh.triangle_count = 2;
+    mesh.indices = idx;
+    mesh.material = -1;
+    rto_instance inst;
+    memset(&inst, 0, sizeof inst);
+    const double id[3][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_instance_set_transform(&inst, id, &msg), RTO_OK);
+    inst.mask = 0xFF;
+    inst.custom_index = 5;
+    inst.sbt_offset = 2;
+    rto_scene sc;
+    memset(&sc, 0, sizeof sc);
+    sc.meshes = &mesh;
+    sc.mesh_count = 1;
+    sc.instances = &inst;
+    sc.instance_count = 1;
+    fixture f;
+    memset(&f, 0, sizeof f);
+    f.scene = &sc;
+    assert_int_equal(rto_accel_build(&sc, NULL, &f.accel, &msg), RTO_OK);
+    f.n = 3;
+    f.rays = calloc(3, sizeof *f.rays);
+    f.gpu = calloc(3, sizeof *f.gpu);
+    assert_true(f.rays && f.gpu);
+    const double o[3] = {0, 0, 10}, d[3] = {0, 0, -1}, away[3] = {0, 0, 1};
+    f.rays[0] = ray_of(away, away, RTO_RAY_FLAG_OPAQUE, 0);
+    f.rays[1] = ray_of(o, d, RTO_RAY_FLAG_OPAQUE, 1);
+    f.rays[2] = ray_of(away, away, RTO_RAY_FLAG_OPAQUE, 2);
+    fixture_trace(&f);
+    assert_int_equal(f.expected[1].prim_id, 0);
+    assert_true(f.expected[1].t == 10.0f);
+    f.gpu[0] = miss_of(f.rays[0].t_max);
+    f.gpu[2] = miss_of(f.rays[2].t_max);
+    /* (0, 0) is at barycentrics (1/4, 1/2) in both triangles */
+    f.gpu[1] = record_of(&sc, 0, 1, 10.0 + (double)-z, 0.25, 0.5);
+    rto_report r;
+    if (want_tie) {
+        expect_pass(&f, f.gpu, 1, &r);
+        assert_non_null(row_at(&r, 1, "tie.primId"));
+    } else {
+        expect_fault(&f, f.gpu, 3, RTO_HIT_PRIM, 1, &r);
+        const rto_report_row *row = row_at(&r, 1, "claimed.t");
+        assert_non_null(row);
+        assert_true(row->diff.v.f > 1e-4);
+        assert_non_null(strstr(r.summary, "not a tie"));
+    }
+    rto_accel_destroy(f.accel);
+    free(f.rays);
+    free(f.expected);
+    free(f.gpu);
+}
+
+static void test_near_tie(void **state)
+{
+    (void)state;
+    near_tie(0.9e-4, 1);
+    near_tie(1.1e-4, 0);
+}
+
+/* TERMINATE_ON_FIRST_HIT rays: any primitive the ray hits, at its own t, is right; nothing else is compared. */
+static void test_first_hit_rays(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_alloc(&f, "rtstress:2", 4);
+    /* along +x through both cubes of a row (cubes at x = -1 and 1, y = z = -1) */
+    const double o[3] = {-5, -1.1, -0.8}, d[3] = {1, 0, 0};
+    for (size_t i = 0; i < 4; i++)
+        f.rays[i] = ray_of(o, d, RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT | RTO_RAY_FLAG_SKIP_CLOSEST_HIT, (uint32_t)i);
+    fixture_trace(&f);
+    memcpy(f.gpu, f.expected, 4 * sizeof *f.gpu);
+    rto_report r;
+    expect_pass(&f, f.gpu, 0, &r);
+    assert_int_equal(fact(&r, "first_hit_rays"), 4);
+    /* the far face of the second cube (instance 1, x in [0.5, 1.5]), found by the test */
+    const rto_scene *s = f.scene;
+    const rto_mesh *m = &s->meshes[0];
+    uint32_t far = UINT32_MAX;
+    float far_t = 0;
+    for (uint32_t p = 0; p < m->triangle_count; p++) {
+        double w[3][3];
+        for (int c = 0; c < 3; c++)
+            world_vertex(s, 1, p, c, w[c]);
+        rto_tri_hit h;
+        if (w[0][0] == 1.5 && w[1][0] == 1.5 && w[2][0] == 1.5 &&
+            rto_instance_triangle_hit(&s->instances[1], m, p, &f.rays[1], &h)) {
+            far = p;
+            far_t = h.t;
+        }
+    }
+    assert_true(far != UINT32_MAX);
+    assert_true(fabs((double)far_t - 6.5) < 1e-5);
+    f.gpu[1] = record_of(s, 1, far, far_t, 0.5, 0.5); /* bary, customIndex: not compared for first-hit rays */
+    f.gpu[1].custom_index = 99;
+    expect_pass(&f, f.gpu, 0, &r);
+    /* a hit on an instance the ray does not pass (instance 7, the cube at (1, 1, 1)) */
+    f.gpu[2].instance_id = 7;
+    expect_fault(&f, f.gpu, 4, RTO_HIT_INSTANCE, 2, &r);
+    f.gpu[2] = f.expected[2];
+    /* a triangle of the oracle's instance on a face parallel to the ray (y = const): missed */
+    uint32_t missed = UINT32_MAX;
+    for (uint32_t p = 0; p < m->triangle_count && missed == UINT32_MAX; p++) {
+        double w[3][3];
+        for (int c = 0; c < 3; c++)
+            world_vertex(s, f.expected[2].instance_id, p, c, w[c]);
+        if (w[0][1] == w[1][1] && w[1][1] == w[2][1])
+            missed = p;
+    }
+    f.gpu[2].prim_id = missed;
+    expect_fault(&f, f.gpu, 4, RTO_HIT_PRIM, 2, &r);
+    f.gpu[2] = f.expected[2];
+    /* the right primitive at the wrong distance */
+    f.gpu[3].t = f.expected[3].t * 1.001f;
+    expect_fault(&f, f.gpu, 4, RTO_HIT_T, 3, &r);
+    f.gpu[3] = f.expected[3];
+    /* hit / miss is defined */
+    f.gpu[3] = miss_of(f.rays[3].t_max);
+    expect_fault(&f, f.gpu, 4, RTO_HIT_MISS_FLAG, 3, &r);
+    fixture_free(&f);
+}
+
+/* Generated ray sets (rto_rays_generate) on the tracing-test scenes — mirroring transforms, a mask-0 instance, shared
+ * edges, a closed sphere — checked against the brute-force tracer's records, an independent traversal: they pass,
+ * with ties where brute force keeps another primitive at the same t (axis rays through the sphere's vertices and
+ * edges), and a mutation is still named at its ray. Grazing rays are left out: there brute force also accepts rays
+ * just outside a triangle that the tree's boxes rightly reject (DESIGN.md §6, "boundary rays"). */
+static void generated(const char *spec, rto_ray_set set, size_t count, int want_ties)
+{
+    fixture f;
+    memset(&f, 0, sizeof f);
+    f.scene = load(spec);
+    rto_msg msg = {{0}};
+    if (rto_accel_build(f.scene, NULL, &f.accel, &msg))
+        fail_msg("build %s: %s", spec, msg.text);
+    rto_rays_desc rd;
+    memset(&rd, 0, sizeof rd);
+    rd.set = set;
+    rd.seed = 5;
+    rd.width = 64;
+    rd.height = 48;
+    rd.count = count;
+    const size_t cap = rto_rays_capacity(&rd);
+    f.rays = calloc(cap ? cap : 1, sizeof *f.rays);
+    assert_non_null(f.rays);
+    if (rto_rays_generate(f.accel, &rd, f.rays, cap, &f.n, NULL, &msg))
+        fail_msg("%s %s: %s", spec, rto_ray_set_name(set), msg.text);
+    assert_true(f.n > 100);
+    fixture_trace(&f);
+    f.gpu = calloc(f.n, sizeof *f.gpu);
+    assert_non_null(f.gpu);
+    assert_int_equal(rto_trace_brute(f.scene, f.rays, f.n, NULL, f.gpu, &msg), RTO_OK);
+    rto_report r;
+    rto_hits_check_desc d = desc_of(&f, f.gpu, f.n);
+    if (rto_hits_check(&d, &r, &msg) != RTO_OK)
+        fail_msg("%s %s rays: brute force fails: %s %s", spec, rto_ray_set_name(set), r.summary, msg.text);
+    if (want_ties)
+        assert_true(fact(&r, "ties") > 0);
+    expect_pass(&f, f.expected, 0, &r);
+    /* a mutation in the middle */
+    size_t i = f.n / 2;
+    while (i < f.n && f.expected[i].miss_flag)
+        i++;
+    assert_true(i < f.n);
+    memcpy(f.gpu, f.expected, f.n * sizeof *f.gpu);
+    if (f.rays[i].flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) {
+        f.gpu[i].instance_id = f.scene->instance_count;
+        expect_fault(&f, f.gpu, f.n, RTO_HIT_INSTANCE, i, &r);
+    } else {
+        f.gpu[i].t *= 1.001f;
+        expect_fault(&f, f.gpu, f.n, RTO_HIT_T, i, &r);
+    }
+    fixture_free(&f);
+}
+
+static void test_generated_rays(void **state)
+{
+    (void)state;
+    generated("random:2", RTO_RAYS_PRIMARY, 0, 0);
+    generated("random:2", RTO_RAYS_RANDOM, 3000, 0);
+    generated("random:2", RTO_RAYS_SHADOW, 0, 0);
+    generated("sphere:2", RTO_RAYS_AXIS, 3000, 1);
+    generated("Box/glTF/Box.gltf", RTO_RAYS_PRIMARY, 0, 0);
+}
+
+/* Unusable input is an error, not a verdict: NULLs, inconsistent expected records, a broken scene. */
+static void test_input_errors(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f, "rtstress:2", 40, 23);
+    rto_report r;
+    rto_msg msg = {{0}};
+    rto_hits_check_desc d = desc_of(&f, f.gpu, f.n);
+    assert_int_equal(rto_hits_check(NULL, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_int_equal(rto_hits_check(&d, NULL, &msg), RTO_ERR_INVALID_ARGUMENT);
+    d.rays = NULL;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    d = desc_of(&f, NULL, f.n);
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    d = desc_of(&f, f.gpu, f.n);
+    d.instances = NULL;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    d = desc_of(&f, f.gpu, f.n);
+    d.mesh_count = 0;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "names mesh"));
+    /* a mesh index past its vertices */
+    d = desc_of(&f, f.gpu, f.n);
+    rto_mesh mesh = f.scene->meshes[0];
+    uint32_t *idx = malloc(3 * mesh.triangle_count * sizeof *idx);
+    assert_non_null(idx);
+    memcpy(idx, mesh.indices, 3 * mesh.triangle_count * sizeof *idx);
+    idx[7] = mesh.vertex_count;
+    mesh.indices = idx;
+    d.meshes = &mesh;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "index 7"));
+    free(idx);
+    /* expected records that are not the oracle's: each refused, naming the record */
+    const size_t i = hit_ray(&f, 5), j = miss_ray(&f, 0);
+    const rto_hit_record ke = f.expected[i], km = f.expected[j];
+    rto_hit_record *e = f.expected;
+    e[i].t *= 1.01f;
+    d = desc_of(&f, f.gpu, f.n);
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    char want[64];
+    snprintf(want, sizeof want, "expected record %zu", i);
+    assert_non_null(strstr(msg.text, want));
+    e[i] = ke;
+    e[i].prim_id = 1000;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    e[i] = ke;
+    e[i].custom_index ^= 1;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    e[i] = ke;
+    e[i].miss_flag = 3;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    e[i] = ke;
+    e[j].t = 1.0f;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    snprintf(want, sizeof want, "expected record %zu", j);
+    assert_non_null(strstr(msg.text, want));
+    e[j] = km;
+    /* rays that cannot be traced */
+    f.rays[3].dir[1] = NAN;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "ray 3"));
+    f.rays[3] = f.rays[4];
+    f.rays[3].t_min = 2e30f;
+    assert_int_equal(rto_hits_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    fixture_free(&f);
+    /* nothing to compare passes */
+    rto_hits_check_desc empty;
+    memset(&empty, 0, sizeof empty);
+    assert_int_equal(rto_hits_check(&empty, &r, &msg), RTO_OK);
+    assert_true(rto_report_passed(&r));
+    assert_int_equal(rto_hit_fault_name((rto_hit_fault)99)[0], 'u');
+    static const char *const names[] = {"none", "size", "miss-flag", "instance", "prim", "t", "bary",
+                                        "custom-index", "hit-group", "transform"};
+    for (int k = 0; k < 10; k++)
+        assert_string_equal(rto_hit_fault_name((rto_hit_fault)k), names[k]);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_correct_dumps_pass),
+        cmocka_unit_test(test_mutations_named),
+        cmocka_unit_test(test_transposed_rotation),
+        cmocka_unit_test(test_miss_record_fields),
+        cmocka_unit_test(test_out_of_range_ids),
+        cmocka_unit_test(test_priority_and_faults_seen),
+        cmocka_unit_test(test_tolerances),
+        cmocka_unit_test(test_tie_on_shared_edge),
+        cmocka_unit_test(test_near_tie),
+        cmocka_unit_test(test_first_hit_rays),
+        cmocka_unit_test(test_generated_rays),
+        cmocka_unit_test(test_input_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
