@@ -12,12 +12,15 @@
  *   default, non-robust intersection; a second column gives Embree with RTC_SCENE_FLAG_ROBUST, the mode crosscheck
  *   compares against (same build quality).
  * Table 2: the oracle's trace time for rtstress:N, N = 8, 16, 24, 32, 40 (512 to 64,000 instances), primary rays at
- *   1920x1080, 1 thread and all threads, relative to N = 8.
+ *   1920x1080, 1 thread and all threads, relative to N = 8, with the sweep TLAS (the default) and a Karras TLAS: the
+ *   sweep tree's leaves follow the sorted keys in a complete binary tree, so its subtrees match Morton cells only
+ *   when the instance count is a power of two and fills the grid (N = 8, 16, 32); the Karras tree splits where the
+ *   keys' bits change.
  * The timed region is the tracing call alone: scenes, trees, Embree mirrors and rays are made before the clock starts,
  * and the hit records are allocated once. Each figure is the median of RUNS runs, oracle and Embree interleaved.
  * oracle/embree is time(oracle) / time(Embree): > 1 means the oracle is slower. Hits of both sides are counted
  * outside the clock and printed, so a reader sees both traced the same rays to the same surfaces.
- * Usage: bench_trace [--width W] [--height H] [--json] [bunny.gltf] [2CylinderEngine.glb]. */
+ * Usage: bench_trace [--width W] [--height H] [--json] [--stress-only] [bunny.gltf] [2CylinderEngine.glb]. */
 #define _GNU_SOURCE
 #include "bench_util.h"
 #include "embree.h"
@@ -152,43 +155,50 @@ static void bench_scene(const char *spec, const char *label)
 
 static void bench_stress(void)
 {
-    printf("\noracle trace cost for rtstress:N, primary rays at %ux%u (median of %d runs)\n", width, height, RUNS);
-    printf("%-12s %9s %9s %9s | %10s %8s %7s | %10s %8s %7s\n", "scene", "instances", "rays", "hits", "1 thr ms",
-           "Mrays/s", "vs N=8", "all ms", "Mrays/s", "vs N=8");
-    double base[2] = {0, 0};
+    printf("\noracle trace cost for rtstress:N, primary rays at %ux%u (median of %d runs), with the sweep TLAS (the "
+           "default) and a Karras TLAS\n", width, height, RUNS);
+    printf("%-12s %-6s %9s %9s %9s | %10s %8s %7s | %10s %8s %7s\n", "scene", "tlas", "instances", "rays", "hits",
+           "1 thr ms", "Mrays/s", "vs N=8", "all ms", "Mrays/s", "vs N=8");
+    double base[2][2] = {{0, 0}, {0, 0}};
     for (uint32_t n = 8; n <= 40; n += 8) {
         char spec[32];
         snprintf(spec, sizeof spec, "rtstress:%u", n);
         rto_msg msg = {{0}};
         rto_scene *s = NULL;
-        rto_accel *acc = NULL;
-        if (rto_scene_load(spec, &s, &msg) || rto_accel_build(s, NULL, &acc, &msg))
+        rto_accel *acc[2] = {NULL, NULL};
+        const rto_accel_desc kinds[2] = {{RTO_TLAS_SWEEP}, {RTO_TLAS_KARRAS}};
+        if (rto_scene_load(spec, &s, &msg) || rto_accel_build(s, &kinds[0], &acc[0], &msg) ||
+            rto_accel_build(s, &kinds[1], &acc[1], &msg))
             die(spec, &msg);
-        rayset r = make_rays(acc, RTO_RAYS_PRIMARY);
+        rayset r = make_rays(acc[0], RTO_RAYS_PRIMARY);
         rto_hit_record *h = malloc(r.n * sizeof *h);
         if (!h)
             die("out of memory", NULL);
-        double m[2];
-        for (int d = 0; d < 2; d++) {
-            double t[RUNS];
-            for (int run = 0; run < RUNS; run++)
-                t[run] = time_oracle(acc, &r, d ? 0 : 1, h);
-            m[d] = median(t);
-            if (n == 8)
-                base[d] = m[d];
+        for (int k = 0; k < 2; k++) {
+            double m[2];
+            for (int d = 0; d < 2; d++) {
+                double t[RUNS];
+                for (int run = 0; run < RUNS; run++)
+                    t[run] = time_oracle(acc[k], &r, d ? 0 : 1, h);
+                m[d] = median(t);
+                if (n == 8)
+                    base[k][d] = m[d];
+            }
+            size_t hits = count_hits(h, r.n);
+            const char *tl = k ? "karras" : "sweep";
+            printf("%-12s %-6s %9u %9zu %9zu | %10.1f %8.2f %7.2f | %10.1f %8.2f %7.2f\n", spec, tl, s->instance_count,
+                   r.n, hits, m[0] * 1e3, (double)r.n / m[0] * 1e-6, m[0] / base[k][0], m[1] * 1e3,
+                   (double)r.n / m[1] * 1e-6, m[1] / base[k][1]);
+            json_array_append_new(jstress, json_pack("{s:s, s:s, s:i, s:I, s:I, s:f, s:f, s:f, s:f}", "scene", spec,
+                "tlas", tl, "instances", (int)s->instance_count, "rays", (json_int_t)r.n, "hits", (json_int_t)hits,
+                "ms_1_thread", m[0] * 1e3, "ms_all_threads", m[1] * 1e3, "rel_1_thread", m[0] / base[k][0],
+                "rel_all_threads", m[1] / base[k][1]));
+            fflush(stdout);
         }
-        size_t hits = count_hits(h, r.n);
-        printf("%-12s %9u %9zu %9zu | %10.1f %8.2f %7.2f | %10.1f %8.2f %7.2f\n", spec, s->instance_count, r.n, hits,
-               m[0] * 1e3, (double)r.n / m[0] * 1e-6, m[0] / base[0], m[1] * 1e3, (double)r.n / m[1] * 1e-6,
-               m[1] / base[1]);
-        json_array_append_new(jstress, json_pack("{s:s, s:i, s:I, s:I, s:f, s:f, s:f, s:f}", "scene", spec,
-            "instances", (int)s->instance_count, "rays", (json_int_t)r.n, "hits", (json_int_t)hits, "ms_1_thread",
-            m[0] * 1e3, "ms_all_threads", m[1] * 1e3, "rel_1_thread", m[0] / base[0], "rel_all_threads",
-            m[1] / base[1]));
-        fflush(stdout);
         free(h);
         free(r.rays);
-        rto_accel_destroy(acc);
+        rto_accel_destroy(acc[0]);
+        rto_accel_destroy(acc[1]);
         rto_scene_destroy(s);
     }
 }
@@ -220,7 +230,7 @@ int main(int argc, char **argv)
 {
     const char *scenes[8];
     int nscenes = 0;
-    int json = 0;
+    int json = 0, stress_only = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--width") && i + 1 < argc)
             width = arg_u32(argv[++i]);
@@ -228,6 +238,8 @@ int main(int argc, char **argv)
             height = arg_u32(argv[++i]);
         else if (!strcmp(argv[i], "--json"))
             json = 1;
+        else if (!strcmp(argv[i], "--stress-only"))
+            stress_only = 1;
         else if (nscenes < 6)
             scenes[nscenes++] = argv[i];
     }
@@ -247,11 +259,12 @@ int main(int argc, char **argv)
            "oracle/");
     printf("%-16s %-8s %8s %9s %9s %9s %9s %8s %9s %8s %7s %9s %8s %7s\n", "", "", "", "", "(oracle)", "", "", "",
            "", "", "embree", "", "", "robust");
-    for (int i = 0; i < nscenes; i++) {
+    for (int i = 0; i < nscenes && !stress_only; i++) {
         const char *base = strrchr(scenes[i], '/');
         bench_scene(scenes[i], base ? base + 1 : scenes[i]);
     }
-    bench_scene("rtstress:16", "rtstress:16");
+    if (!stress_only)
+        bench_scene("rtstress:16", "rtstress:16");
     bench_stress();
     print_load("after");
     if (json) {
