@@ -227,9 +227,11 @@ static void print_text(const run *r, const char *scene_name, const char *mode)
     uint64_t tris = 0;
     for (uint32_t i = 0; i < r->scene->instance_count; i++)
         tris += r->scene->meshes[r->scene->instances[i].blas].triangle_count;
-    printf("crosscheck %s: %u instances, %llu triangles; Embree %d.%d.%d %s (build quality %s), %u threads\n",
-           scene_name, r->scene->instance_count, (unsigned long long)tris, RTC_VERSION_MAJOR, RTC_VERSION_MINOR,
-           RTC_VERSION_PATCH, mode, emb_quality_name(EMB_QUALITY_DEFAULT), emb_thread_count(r->threads));
+    const uint32_t threads = emb_thread_count(r->threads);
+    printf("crosscheck %s: %u instance%s, %llu triangle%s; Embree %d.%d.%d %s (build quality %s), %u thread%s\n",
+           scene_name, r->scene->instance_count, r->scene->instance_count == 1 ? "" : "s", (unsigned long long)tris,
+           tris == 1 ? "" : "s", RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH, mode,
+           emb_quality_name(EMB_QUALITY_DEFAULT), threads, threads == 1 ? "" : "s");
     printf("%-12s %9s %9s %9s %6s %8s %8s %10s %11s %8s %11s %9s %11s\n", "rays", "count", "hits", "agree", "tie",
            "coplanar", "crossing", "t-rounding", "robust-only", "grazing", "unexplained", "agree %", "max rel dt");
     row t;
