@@ -116,7 +116,7 @@ static rto_status read_rays(const char *path, rto_wf_ray **rays, size_t *n, rto_
 static rto_status write_counter_stats(rto_bundle *b, const rto_trace_counters *c, size_t n)
 {
     static const char *const names[4] = {"nodes_visited", "box_tests", "triangle_tests", "instance_entries"};
-    rto_status bad = RTO_OK;
+    int bad = 0;
     for (int k = 0; k < 4; k++) {
         uint64_t total = 0, hist[33] = {0};
         uint32_t lo = UINT32_MAX, hi = 0;
@@ -153,7 +153,8 @@ static rto_status write_counter_stats(rto_bundle *b, const rto_trace_counters *c
             bad |= rto_bundle_set_int(b, section, key, (int64_t)hist[j]);
         }
     }
-    return bad;
+    /* The setters keep their first failure for rto_bundle_commit too; this only stops early, with one status. */
+    return bad ? RTO_ERR_OUT_OF_MEMORY : RTO_OK;
 }
 
 static rto_status write_geometry(rto_bundle *b, const rto_scene *sc, rto_msg *msg)
