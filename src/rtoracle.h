@@ -841,6 +841,24 @@ RTO_STATIC_ASSERT(sizeof(rto_camera_uniforms) == 144, "CameraUniforms is 144 byt
 RTO_STATIC_ASSERT(offsetof(rto_camera_uniforms, inverse_view) == 64 && offsetof(rto_camera_uniforms, position) == 128,
                   "CameraUniforms fields");
 
+/** FrameCounters (40 bytes, DESIGN.md §7): one row per ray queue of a wavefront frame. Row d describes queue d
+ * (filled by GENERATE for d = 0, by the SHADE pass of bounce d - 1 otherwise) and, for d < maxDepth, the TRACE and
+ * SHADE passes of bounce d over it; the last row (d = maxDepth) is the queue no bounce traces. */
+typedef struct rto_frame_counters {
+    uint32_t emitted;     /* emits into the queue: the GPU's atomic emit counter after the pass that filled it */
+    uint32_t queued;      /* min(emitted, capacity): the rays stored, PREP's n */
+    uint32_t dropped;     /* emitted - queued: emits past the capacity 2 W H */
+    uint32_t refused;     /* emits past the per-invocation budget (RTO_FRAME_EMITS_PER_INVOCATION): never counted in
+                           * emitted, deterministic on a GPU too */
+    uint32_t traced;      /* rays traced at bounce d (= queued; 0 on the last row) */
+    uint32_t hits;        /* of the traced rays, hits */
+    uint32_t misses;      /* and misses */
+    uint32_t shaded;      /* closest-hit and miss calls (a hit of a SKIP_CLOSEST_HIT ray runs neither) */
+    uint32_t accumulates; /* accumulate calls in the SHADE pass */
+    uint32_t conflicts;   /* pixels accumulated from two or more rays in the SHADE pass (a race on a GPU) */
+} rto_frame_counters;
+RTO_STATIC_ASSERT(sizeof(rto_frame_counters) == 40, "FrameCounters is 40 bytes");
+
 /** The GPU structs by name. Values never change; new layouts are appended. */
 typedef enum rto_layout {
     RTO_LAYOUT_TLAS_NODE = 0,  /* "TlasNode", rto_tlas_node, 32 bytes */
@@ -850,9 +868,10 @@ typedef enum rto_layout {
     RTO_LAYOUT_HIT_RECORD = 4, /* "HitRecord", rto_hit_record, 96 bytes; objToWorld as 16 floats (4 padded columns) */
     RTO_LAYOUT_WF_RAY = 5,     /* "WfRay", rto_wf_ray, 64 bytes */
     RTO_LAYOUT_TRACE_COUNTERS = 6, /* "TraceCounters", rto_trace_counters, 16 bytes */
-    RTO_LAYOUT_CAMERA = 7          /* "CameraUniforms", rto_camera_uniforms, 144 bytes */
+    RTO_LAYOUT_CAMERA = 7,         /* "CameraUniforms", rto_camera_uniforms, 144 bytes */
+    RTO_LAYOUT_FRAME_COUNTERS = 8  /* "FrameCounters", rto_frame_counters, 40 bytes */
 } rto_layout;
-#define RTO_LAYOUT_COUNT 8
+#define RTO_LAYOUT_COUNT 9
 
 /** The layout's name as written into manifests ("TlasNode", ...); NULL for an unknown value. */
 const char *rto_layout_name(rto_layout layout);
@@ -945,9 +964,21 @@ typedef enum rto_bundle_file {
     RTO_FILE_RAYS = 11,            /* rays.npy                role "rays"             WfRay */
     RTO_FILE_HITS = 12,            /* hits.npy                role "hits"             HitRecord, one per ray */
     RTO_FILE_COUNTERS = 13,        /* counters.npy            role "counters"         TraceCounters, one per ray */
-    RTO_FILE_CAMERA = 14           /* camera.npy              role "camera"           CameraUniforms (1,) */
+    RTO_FILE_CAMERA = 14,          /* camera.npy              role "camera"           CameraUniforms (1,) */
+    /* Frame bundles (rtoracle render): per bounce D (the "mesh" argument of rto_bundle_file_name), then the frame. */
+    RTO_FILE_BOUNCE_RAYS = 15,     /* bounce_D_rays.npy       role "bounce-rays"      WfRay, the queue traced at D */
+    RTO_FILE_BOUNCE_HITS = 16,     /* bounce_D_hits.npy       role "bounce-hits"      HitRecord, one per queued ray */
+    RTO_FILE_BOUNCE_TRACE_COUNTERS = 17, /* bounce_D_trace_counters.npy  "bounce-trace-counters"  TraceCounters */
+    RTO_FILE_BOUNCE_PAYLOADS = 18, /* bounce_D_payloads.npy   role "bounce-payloads"  u32 (rays, payload words) */
+    RTO_FILE_EMIT_COUNTS = 19,     /* emit_counts.npy         role "emit-counts"      u32 (maxDepth + 1,) */
+    RTO_FILE_INDIRECT_ARGS = 20,   /* indirect_args.npy       role "indirect-args"    u32 (maxDepth + 1, 3) */
+    RTO_FILE_FRAME_COUNTERS = 21,  /* frame_counters.npy      role "frame-counters"   FrameCounters (maxDepth + 1,) */
+    RTO_FILE_ACCUM = 22,           /* accum.npy               role "accum"            f32 (H, W, 4), linear */
+    RTO_FILE_ACCUM_EXR = 23,       /* accum.exr               role "accum-exr"        RGBA f32 OpenEXR, linear */
+    RTO_FILE_IMAGE = 24,           /* image.png               role "image"            RGBA 8-bit PNG, resolved */
+    RTO_FILE_NOT_COMPARABLE = 25   /* not_comparable.npy      role "not-comparable"   u8 (H, W): RTO_PIXEL_* bits */
 } rto_bundle_file;
-#define RTO_BUNDLE_FILE_COUNT 15
+#define RTO_BUNDLE_FILE_COUNT 26
 /** Room for any bundle file name, NUL included. */
 #define RTO_BUNDLE_FILE_NAME_MAX 64
 
@@ -1221,6 +1252,325 @@ rto_status rto_hits_check(const rto_hits_check_desc *desc, rto_report *report, r
 
 /** The scene instance of an InstanceRecord (what a bundle stores). */
 rto_instance rto_instance_from_record(const rto_instance_record *record);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Images (DESIGN.md §8-§9): PNG and OpenEXR through OpenImageIO, compared with ImageBufAlgo                          */
+
+typedef enum rto_pixel_type {
+    RTO_PIXEL_U8 = 0, /* 8-bit unsigned normalised (PNG) */
+    RTO_PIXEL_F32 = 1 /* binary32, linear (OpenEXR) */
+} rto_pixel_type;
+
+/** An image in memory: rows top first, channels interleaved (1 to 4: Y, YA, RGB, RGBA). */
+typedef struct rto_image {
+    uint32_t width, height, channels;
+    rto_pixel_type type;
+    void *pixels; /* width * height * channels values of type; owned when filled by rto_image_read */
+} rto_image;
+
+/**
+ * Reads a PNG, OpenEXR (or any format OpenImageIO reads) file: 8-bit files as RTO_PIXEL_U8, everything else as
+ * RTO_PIXEL_F32, without colour conversion. Refuses (RTO_ERR_PARSE / RTO_ERR_IO / RTO_ERR_UNSUPPORTED, one line in
+ * msg) a corrupt, truncated or non-regular file and an image over 2^28 pixels, before allocating its pixels.
+ */
+rto_status rto_image_read(const char *path, rto_image *out, rto_msg *msg);
+/** Writes an image atomically (rto_file_write's rules): ".png" needs RTO_PIXEL_U8, ".exr" RTO_PIXEL_F32 (stored as
+ * 32-bit float, ZIP compressed). The bytes depend only on the pixels. */
+rto_status rto_image_write(const char *path, const rto_image *image, rto_msg *msg);
+/** Frees what rto_image_read allocated and zeroes the struct. NULL is fine. */
+void rto_image_free(rto_image *image);
+
+/** Thresholds of rto_image_compare, as idiff's options (-fail, -failpercent, -hardfail, -warn, -warnpercent, -hardwarn):
+ * a pixel fails when a channel differs by more than fail; the comparison fails when more than fail_percent % of the
+ * pixels fail or any differs by more than hard_fail, and warns likewise with the warn thresholds. Values are compared
+ * in [0, 1] units (8-bit values divided by 255). A zero-initialised description means idiff's defaults (fail and
+ * warn 1e-6, percents 0, hard thresholds infinite). */
+typedef struct rto_image_compare_desc {
+    double fail, fail_percent, hard_fail;
+    double warn, warn_percent, hard_warn;
+    int hard_fail_set, hard_warn_set; /* nonzero: hard_fail / hard_warn apply */
+    const char *diff_path;            /* non-NULL: write |expected - actual| * diff_scale there (PNG or EXR) */
+    double diff_scale;                /* 0 means 1 */
+} rto_image_compare_desc;
+
+typedef enum rto_image_verdict { RTO_IMAGE_PASS = 0, RTO_IMAGE_WARN = 1, RTO_IMAGE_FAIL = 2 } rto_image_verdict;
+
+/** What rto_image_compare measured (OpenImageIO's ImageBufAlgo::compare and PSNR over all channels). */
+typedef struct rto_image_compare_result {
+    double mean_error, rms_error, psnr, max_error; /* psnr is +inf for identical images */
+    uint32_t max_x, max_y, max_c;                  /* where max_error is */
+    uint64_t pixels, fail_count, warn_count;       /* pixels over the fail / warn threshold */
+    rto_image_verdict verdict;
+} rto_image_compare_result;
+
+/** Compares two images of the same size and channel count (RTO_ERR_INVALID_ARGUMENT otherwise, msg says how they
+ * differ). Returns RTO_OK with the verdict in result; a diff image is written when asked for. */
+rto_status rto_image_compare(const rto_image *expected, const rto_image *actual, const rto_image_compare_desc *desc,
+                             rto_image_compare_result *result, rto_msg *msg);
+
+/** Writes an image into a bundle as name (".png" or ".exr") with its role; recorded like an array (sha256, and
+ * "image": width, height, channels, type). */
+rto_status rto_bundle_add_image(rto_bundle *b, const char *name, const char *role, const rto_image *image,
+                                rto_msg *msg);
+/** Loads an image of a bundle by name after checking its sha256 (free with rto_image_free). */
+rto_status rto_bundle_read_image(rto_bundle_reader *r, const char *name, rto_image *out, rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* The wavefront frame (DESIGN.md §7): GENERATE -> PREP -> (TRACE -> SHADE -> PREP) x maxDepth -> RESOLVE          */
+/*
+ * A program is a set of C callbacks mirroring the seeds' WGSL API: raygen emits primary rays; closest_hit and miss
+ * accumulate colour into a pixel and emit rays into the next queue, each with a payload that travels with the ray by
+ * value; resolve turns the linear accum into the image. The callbacks reach the frame through ctx->api (inline
+ * wrappers below), so a plugin built as a shared library needs this header only, not librtoracle. Callbacks run on
+ * several threads at once: they must not write shared state, and their output must depend on their arguments only.
+ */
+
+#define RTO_PROGRAM_ABI_VERSION 1
+/** The one symbol a plugin exports: `const rto_program *rto_program_entry_v1(void)` (rto_program_entry_fn). */
+#define RTO_PROGRAM_ENTRY_SYMBOL "rto_program_entry_v1"
+#define RTO_PAYLOAD_MAX 64         /* bytes of payload a ray may carry */
+#define RTO_PROGRAM_PARAMS_MAX 16  /* parameters a program may declare */
+/** Emits one raygen or shading invocation may make; a further emit is refused (counted in `refused`). Slots: the
+ * j-th emit (j = 0, 1) of an invocation for pixel p gets payloadSlot p + j W H, so the payload store of a queue has
+ * 2 W H slots, like the queue itself. */
+#define RTO_FRAME_EMITS_PER_INVOCATION 2
+/** Ray kinds of the built-in programs (a WfRay's kind; a program may use any u32). */
+#define RTO_RAY_KIND_PRIMARY 0u
+#define RTO_RAY_KIND_SHADOW 1u
+/** Bits of not_comparable.npy: why a pixel's accum cannot be compared with a GPU's. */
+#define RTO_PIXEL_CONFLICT 0x1u /* two rays accumulated into it in one SHADE pass */
+#define RTO_PIXEL_DROPPED 0x2u  /* a ray of it was dropped at capacity (which ray drops is arbitrary on a GPU) */
+
+/** A parameter a program declares, with its default: settable with `rtoracle render --param NAME=V[,V...]`. */
+typedef struct rto_program_param {
+    const char *name; /* [a-z0-9_]+ */
+    uint32_t count;   /* 1 .. 4 floats */
+    float value[4];   /* the default */
+    const char *help; /* one line */
+} rto_program_param;
+
+/** The surface at a hit (rto_frame_api.surface): everything is computed in binary32 in the order DESIGN.md §7 states. */
+typedef struct rto_surface {
+    float position[3];         /* world: ray origin + t * dir */
+    float geometric_normal[3]; /* world, unit: transpose(worldToObj) * cross(v1 - v0, v2 - v0), as wound */
+    float normal[3];           /* world, unit: the interpolated vertex normals, else the geometric normal */
+    float uv[2];               /* interpolated TEXCOORD_0; (0, 0) without */
+    float base_color[4];       /* linear: material base colour * base-colour texture at uv (sRGB-decoded, bilinear,
+                                * wrap); (1, 1, 1, 1) without material */
+    int32_t material;          /* material index, -1 for none */
+} rto_surface;
+
+typedef struct rto_frame_ctx rto_frame_ctx;
+
+/** What a frame gives its program: fixed for the whole frame. */
+typedef struct rto_frame_env {
+    uint32_t width, height, max_depth;
+    const rto_camera_uniforms *camera; /* the 144-byte block the frame's primary rays come from */
+    const rto_scene *scene;            /* NULL for the analytic `stage2` scene */
+    float ray_offset;                  /* a self-intersection offset for secondary rays' tMin: 1e-4 max(1, M), M the
+                                        * largest magnitude of the scene bounds and camera position (as shadow rays) */
+    const float (*params)[4];          /* the program's parameters, in its table's order */
+    void *user;                        /* what the program's init returned */
+} rto_frame_env;
+
+/** The frame's services, called through ctx (use the inline wrappers). */
+typedef struct rto_frame_api {
+    uint32_t abi_version; /* RTO_PROGRAM_ABI_VERSION */
+    /* raygen only: emits a ray for the invocation's pixel (ray->pixel and payloadSlot are set by the frame; the
+     * other fields are the program's). payload: env payload_size bytes, NULL for zeros. 1 if stored, 0 if dropped
+     * or refused. */
+    int (*emit_primary_ray)(rto_frame_ctx *ctx, const rto_wf_ray *ray, const void *payload);
+    /* closest_hit / miss only: emits a ray into the next queue, for the pixel of the ray being shaded. */
+    int (*emit_ray)(rto_frame_ctx *ctx, const rto_wf_ray *ray, const void *payload);
+    /* Adds rgb to accum[pixel].rgb (pixel < W H; another value is ignored and counted as an invalid call). */
+    void (*accumulate)(rto_frame_ctx *ctx, uint32_t pixel, const float rgb[3]);
+    /* The surface at a hit of the scene's triangles (mesh scenes), or of the stage2 primitives (normals by the
+     * seed's rules; uv 0, base colour 1). */
+    void (*surface)(const rto_frame_ctx *ctx, const rto_wf_ray *ray, const rto_hit_record *hit, rto_surface *out);
+    /* Bilinear, wrapped, sRGB-decoded sample of a scene texture (rgba; alpha linear); (1, 1, 1, 1) for index < 0. */
+    void (*sample_texture)(const rto_frame_ctx *ctx, int32_t texture, const float uv[2], float rgba[4]);
+} rto_frame_api;
+
+/** The context of one callback invocation. */
+struct rto_frame_ctx {
+    const rto_frame_api *api;
+    const rto_frame_env *env;
+};
+
+static inline int rto_emit_primary_ray(rto_frame_ctx *ctx, const rto_wf_ray *ray, const void *payload)
+{
+    return ctx->api->emit_primary_ray(ctx, ray, payload);
+}
+static inline int rto_emit_ray(rto_frame_ctx *ctx, const rto_wf_ray *ray, const void *payload)
+{
+    return ctx->api->emit_ray(ctx, ray, payload);
+}
+static inline void rto_accumulate(rto_frame_ctx *ctx, uint32_t pixel, const float rgb[3])
+{
+    ctx->api->accumulate(ctx, pixel, rgb);
+}
+static inline void rto_surface_at(const rto_frame_ctx *ctx, const rto_wf_ray *ray, const rto_hit_record *hit,
+                                  rto_surface *out)
+{
+    ctx->api->surface(ctx, ray, hit, out);
+}
+
+/** A program (built in, or a plugin's). All strings and tables live as long as the program. */
+typedef struct rto_program {
+    uint32_t abi_version;      /* RTO_PROGRAM_ABI_VERSION */
+    const char *name;          /* [a-z0-9-]+ */
+    const char *description;   /* one line */
+    uint32_t payload_size;     /* bytes, a multiple of 4, <= RTO_PAYLOAD_MAX */
+    uint32_t max_depth;        /* the default maxDepth (>= 1) */
+    const rto_program_param *params;
+    uint32_t param_count;      /* <= RTO_PROGRAM_PARAMS_MAX */
+    /* Optional: called once before the frame; returns 0 (and a reason in why) to refuse the scene or parameters. */
+    int (*init)(const rto_frame_env *env, void **user, char *why, size_t why_cap);
+    void (*fini)(void *user); /* optional */
+    /* Required: GENERATE, once per pixel (x, y), row-major. */
+    void (*raygen)(rto_frame_ctx *ctx, uint32_t x, uint32_t y);
+    /* SHADE: hits (unless the ray has SKIP_CLOSEST_HIT) and misses, in queue order. payload: a copy. */
+    void (*closest_hit)(rto_frame_ctx *ctx, const rto_wf_ray *ray, const rto_hit_record *hit, const void *payload);
+    void (*miss)(rto_frame_ctx *ctx, const rto_wf_ray *ray, const void *payload);
+    /* Optional RESOLVE: hdr is accum[pixel] (rgb sums, a = 1); NULL means passthrough. */
+    void (*resolve)(const rto_frame_env *env, uint32_t x, uint32_t y, const float hdr[4], float rgba[4]);
+} rto_program;
+
+typedef const rto_program *(*rto_program_entry_fn)(void);
+
+/** The built-in programs: "triangle", "sun-shadow", "normals" (DESIGN.md §7); NULL for another name. */
+const rto_program *rto_program_builtin(const char *name);
+/** The built-in program at index i (0 ..), NULL past the last: for listings. */
+const rto_program *rto_program_builtin_at(uint32_t i);
+
+typedef struct rto_plugin rto_plugin;
+/** Loads a plugin (dlopen, RTLD_LOCAL) and checks its program: ABI version, name, payload size, parameter table,
+ * required callbacks. RTO_ERR_IO / RTO_ERR_UNSUPPORTED with one line in msg otherwise. */
+rto_status rto_plugin_load(const char *path, rto_plugin **out, rto_msg *msg);
+const rto_program *rto_plugin_program(const rto_plugin *plugin);
+/** Unloads a plugin. NULL is fine. */
+void rto_plugin_unload(rto_plugin *plugin);
+/** Checks a program table (what rto_plugin_load checks); RTO_ERR_UNSUPPORTED naming the first problem. */
+rto_status rto_program_validate(const rto_program *program, rto_msg *msg);
+
+/** Which per-bounce buffers a frame keeps (and its bundle writes); counters, indirect args, camera, the image and
+ * the not-comparable mask are always kept. */
+#define RTO_FRAME_KEEP_RAYS 0x1u           /* bounce_D_rays.npy */
+#define RTO_FRAME_KEEP_HITS 0x2u           /* bounce_D_hits.npy */
+#define RTO_FRAME_KEEP_TRACE_COUNTERS 0x4u /* bounce_D_trace_counters.npy */
+#define RTO_FRAME_KEEP_PAYLOADS 0x8u       /* bounce_D_payloads.npy */
+#define RTO_FRAME_KEEP_ACCUM 0x10u         /* accum.npy and accum.exr */
+#define RTO_FRAME_KEEP_ALL 0x1Fu
+
+/** Parses a --stages list ("rays,hits,trace-counters,payloads,accum", "all", "none") into RTO_FRAME_KEEP_* bits;
+ * 0 for an unknown name (msg names it). */
+int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg);
+
+/** The analytic scene of seed 002 (two spheres, a box and the ground slab), traced with the seed's own
+ * intersection code (its 0.001 epsilon): rto_frame_desc.scene_kind. */
+typedef enum rto_frame_scene_kind { RTO_FRAME_SCENE_MESH = 0, RTO_FRAME_SCENE_STAGE2 = 1 } rto_frame_scene_kind;
+
+/** A parameter override by name (the values of --param). */
+typedef struct rto_param_value {
+    char name[32];
+    uint32_t count;
+    float value[4];
+} rto_param_value;
+
+typedef struct rto_frame_desc {
+    const rto_program *program;
+    rto_frame_scene_kind scene_kind;
+    const rto_accel *accel;       /* RTO_FRAME_SCENE_MESH: the scene to trace */
+    uint32_t width, height;
+    uint32_t max_depth;           /* 0: the program's default */
+    const rto_camera *camera;     /* NULL: rto_camera_frame of the scene bounds (mesh), rto_camera_default (stage2) */
+    const rto_param_value *params; /* overrides of the program's defaults; an unknown name or count is refused */
+    uint32_t param_count;
+    uint32_t keep;                /* RTO_FRAME_KEEP_* */
+    uint32_t threads;             /* 0: one per online CPU; output bytes never depend on it */
+    /* Optional: called from the calling thread between passes with the fraction done (0 .. 1). */
+    void (*progress)(void *arg, double fraction);
+    void *progress_arg;
+} rto_frame_desc;
+
+/** The buffers of one queue, kept as desc.keep says (NULL otherwise). */
+typedef struct rto_frame_queue {
+    size_t count;                 /* rays stored (= counters.queued) */
+    rto_wf_ray *rays;             /* queue order: emits in the order a serial GPU would make them */
+    uint32_t *payloads;           /* count * payload_size / 4 words: each ray's payload */
+    rto_hit_record *hits;         /* traced queues only */
+    rto_trace_counters *trace_counters;
+} rto_frame_queue;
+
+/** Stages timed (wall seconds, summed over bounces). */
+typedef enum rto_frame_stage {
+    RTO_STAGE_GENERATE = 0,
+    RTO_STAGE_PREP = 1,
+    RTO_STAGE_TRACE = 2,
+    RTO_STAGE_SHADE = 3,
+    RTO_STAGE_RESOLVE = 4
+} rto_frame_stage;
+#define RTO_FRAME_STAGE_COUNT 5
+/** "generate", "prep", "trace", "shade", "resolve"; NULL for another value. */
+const char *rto_frame_stage_name(rto_frame_stage stage);
+
+typedef struct rto_frame {
+    char program[64];
+    uint32_t width, height, max_depth, payload_size, keep;
+    uint64_t capacity;                  /* 2 W H rays per queue */
+    rto_camera camera;                  /* the camera used */
+    rto_camera_uniforms camera_uniforms;
+    rto_param_value params[RTO_PROGRAM_PARAMS_MAX]; /* every parameter's value used, in the program's order */
+    uint32_t param_count;
+    rto_frame_counters *counters;       /* max_depth + 1 rows */
+    uint32_t (*indirect_args)[3];       /* max_depth + 1: [ceil(queued / 64), 1, 1] */
+    rto_frame_queue *queues;            /* max_depth + 1 */
+    float *accum;                       /* 4 W H: rgb sums, a = 1; rows top first */
+    uint8_t *image;                     /* 4 W H rgba8 */
+    uint8_t *not_comparable;            /* W H: RTO_PIXEL_CONFLICT | RTO_PIXEL_DROPPED */
+    uint64_t invalid_calls;             /* accumulate with pixel >= W H, emit_ray from raygen, ... */
+    double seconds[RTO_FRAME_STAGE_COUNT];
+} rto_frame;
+
+/**
+ * Renders one frame. Deterministic: queues hold rays in the order a serial run makes them (pixels row-major in
+ * GENERATE, rays in queue order in SHADE), accumulates are applied in that order, so every output byte is
+ * independent of the thread count. RTO_ERR_INVALID_ARGUMENT for a bad size (0, or W H > 2^26), parameter or camera;
+ * RTO_ERR_UNSUPPORTED when the program's init refuses; RTO_ERR_OUT_OF_MEMORY.
+ */
+rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg *msg);
+void rto_frame_destroy(rto_frame *frame);
+/**
+ * Adds a frame's files (rto_bundle_file: camera, emit counts, indirect args, frame counters, the kept per-bounce
+ * buffers, accum, image, not-comparable mask) and manifest sections ("frame", "program", "params", "counters",
+ * and "timings" when with_timings) to a bundle begun with kind "frame". The caller adds the scene's build and geometry
+ * files (mesh scenes) and commits.
+ */
+rto_status rto_frame_write_bundle(const rto_frame *frame, int with_timings, rto_bundle *bundle, rto_msg *msg);
+
+/**
+ * Traces rays through the stage2 scene exactly as seed 002's traceScene: sphere (0,0,0) r 1, sphere (2.5,0,-1) r 1,
+ * box centre (-2.5,0,0) half extents 0.75, ground box centre (0,-1.5,0) half extents (10, 0.5, 10), each with the
+ * seed's intersectSphere / intersectBox (t < 0.001 rejected), the nearest with t < min(999999, tMax) kept. Hit
+ * records: instanceId = customIndex = the primitive (0 .. 3 in that order), primId 0, hitGroup 0, bary 0,
+ * objToWorld the translation to the primitive's centre.
+ */
+void rto_stage2_trace(const rto_wf_ray *rays, size_t n, rto_hit_record *hits);
+
+/* Frame validation (check-frame): a GPU's dump of a frame against a frame bundle. */
+
+/** Fault classes of rto_frame_check, in the order of the pipeline. */
+typedef enum rto_frame_fault {
+    RTO_FRAME_OK = 0,        /* "none" */
+    RTO_FRAME_COUNTS = 1,    /* "emit-count": a queue's emit counter differs */
+    RTO_FRAME_INDIRECT = 2,  /* "indirect-args": PREP's dispatch arguments differ */
+    RTO_FRAME_QUEUE = 3,     /* "queue": a ray missing, extra, duplicated, or different (as multisets) */
+    RTO_FRAME_PAYLOAD = 4,   /* "payload": a ray's payload differs */
+    RTO_FRAME_HITS = 5,      /* "hits": a hit record fails the check-hits rules */
+    RTO_FRAME_ACCUM = 6,     /* "accum": a pixel outside the accum tolerance */
+    RTO_FRAME_IMAGE = 7      /* "image": the 8-bit image outside its tolerance */
+} rto_frame_fault;
+const char *rto_frame_fault_name(rto_frame_fault f);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Output files: atomic writes, interrupted runs, text for JSON                                                     */
