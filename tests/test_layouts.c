@@ -58,6 +58,14 @@ static const want_field camera[] = {
     F(rto_camera_uniforms, position, "position", RTO_DTYPE_F32, 3),
     F(rto_camera_uniforms, pad, "pad", RTO_DTYPE_F32, 1)};
 
+/* DESIGN.md §7: ten u32 counters, packed. */
+static const want_field frame_counters[] = {
+    {"emitted", RTO_DTYPE_U32, 1, 0},      {"queued", RTO_DTYPE_U32, 1, 4},   {"dropped", RTO_DTYPE_U32, 1, 8},
+    {"refused", RTO_DTYPE_U32, 1, 12},     {"traced", RTO_DTYPE_U32, 1, 16},  {"hits", RTO_DTYPE_U32, 1, 20},
+    {"misses", RTO_DTYPE_U32, 1, 24},      {"shaded", RTO_DTYPE_U32, 1, 28},  {"accumulates", RTO_DTYPE_U32, 1, 32},
+    {"conflicts", RTO_DTYPE_U32, 1, 36},
+};
+
 static const struct {
     rto_layout layout;
     const char *name;
@@ -74,6 +82,7 @@ static const struct {
     {RTO_LAYOUT_WF_RAY, "WfRay", 64, sizeof(rto_wf_ray), ray, 12},
     {RTO_LAYOUT_TRACE_COUNTERS, "TraceCounters", 16, sizeof(rto_trace_counters), counters, 4},
     {RTO_LAYOUT_CAMERA, "CameraUniforms", 144, sizeof(rto_camera_uniforms), camera, 4},
+    {RTO_LAYOUT_FRAME_COUNTERS, "FrameCounters", 40, sizeof(rto_frame_counters), frame_counters, 10},
 };
 #define NLAYOUTS (sizeof layouts / sizeof layouts[0])
 
@@ -227,6 +236,17 @@ static void test_bundle_file_names(void **state)
         {RTO_FILE_HITS, 0, "hits.npy", "hits"},
         {RTO_FILE_COUNTERS, 0, "counters.npy", "counters"},
         {RTO_FILE_CAMERA, 0, "camera.npy", "camera"},
+        {RTO_FILE_BOUNCE_RAYS, 0, "bounce_0_rays.npy", "bounce-rays"},
+        {RTO_FILE_BOUNCE_HITS, 1, "bounce_1_hits.npy", "bounce-hits"},
+        {RTO_FILE_BOUNCE_TRACE_COUNTERS, 2, "bounce_2_trace_counters.npy", "bounce-trace-counters"},
+        {RTO_FILE_BOUNCE_PAYLOADS, 0, "bounce_0_payloads.npy", "bounce-payloads"},
+        {RTO_FILE_EMIT_COUNTS, 9, "emit_counts.npy", "emit-counts"},
+        {RTO_FILE_INDIRECT_ARGS, 0, "indirect_args.npy", "indirect-args"},
+        {RTO_FILE_FRAME_COUNTERS, 0, "frame_counters.npy", "frame-counters"},
+        {RTO_FILE_ACCUM, 0, "accum.npy", "accum"},
+        {RTO_FILE_ACCUM_EXR, 0, "accum.exr", "accum-exr"},
+        {RTO_FILE_IMAGE, 0, "image.png", "image"},
+        {RTO_FILE_NOT_COMPARABLE, 0, "not_comparable.npy", "not-comparable"},
     };
     assert_int_equal(sizeof want / sizeof want[0], RTO_BUNDLE_FILE_COUNT);
     char name[RTO_BUNDLE_FILE_NAME_MAX];

@@ -95,6 +95,18 @@ rto_npy_desc rto_layout_desc(rto_layout layout, uint64_t n)
         field(&d, "position", RTO_DTYPE_F32, 3);
         field(&d, "pad", RTO_DTYPE_F32, 1);
         break;
+    case RTO_LAYOUT_FRAME_COUNTERS:
+        field(&d, "emitted", RTO_DTYPE_U32, 1);
+        field(&d, "queued", RTO_DTYPE_U32, 1);
+        field(&d, "dropped", RTO_DTYPE_U32, 1);
+        field(&d, "refused", RTO_DTYPE_U32, 1);
+        field(&d, "traced", RTO_DTYPE_U32, 1);
+        field(&d, "hits", RTO_DTYPE_U32, 1);
+        field(&d, "misses", RTO_DTYPE_U32, 1);
+        field(&d, "shaded", RTO_DTYPE_U32, 1);
+        field(&d, "accumulates", RTO_DTYPE_U32, 1);
+        field(&d, "conflicts", RTO_DTYPE_U32, 1);
+        break;
     default: break; /* unknown: a struct without fields, which rto_npy_write refuses */
     }
     return d;
@@ -111,6 +123,7 @@ const char *rto_layout_name(rto_layout layout)
     case RTO_LAYOUT_WF_RAY: return "WfRay";
     case RTO_LAYOUT_TRACE_COUNTERS: return "TraceCounters";
     case RTO_LAYOUT_CAMERA: return "CameraUniforms";
+    case RTO_LAYOUT_FRAME_COUNTERS: return "FrameCounters";
     }
     return NULL;
 }
@@ -126,6 +139,7 @@ size_t rto_layout_size(rto_layout layout)
     case RTO_LAYOUT_WF_RAY: return sizeof(rto_wf_ray);
     case RTO_LAYOUT_TRACE_COUNTERS: return sizeof(rto_trace_counters);
     case RTO_LAYOUT_CAMERA: return sizeof(rto_camera_uniforms);
+    case RTO_LAYOUT_FRAME_COUNTERS: return sizeof(rto_frame_counters);
     }
     return 0;
 }
@@ -183,7 +197,7 @@ rto_instance_record rto_instance_record_make(const rto_instance *in)
 /* Bundle files                                                                                                    */
 
 static const struct {
-    const char *pattern; /* printf pattern; per-BLAS names take the mesh index */
+    const char *pattern; /* printf pattern; per-BLAS (and per-bounce) names take the mesh (bounce) index */
     const char *role;
     int per_blas;
 } files[RTO_BUNDLE_FILE_COUNT] = {
@@ -202,6 +216,17 @@ static const struct {
     [RTO_FILE_HITS] = {"hits.npy", "hits", 0},
     [RTO_FILE_COUNTERS] = {"counters.npy", "counters", 0},
     [RTO_FILE_CAMERA] = {"camera.npy", "camera", 0},
+    [RTO_FILE_BOUNCE_RAYS] = {"bounce_%u_rays.npy", "bounce-rays", 1},
+    [RTO_FILE_BOUNCE_HITS] = {"bounce_%u_hits.npy", "bounce-hits", 1},
+    [RTO_FILE_BOUNCE_TRACE_COUNTERS] = {"bounce_%u_trace_counters.npy", "bounce-trace-counters", 1},
+    [RTO_FILE_BOUNCE_PAYLOADS] = {"bounce_%u_payloads.npy", "bounce-payloads", 1},
+    [RTO_FILE_EMIT_COUNTS] = {"emit_counts.npy", "emit-counts", 0},
+    [RTO_FILE_INDIRECT_ARGS] = {"indirect_args.npy", "indirect-args", 0},
+    [RTO_FILE_FRAME_COUNTERS] = {"frame_counters.npy", "frame-counters", 0},
+    [RTO_FILE_ACCUM] = {"accum.npy", "accum", 0},
+    [RTO_FILE_ACCUM_EXR] = {"accum.exr", "accum-exr", 0},
+    [RTO_FILE_IMAGE] = {"image.png", "image", 0},
+    [RTO_FILE_NOT_COMPARABLE] = {"not_comparable.npy", "not-comparable", 0},
 };
 
 static int known_file(rto_bundle_file f) { return (unsigned)f < RTO_BUNDLE_FILE_COUNT; }
