@@ -122,24 +122,28 @@ bool cli_parse_algo(const char *text, rto_sort_algo *a)
     return true;
 }
 
-int cli_write_report(const char *gpu_path, const char *command, const char *text)
+int cli_write_report_at(const char *path, const char *command, const char *text)
 {
     /* The report goes next to the user's dump: atomically, and never over anything but a regular file
      * (rto_file_write). A report that could not be built or serialised is an error, not a silent omission. */
+    if (!path || !text)
+        return cli_fail(command, "cannot write the report: out of memory");
+    rto_msg msg = {{0}};
+    rto_status s = rto_file_write(path, text, strlen(text), &msg);
+    if (s)
+        return cli_fail(command, "cannot write the report: %s", msg.text);
+    fprintf(stderr, "rtoracle %s: report written to %s\n", command, path);
+    return EXIT_PASS;
+}
+
+int cli_write_report(const char *gpu_path, const char *command, const char *text)
+{
     size_t len = strlen(gpu_path) + strlen(command) + 16;
     char *path = malloc(len);
-    int rc = EXIT_PASS;
-    if (!path || !text) {
-        rc = cli_fail(command, "cannot write the report next to %s: out of memory", gpu_path);
-    } else {
+    if (path)
         snprintf(path, len, "%s.%s.json", gpu_path, command);
-        rto_msg msg = {{0}};
-        rto_status s = rto_file_write(path, text, strlen(text), &msg);
-        if (s)
-            rc = cli_fail(command, "cannot write the report: %s", msg.text);
-        else
-            fprintf(stderr, "rtoracle %s: report written to %s\n", command, path);
-    }
+    int rc = path ? cli_write_report_at(path, command, text)
+                  : cli_fail(command, "cannot write the report next to %s: out of memory", gpu_path);
     free(path);
     return rc;
 }
@@ -184,7 +188,9 @@ static char *render(const rto_report *r, int json)
     return text;
 }
 
-int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, const char *gpu_path)
+/* Prints the report and, for a failure, writes its JSON with write(path_arg) when path_arg is not NULL. */
+static int report_out(const char *cmd, const rto_report *r, bool json, const char *path_arg,
+                      int (*write)(const char *, const char *, const char *))
 {
     const int passed = rto_report_passed(r);
     char *out = render(r, json), *jtext = json ? out : render(r, 1);
@@ -194,15 +200,25 @@ int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, 
     } else if (fputs(out, stdout) < 0 || fflush(stdout) != 0) {
         /* a verdict that did not reach its reader is no verdict */
         rc = cli_fail(cmd, "cannot write the report to stdout");
-    } else if (!passed && artifacts) {
+    } else if (!passed && path_arg) {
         /* the very text --json prints, so the file and stdout agree digit for digit */
-        int wrote = cli_write_report(gpu_path, cmd, jtext);
+        int wrote = write(path_arg, cmd, jtext);
         rc = wrote != EXIT_PASS ? wrote : rc;
     }
     if (jtext != out)
         free(jtext);
     free(out);
     return rc;
+}
+
+int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, const char *gpu_path)
+{
+    return report_out(cmd, r, json, artifacts ? gpu_path : NULL, cli_write_report);
+}
+
+int cli_report_at(const char *cmd, const rto_report *r, bool json, const char *report_path)
+{
+    return report_out(cmd, r, json, report_path, cli_write_report_at);
 }
 
 bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want)

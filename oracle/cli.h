@@ -28,12 +28,18 @@ int cli_status(const char *cmd, rto_status s, const rto_msg *msg);
  * Returns EXIT_PASS, or EXIT_BAD_INPUT after one line on stderr (text NULL, out of memory, a path that is not a
  * file). */
 int cli_write_report(const char *gpu_path, const char *command, const char *text);
+/** Writes a failure report's JSON text to path, atomically (rto_file_write), and says so on stderr. Returns
+ * EXIT_PASS, or EXIT_BAD_INPUT after one line on stderr. */
+int cli_write_report_at(const char *path, const char *command, const char *text);
 /**
  * Prints a validator's report to stdout (text, or JSON with json) and, when it records a fault and artifacts is
  * set, writes its JSON next to the GPU dump (cli_write_report). Returns EXIT_PASS or EXIT_MISMATCH, or
  * EXIT_BAD_INPUT after one line on stderr when the report could not be written out.
  */
 int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, const char *gpu_path);
+/** cli_report with the failure report's JSON written to report_path (NULL: nowhere), for validators whose GPU dump
+ * is a directory (check-frame writes DIR/check-frame.json). */
+int cli_report_at(const char *cmd, const rto_report *r, bool json, const char *report_path);
 /** Whether a loaded array has exactly the dtype (struct fields included) and shape of want. */
 bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want);
 /** "dtype <u4, shape (1,)": what an array holds, for messages; a structured dtype is named by layout ("Aabb
@@ -107,5 +113,6 @@ int cmd_check_hits(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_trace(int argc, char **argv);
 int cmd_crosscheck(int argc, char **argv);
+int cmd_check_frame(int argc, char **argv);
 
 #endif

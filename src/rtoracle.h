@@ -1572,6 +1572,42 @@ typedef enum rto_frame_fault {
 } rto_frame_fault;
 const char *rto_frame_fault_name(rto_frame_fault f);
 
+/** What rto_frame_check compares, and where its artefacts go. Zero-initialised means the defaults. */
+typedef struct rto_frame_check_desc {
+    const char *expected_dir;    /* the frame bundle (rtoracle render) */
+    const char *gpu_dir;         /* the GPU dump: a directory holding any subset of the bundle's file names */
+    const char *artifact_dir;    /* NULL: none; else the diff artefacts of a failing accum / image are written there
+                                  * (the directory must exist) */
+    double image_fail_percent;   /* % of the compared pixels that may exceed ±1 per channel; default 0.1 (§9) */
+    int image_fail_percent_set;  /* nonzero: image_fail_percent applies (so that 0 can be asked for) */
+} rto_frame_check_desc;
+
+/** Artefacts rto_frame_check may write into artifact_dir, as bits of its *artifacts output. */
+#define RTO_FRAME_ARTIFACT_ACCUM_DIFF 0x1u /* "check-frame.accum_diff.exr": |expected - actual| per channel, f32 */
+#define RTO_FRAME_ARTIFACT_IMAGE_DIFF 0x2u /* "check-frame.image_diff.png": |expected - actual| x 16 per channel */
+#define RTO_FRAME_ARTIFACT_LISTING 0x4u    /* "check-frame.diffs.json": the rules, counts and first failing pixels */
+/** The file name of one RTO_FRAME_ARTIFACT_* bit; NULL for another value. */
+const char *rto_frame_artifact_name(uint32_t artifact);
+
+/**
+ * Compares a GPU's dump of a frame with the frame bundle, buffer by buffer in pipeline order (docs/frame.md "The GPU
+ * dump layout"): per queue d its emit count and FrameCounters row, PREP's indirect args (exact), the queue as a
+ * multiset keyed by (pixel, kind, payloadSlot) (integers exact, floats within the documented tolerance), the
+ * payloads of matching rays, the hits of matching rays with rto_hits_check's rules; then accum (1e-4 relative +
+ * 1e-6 absolute per channel) and the 8-bit image (±1 per channel, at most image_fail_percent % of the pixels over).
+ * Pixels the bundle marks not comparable (conflicts, drops) are left out of accum and image and counted; from the
+ * first queue with drops on, queues are compared by their counts only. A file absent from the dump is "not
+ * dumped", not a fault. The primary fault is the first divergence in pipeline order (report->code an
+ * rto_frame_fault; location "bounce" and, as apt, "ray" (the oracle's queue index), "gpu_ray", "pixel", "x", "y",
+ * "slot"; checks "counts", "indirect", "queues", "payloads", "hits", "accum", "image"); faults_seen lists every
+ * class found and the summary names the later divergences. With artifact_dir, a failing accum or image leaves a
+ * diff image and a listing there; *artifacts (NULL is fine) receives the RTO_FRAME_ARTIFACT_* bits written.
+ * Returns RTO_OK, RTO_ERR_MISMATCH, or another status with one line in msg for unusable input: a bundle that is
+ * not a frame bundle or whose files disagree with its manifest or with each other (sha256, dtype, shape, counts), a
+ * dump file that cannot be read or has the wrong dtype, or a dump holding none of the frame's files.
+ */
+rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report, uint32_t *artifacts, rto_msg *msg);
+
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Output files: atomic writes, interrupted runs, text for JSON                                                     */
 

@@ -126,6 +126,10 @@ void rto_atomic_discard(rto_atomic_file *f);
  */
 FILE *rto_open_regular(const char *path, uint64_t *size, rto_status *status, rto_msg *msg);
 
+/** 1 when the manifest of a bundle opened for reading lists a file of that name (on disk or not), else 0: how a
+ * reader tells a file the writer did not keep from one that was removed. */
+int rto__bundle_lists(rto_bundle_reader *r, const char *name);
+
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
 void *rto_alloc(size_t count, size_t size);
 

@@ -684,3 +684,17 @@ rto_status rto_bundle_read_name(rto_bundle_reader *r, const char *name, rto_npy 
 {
     return read_entry(r, "name", name, out, msg);
 }
+
+int rto__bundle_lists(rto_bundle_reader *r, const char *name)
+{
+    json_t *files = r && name ? json_object_get(r->root, "files") : NULL;
+    size_t i;
+    json_t *e;
+    json_array_foreach(files, i, e)
+    {
+        const char *n = json_string_value(json_object_get(e, "name"));
+        if (n && !strcmp(n, name))
+            return 1;
+    }
+    return 0;
+}
