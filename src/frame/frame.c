@@ -181,6 +181,13 @@ static void api_sample_texture(const rto_frame_ctx *ctx, int32_t texture, const 
     rto__texture_sample(w->run->env.scene, texture, uv, rgba);
 }
 
+static rto_wf_ray api_camera_ray(const rto_frame_ctx *ctx, uint32_t x, uint32_t y)
+{
+    rto_wf_ray ray = rto_camera_ray(ctx->env->camera, ctx->env->width, ctx->env->height, x, y);
+    ray.kind = RTO_RAY_KIND_PRIMARY;
+    return ray;
+}
+
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Passes                                                                                                           */
 
@@ -440,7 +447,7 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
     r.frame = f;
     r.payload_words = p->payload_size / 4;
     r.api = (rto_frame_api){RTO_PROGRAM_ABI_VERSION, api_emit_primary, api_emit_ray, api_accumulate, api_surface,
-                            api_sample_texture};
+                            api_sample_texture, api_camera_ray};
     float params[RTO_PROGRAM_PARAMS_MAX][4];
     for (uint32_t i = 0; i < f->param_count; i++)
         memcpy(params[i], f->params[i].value, sizeof params[i]);

@@ -139,8 +139,7 @@ void rto__surface_mesh(const rto_frame_env *env, const rto_wf_ray *ray, const rt
 /* The primary ray of a pixel: the seed's generateRay (rto_camera_ray), kind PRIMARY, missIndex 0. */
 static void emit_camera_ray(rto_frame_ctx *ctx, uint32_t x, uint32_t y)
 {
-    rto_wf_ray ray = rto_camera_ray(ctx->env->camera, ctx->env->width, ctx->env->height, x, y);
-    ray.kind = RTO_RAY_KIND_PRIMARY;
+    const rto_wf_ray ray = rto_frame_camera_ray(ctx, x, y);
     rto_emit_primary_ray(ctx, &ray, NULL);
 }
 
