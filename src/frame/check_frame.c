@@ -48,10 +48,9 @@ const char *rto_frame_artifact_name(uint32_t artifact)
     }
 }
 
-/* Limits of what a frame bundle can describe (rto_frame_render refuses more pixels; the depth bound only keeps a
- * hand-edited manifest from asking for millions of bounces). */
+/* Limits of what a frame bundle can describe: what rto_frame_render accepts (2^26 pixels, maxDepth 64). */
 #define FRAME_MAX_PIXELS (UINT64_C(1) << 26)
-#define FRAME_MAX_DEPTH 65535u
+#define FRAME_MAX_DEPTH 64u
 #define NONE32 UINT32_MAX
 
 /* Tolerances (docs/frame.md "Comparisons"). Ray floats: §9's relative 1e-5 of hit t, carried to the quantities a
