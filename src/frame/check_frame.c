@@ -131,7 +131,8 @@ typedef struct fcheck {
     uint32_t drop_queue; /* the first queue with drops, NONE32 if none */
     uint64_t files_compared, files_not_dumped, rays_compared, drop_affected;
     char not_dumped[200];
-    char skipped[200]; /* dumped files that could not be compared, and why */
+    char skipped[200];      /* dumped files that could not be compared, and why */
+    char drop_skipped[160]; /* dumped queue files past a queue that dropped rays */
     later_fault later[LATER_MAX];
     uint32_t nlater;
     pixel_stats accum, image;
@@ -356,7 +357,7 @@ static int claim(fcheck *c, rto_frame_fault f, int64_t bounce)
             {"", ""},
             {"counters", "queue"},
             {"indirect args", "queue"},
-            {"rays (key counts and fields)", "ray"},
+            {"key counts and ray fields", "ray"},
             {"payload words", "ray"},
             {"hit records", "ray"},
             {"accum channels", "pixel"},
@@ -1040,7 +1041,7 @@ static void queue_fault(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, c
                            "queue", d, f->g, key);
         break;
     case Q_DUPLICATE:
-        rto_report_summary(c->r, "queue: bounce %" PRIu32 ": the ray %s appears %" PRIu32 " times in the GPU's queue, "
+        rto_report_summary(c->r, "queue: bounce %" PRIu32 ": the key (%s) appears %" PRIu32 " times in the GPU's queue, "
                            "%" PRIu32 " in the oracle's (its ray %" PRIu32 ")", d, key, f->count_g, f->count_o, f->o);
         break;
     case Q_DIFFERS: {
@@ -1461,7 +1462,7 @@ static rto_status step_queue(fcheck *c, uint32_t d)
         const char *names[3] = {rname, c->words ? pname : NULL, traced ? hname : NULL};
         for (int k = 0; k < 3; k++)
             if (names[k] && gpu_has(c, names[k]))
-                skipped(c, names[k], "drops: compared by counts only");
+                list_add(c->drop_skipped, sizeof c->drop_skipped, names[k]);
         return RTO_OK;
     }
     const int expected = exp_has(c, rname);
@@ -2006,7 +2007,8 @@ static void finish_report(fcheck *c)
                           " conflict, %" PRIu64 " drop)", nc, conflict, dropped);
     if (c->drop_queue != NONE32)
         rto_report_append(r, "; queue %" PRIu32 " dropped %" PRIu32 " ray(s): it and later queues compared by counts "
-                          "only", c->drop_queue, c->cnt[c->drop_queue].dropped);
+                          "only%s%s%s", c->drop_queue, c->cnt[c->drop_queue].dropped,
+                          c->drop_skipped[0] ? " (not compared: " : "", c->drop_skipped, c->drop_skipped[0] ? ")" : "");
     if (c->skipped[0])
         rto_report_append(r, "; not compared: %s", c->skipped);
     if (c->not_dumped[0])
