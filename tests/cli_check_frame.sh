@@ -12,17 +12,17 @@ FLOOD=$3
 EDIT=$4
 . "$(dirname "$0")/cli_lib.sh"
 
-# fresh GPU dump: dump MUTATION BUNDLE [D] -> $T/g, prints what frame_mutate printed
+# fresh GPU dump: dump BUNDLE MUTATION [D] -> $T/g, prints what frame_mutate printed
 dump() {
     rm -rf "$T/g"
-    "$MUT" "$1" "$2" "$T/g" ${3:+"$3"} || fail "frame_mutate $*"
+    "$MUT" "$2" "$1" "$T/g" ${3:+"$3"} || fail "frame_mutate $*"
 }
 # word KEY : the value of KEY=VALUE in frame_mutate's output ($w)
 word() { printf '%s\n' "$w" | tr ' ' '\n' | sed -n "s/^$1=//p"; }
 # fails MUTATION D FAULT : the dump is refused with FAULT at bounce D (JSON and text), and writes a report unless
 # --no-artifacts
 fails() {
-    w=$(dump "$1" "$T/e" ${2#-})
+    w=$(dump "$T/e" "$1" ${2#-})
     run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json --no-artifacts || return
     has "\"fault\": \"$3\"" out
     [ "$2" = - ] || loc bounce "$2"
@@ -44,19 +44,19 @@ n1=$(sed -n 's/.* \([0-9]*\) emitted.*/\1/p' "$T/out")
 [ "${n1:-0}" -gt 768 ] || fail "the shadow queue of rtstress:2 should hold rays (emitted $n1)"
 
 # controls: the copy, shuffled queues, the accepted layouts, accum as EXR, a change within tolerance
-w=$(dump copy "$T/e")
+w=$(dump "$T/e" copy)
 run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "^PASS ok: " out &&
     has "^check-frame sun-shadow 32x24 rtstress:2: maxDepth 2" out
 run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json && has '"result": "pass"' out &&
     has '"queues": true' out && has '"hits": true' out && has '"accum": true' out
 for m in "shuffle 0" "shuffle 1" "shuffle 2" words store accum-exr accum-small; do
-    w=$(dump $m "$T/e")
+    w=$(dump "$T/e" $m)
     run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" || fail "control $m"
 done
 [ -z "$(ls "$T/g" | grep check-frame)" ] || fail "a passing check wrote artefacts"
 
 # a partial dump: what is absent is "not dumped", not failed
-w=$(dump copy "$T/e")
+w=$(dump "$T/e" copy)
 rm "$T/g/bounce_1_hits.npy" "$T/g/accum.npy" "$T/g/indirect_args.npy"
 run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "not dumped: indirect_args.npy, bounce_1_hits.npy, accum" out
 run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json && has '"not_dumped": 3' out && has '"indirect": null' out
@@ -80,7 +80,7 @@ else
     fail "the frame bundle has no image.png"
 fi
 # the accum diff artefacts, and --artifacts DIR
-w=$(dump accum-big "$T/e")
+w=$(dump "$T/e" accum-big)
 run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "diff listing written" err
 [ -f "$T/g/check-frame.accum_diff.exr" ] && [ -f "$T/g/check-frame.diffs.json" ] || fail "no accum diff artefacts"
 grep -q "\"x\": $(word x)" "$T/g/check-frame.diffs.json" || fail "the listing does not name pixel $(word pixel)"
@@ -89,32 +89,32 @@ run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --artifacts "$T/art"
 [ -f "$T/art/check-frame.json" ] && [ -f "$T/art/check-frame.accum_diff.exr" ] || fail "--artifacts DIR unused"
 
 # the first divergence in pipeline order is the primary fault; later ones are listed
-w=$(dump missing 1 "$T/e")
+w=$(dump "$T/e" missing 1)
 "$MUT" accum-big "$T/e" "$T/g2" >/dev/null && cp "$T/g2/accum.npy" "$T/g/accum.npy"
 run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json --no-artifacts && has '"fault": "queue"' out &&
     has '"accum"' out && has "later: accum" out
 
 # conflicts (the flood plugin, emit = 0): those pixels are left out; a change elsewhere still fails
 run 0 "$RTO" render rtstress:2 --program "$FLOOD" --param emit=0 --width 16 --height 12 -o "$T/f0"
-w=$(dump not-comparable "$T/f0")
+w=$(dump "$T/f0" not-comparable)
 [ "$(word pixels)" = 48 ] || fail "flood should mark 48 conflict pixels, not $(word pixels)"
 run 0 "$RTO" check-frame --expected "$T/f0" --gpu "$T/g" && has "not comparable: 48 pixel(s) .*48 conflict" out
-w=$(dump accum-big "$T/f0")
+w=$(dump "$T/f0" accum-big)
 run 1 "$RTO" check-frame --expected "$T/f0" --gpu "$T/g" --no-artifacts && has "^FAIL accum" out
 # drops (emit = 2): the dropping queue and those after it compare by their counts only
 run 0 "$RTO" render rtstress:2 --program "$FLOOD" --width 16 --height 12 -o "$T/f2"
 has " 96 dropped" out
-w=$(dump not-comparable "$T/f2")
+w=$(dump "$T/f2" not-comparable)
 [ "$(word queue)" = 1 ] || fail "flood should drop rays in queue 1"
 run 0 "$RTO" check-frame --expected "$T/f2" --gpu "$T/g" && has "queue 1 dropped 96 ray(s): it and later queues" out &&
     has "not comparable: 192 pixel(s)" out
-w=$(dump emit "$T/f2" 1)
+w=$(dump "$T/f2" emit 1)
 run 1 "$RTO" check-frame --expected "$T/f2" --gpu "$T/g" --json --no-artifacts && has '"fault": "emit-count"' out &&
     loc bounce 1
 
 # bad usage and dumps: status 2, one line
 one_line() { [ "$(wc -l <"$T/err")" = 1 ] || fail "stderr is not one line: $(cat "$T/err")"; }
-w=$(dump copy "$T/e")
+w=$(dump "$T/e" copy)
 run 2 "$RTO" check-frame --gpu "$T/g" && has "required" err
 run 2 "$RTO" check-frame --expected "$T/e" --gpu "$T/none" && has "none" err && one_line
 run 2 "$RTO" check-frame --expected "$T/e" --gpu "$T/g/emit_counts.npy" && has "not a directory" err
@@ -125,18 +125,18 @@ run 0 "$RTO" trace rtstress:2 --rays primary --width 8 --height 8 -o "$T/tr"
 run 2 "$RTO" check-frame --expected "$T/tr" --gpu "$T/g" && has "not a frame bundle" err
 cp "$T/g/accum.npy" "$T/g/emit_counts.npy"
 run 2 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "emit_counts.npy: holds dtype <f4" err && one_line
-w=$(dump copy "$T/e")
+w=$(dump "$T/e" copy)
 head -c 100 "$T/e/bounce_0_rays.npy" >"$T/g/bounce_0_rays.npy"
 run 2 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "bounce_0_rays.npy" err && one_line
-w=$(dump copy "$T/e")
+w=$(dump "$T/e" copy)
 cp "$T/e/bounce_0_hits.npy" "$T/g/bounce_0_rays.npy"
 run 2 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "WfRay" err
-w=$(dump copy "$T/e")
+w=$(dump "$T/e" copy)
 rm "$T/g/bounce_1_rays.npy" && mkfifo "$T/g/bounce_1_rays.npy"
 run 2 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "not a regular file" err && one_line
 
 # tampered bundles: bundle_edit rewrites the manifest's sha256, so only the checks of the arrays can refuse them
-w=$(dump copy "$T/e")
+w=$(dump "$T/e" copy)
 edited() {
     local file=$1
     shift
@@ -166,7 +166,7 @@ edited not_comparable.npy as-u32
 refused "not_comparable.npy: holds dtype <u4"
 edited bounce_1_rays.npy truncate 99
 refused "bounce_1_rays.npy: holds 64-byte records, shape (99,); expected 64-byte records, shape (100,)"
-w=$(dump prim "$T/e" 0)
+w=$(dump "$T/e" prim 0)
 edited bounce_0_hits.npy set-f32 $(($(word ray) * 24)) 1000
 refused "bounce_0_hits.npy: expected record $(word ray) is not the hit record of triangle"
 finish "cli.check_frame: ok"
