@@ -22,15 +22,15 @@ word() { printf '%s\n' "$w" | tr ' ' '\n' | sed -n "s/^$1=//p"; }
 # fails MUTATION D FAULT : the dump is refused with FAULT at bounce D (JSON and text), and writes a report unless
 # --no-artifacts
 fails() {
-    w=$(dump "$T/e" "$1" ${2#-})
-    run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json --no-artifacts || return
+    w=$(dump "$B" "$1" ${2#-})
+    run 1 "$RTO" check-frame --expected "$B" --gpu "$T/g" --json --no-artifacts || return
     has "\"fault\": \"$3\"" out
     [ "$2" = - ] || loc bounce "$2"
     [ -z "$(word ray)" ] || loc ray "$(word ray)"
     [ -z "$(word pixel)" ] || loc pixel "$(word pixel)"
     [ -z "$(word x)" ] || { loc x "$(word x)" && loc y "$(word y)"; }
     [ -f "$T/g/check-frame.json" ] && fail "--no-artifacts wrote a report ($1)"
-    run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "^FAIL $3: " out
+    run 1 "$RTO" check-frame --expected "$B" --gpu "$T/g" && has "^FAIL $3: " out
     [ "$2" = - ] || has "^  where        bounce $2" out
     [ -f "$T/g/check-frame.json" ] || fail "no report written for $1"
 }
@@ -62,6 +62,7 @@ run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "not dumped: indi
 run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json && has '"not_dumped": 3' out && has '"indirect": null' out
 
 # the mutations, each named at the stage, bounce and element where it was made
+B=$T/e
 fails missing 1 queue && has "ray $(word ray) of the oracle's queue .* is missing" out
 fails duplicate 1 queue && has "appears 2 times in the GPU's queue, 1 in the oracle's" out
 fails missing 0 queue
@@ -93,6 +94,15 @@ w=$(dump "$T/e" missing 1)
 "$MUT" accum-big "$T/e" "$T/g2" >/dev/null && cp "$T/g2/accum.npy" "$T/g/accum.npy"
 run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json --no-artifacts && has '"fault": "queue"' out &&
     has '"accum"' out && has "later: accum" out
+
+# the stage2 scene (seed 002's analytic primitives): hits compare without re-intersection
+run 0 "$RTO" render stage2 --program normals --width 16 --height 12 -o "$T/s2"
+w=$(dump "$T/s2" copy)
+run 0 "$RTO" check-frame --expected "$T/s2" --gpu "$T/g" && has "^check-frame normals 16x12 stage2" out
+B=$T/s2
+fails prim 0 hits && has "hits: bounce 0 (stage2 scene.*: prim: ray $(word ray)" out
+fails missing 0 queue
+B=$T/e
 
 # conflicts (the flood plugin, emit = 0): those pixels are left out; a change elsewhere still fails
 run 0 "$RTO" render rtstress:2 --program "$FLOOD" --param emit=0 --width 16 --height 12 -o "$T/f0"

@@ -1246,49 +1246,72 @@ out:
 /* Hits                                                                                                             */
 
 /* The stage2 scene has no triangles to re-intersect: its hits compare as IDs and missFlag exactly, t and bary within
- * §9, objToWorld exactly (the translation to a primitive's centre), with check-hits's fault names. */
-static int stage2_hit_diff(const rto_wf_ray *ray, const rto_hit_record *e, const rto_hit_record *a, char *why,
-                           size_t cap, const char **field, double *tol)
+ * §9, objToWorld exactly (the translation to a primitive's centre), with check-hits's fault names. Returns the fault
+ * (RTO_HIT_OK when the records agree) and the first differing field as a row. */
+typedef struct hit_diff {
+    const char *field;
+    rto_value e, a, d, tol;
+} hit_diff;
+
+static rto_hit_fault stage2_hit_diff(const rto_hit_record *e, const rto_hit_record *a, hit_diff *x)
 {
-    *tol = 0;
-    if (e->miss_flag != a->miss_flag) {
-        *field = "missFlag";
-        snprintf(why, cap, "%s: missFlag %" PRIu32 ", the oracle's %" PRIu32, rto_hit_fault_name(RTO_HIT_MISS_FLAG),
-                 a->miss_flag, e->miss_flag);
-        return RTO_HIT_MISS_FLAG;
-    }
-    if (e->instance_id != a->instance_id || e->prim_id != a->prim_id) {
-        *field = e->instance_id != a->instance_id ? "instanceId" : "primId";
-        snprintf(why, cap, "%s: primitive %" PRIu32 "/%" PRIu32 ", the oracle's %" PRIu32 "/%" PRIu32,
-                 rto_hit_fault_name(e->instance_id != a->instance_id ? RTO_HIT_INSTANCE : RTO_HIT_PRIM),
-                 a->instance_id, a->prim_id, e->instance_id, e->prim_id);
-        return e->instance_id != a->instance_id ? RTO_HIT_INSTANCE : RTO_HIT_PRIM;
-    }
-    const double tt = 1e-5 * (fabs((double)e->t) > 1.0 ? fabs((double)e->t) : 1.0);
-    if (!(fabs((double)a->t - (double)e->t) <= tt) && !(e->miss_flag && a->t == ray->t_max)) {
-        *field = "t";
-        *tol = tt;
-        snprintf(why, cap, "t: %.9g, the oracle's %.9g", (double)a->t, (double)e->t);
-        return RTO_HIT_T;
-    }
-    for (int k = 0; k < 2; k++)
-        if (!(fabs((double)a->bary[k] - (double)e->bary[k]) <= 1e-4)) {
-            *field = k ? "bary.v" : "bary.u";
-            *tol = 1e-4;
-            snprintf(why, cap, "bary: %.9g, the oracle's %.9g", (double)a->bary[k], (double)e->bary[k]);
-            return RTO_HIT_BARY;
+    const struct {
+        rto_hit_fault f;
+        const char *field;
+        uint32_t e, a;
+    } ids[] = {
+        {RTO_HIT_MISS_FLAG, "missFlag", e->miss_flag, a->miss_flag},
+        {RTO_HIT_INSTANCE, "instanceId", e->instance_id, a->instance_id},
+        {RTO_HIT_PRIM, "primId", e->prim_id, a->prim_id},
+    };
+    for (size_t k = 0; k < sizeof ids / sizeof ids[0]; k++)
+        if (ids[k].e != ids[k].a) {
+            *x = (hit_diff){ids[k].field, rto_val_hex32(ids[k].e), rto_val_hex32(ids[k].a),
+                            rto_val_hex32(ids[k].e ^ ids[k].a), rto_val_none()};
+            return ids[k].f;
         }
-    if (e->custom_index != a->custom_index || e->hit_group != a->hit_group) {
-        *field = e->custom_index != a->custom_index ? "customIndex" : "hitGroup";
-        snprintf(why, cap, "%s differs", *field);
-        return e->custom_index != a->custom_index ? RTO_HIT_CUSTOM_INDEX : RTO_HIT_HIT_GROUP;
-    }
+    const double tt = 1e-5 * (fabs((double)e->t) > 1.0 ? fabs((double)e->t) : 1.0);
+    const struct {
+        rto_hit_fault f;
+        const char *field;
+        float e, a;
+        double tol;
+    } floats[] = {
+        {RTO_HIT_T, "t", e->t, a->t, tt},
+        {RTO_HIT_BARY, "bary.u", e->bary[0], a->bary[0], 1e-4},
+        {RTO_HIT_BARY, "bary.v", e->bary[1], a->bary[1], 1e-4},
+    };
+    for (size_t k = 0; k < sizeof floats / sizeof floats[0]; k++)
+        if (!(fabs((double)floats[k].a - (double)floats[k].e) <= floats[k].tol)) {
+            *x = (hit_diff){floats[k].field, rto_val_f32(floats[k].e), rto_val_f32(floats[k].a),
+                            rto_val_f64((double)floats[k].a - (double)floats[k].e), rto_val_f64(floats[k].tol)};
+            return floats[k].f;
+        }
+    const struct {
+        rto_hit_fault f;
+        const char *field;
+        uint32_t e, a;
+    } more[] = {
+        {RTO_HIT_CUSTOM_INDEX, "customIndex", e->custom_index, a->custom_index},
+        {RTO_HIT_HIT_GROUP, "hitGroup", e->hit_group, a->hit_group},
+    };
+    for (size_t k = 0; k < sizeof more / sizeof more[0]; k++)
+        if (more[k].e != more[k].a) {
+            *x = (hit_diff){more[k].field, rto_val_hex32(more[k].e), rto_val_hex32(more[k].a),
+                            rto_val_hex32(more[k].e ^ more[k].a), rto_val_none()};
+            return more[k].f;
+        }
+    static const char *const cells[4][3] = {{"objToWorld[0][0]", "objToWorld[0][1]", "objToWorld[0][2]"},
+                                            {"objToWorld[1][0]", "objToWorld[1][1]", "objToWorld[1][2]"},
+                                            {"objToWorld[2][0]", "objToWorld[2][1]", "objToWorld[2][2]"},
+                                            {"objToWorld[3][0]", "objToWorld[3][1]", "objToWorld[3][2]"}};
     for (int col = 0; col < 4; col++)
         for (int row = 0; row < 3; row++)
             if (e->obj_to_world[col][row] != a->obj_to_world[col][row]) {
-                *field = "objToWorld";
-                snprintf(why, cap, "transform: objToWorld[%d][%d] %.9g, the oracle's %.9g", col, row,
-                         (double)a->obj_to_world[col][row], (double)e->obj_to_world[col][row]);
+                *x = (hit_diff){cells[col][row], rto_val_f32(e->obj_to_world[col][row]),
+                                rto_val_f32(a->obj_to_world[col][row]),
+                                rto_val_f64((double)a->obj_to_world[col][row] - (double)e->obj_to_world[col][row]),
+                                rto_val_none()};
                 return RTO_HIT_TRANSFORM;
             }
     return RTO_HIT_OK;
@@ -1297,28 +1320,28 @@ static int stage2_hit_diff(const rto_wf_ray *ray, const rto_hit_record *e, const
 static rto_status stage2_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, const rto_hit_record *eh,
                               const rto_hit_record *gh, const qresult *q)
 {
-    size_t wrong = 0;
+    size_t wrong = 0, first = SIZE_MAX;
+    hit_diff x;
     for (size_t i = 0; i < n; i++) {
-        if (q->gpu_of[i] == NONE32)
+        if (q->gpu_of[i] == NONE32 || stage2_hit_diff(&eh[i], &gh[i], &x) == RTO_HIT_OK)
             continue;
-        char why[200];
-        const char *field = "";
-        double tol = 0;
-        const int f = stage2_hit_diff(&ro[i], &eh[i], &gh[i], why, sizeof why, &field, &tol);
-        if (f == RTO_HIT_OK)
-            continue;
-        if (!wrong++ && claim(c, RTO_FRAME_HITS, d)) {
-            rto_report_at(c->r, "ray", (int64_t)i);
-            rto_report_at(c->r, "gpu_ray", q->gpu_of[i]);
-            at_pixel(c, ro[i].pixel);
-            rto_report_at(c->r, "slot", ro[i].payload_slot);
-            rto_report_summary(c->r, "hits: bounce %" PRIu32 ": ray %zu: %s", d, i, why);
-            c->r->tolerance_bound = tol;
-            add_row(c, i, field, rto_val_uint((uint64_t)f), rto_val_none(), rto_val_none(), rto_val_none());
-        }
+        if (!wrong++)
+            first = i;
     }
-    if (wrong && c->r->code == RTO_FRAME_HITS)
-        rto_report_append(c->r, "; %zu of %zu paired rays wrong", wrong, q->paired);
+    if (!wrong || !claim(c, RTO_FRAME_HITS, d))
+        return RTO_OK;
+    const rto_hit_fault f = stage2_hit_diff(&eh[first], &gh[first], &x);
+    rto_report_at(c->r, "ray", (int64_t)first);
+    rto_report_at(c->r, "gpu_ray", q->gpu_of[first]);
+    at_pixel(c, ro[first].pixel);
+    rto_report_at(c->r, "slot", ro[first].payload_slot);
+    c->r->tolerance_bound = x.tol.type == RTO_VALUE_NONE ? 0 : x.tol.v.f;
+    rto_report_summary(c->r, "hits: bounce %" PRIu32 " (stage2 scene: IDs, missFlag, objToWorld exact, t and bary "
+                       "within §9): %s: ray %zu: %s differs; %zu of %zu paired rays wrong", d, rto_hit_fault_name(f),
+                       first, x.field, wrong, q->paired);
+    for (size_t i = first; i < n && c->r->nrows < RTO_REPORT_MAX_ROWS; i++)
+        if (q->gpu_of[i] != NONE32 && stage2_hit_diff(&eh[i], &gh[i], &x) != RTO_HIT_OK)
+            add_row(c, i, x.field, x.e, x.a, x.d, x.tol);
     return RTO_OK;
 }
 
@@ -1875,7 +1898,7 @@ static json_t *stats_json(const fcheck *c, const pixel_stats *ps, const char *ru
         {"not_comparable_pixels", json_integer((json_int_t)ps->excluded)},
         {"failing_pixels", json_integer((json_int_t)ps->over)},
         {"max_error", rto_json_real(ps->max_diff)},
-        {"max_error_at", json_pack("[iii]", (json_int_t)ps->max_x, (json_int_t)ps->max_y, (json_int_t)ps->max_c)},
+        {"max_error_at", json_pack("[III]", (json_int_t)ps->max_x, (json_int_t)ps->max_y, (json_int_t)ps->max_c)},
         {"rms_error", ps->have_oiio ? rto_json_real(ps->oiio.rms_error) : json_null()},
         {"psnr", ps->have_oiio ? rto_json_real(ps->oiio.psnr) : json_null()},
     };
@@ -1889,7 +1912,7 @@ static json_t *stats_json(const fcheck *c, const pixel_stats *ps, const char *ru
         for (uint32_t k = 0; e && a && k < ps->channels; k++)
             if (json_array_append_new(e, rto_json_real(p->e[k])) || json_array_append_new(a, rto_json_real(p->a[k])))
                 *bad = 1;
-        json_t *item = json_pack("{s:i, s:i, s:o, s:o}", "x", (json_int_t)p->x, "y", (json_int_t)p->y, "expected",
+        json_t *item = json_pack("{s:I, s:I, s:o, s:o}", "x", (json_int_t)p->x, "y", (json_int_t)p->y, "expected",
                                  e ? e : json_null(), "actual", a ? a : json_null());
         if (!item || json_array_append_new(list, item))
             *bad = 1;
