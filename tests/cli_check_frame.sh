@@ -58,8 +58,10 @@ done
 # a partial dump: what is absent is "not dumped", not failed
 w=$(dump "$T/e" copy)
 rm "$T/g/bounce_1_hits.npy" "$T/g/accum.npy" "$T/g/indirect_args.npy"
-run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "not dumped: indirect_args.npy, bounce_1_hits.npy, accum" out
-run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json && has '"not_dumped": 3' out && has '"indirect": null' out
+run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" &&
+    has "not dumped: indirect_args.npy, bounce_1_hits.npy, accum" out
+run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json && has '"not_dumped": 3' out &&
+    has '"indirect": null' out
 
 # the mutations, each named at the stage, bounce and element where it was made
 B=$T/e

@@ -662,7 +662,8 @@ static rto_status read_gpu_arrays(fcheck *c)
     if (c->have_g_ind) {
         /* (queues, 3) as written, or the raw buffer of 3 words per queue */
         const rto_npy_desc *d = &c->g_ind.desc;
-        if (d->dtype != RTO_DTYPE_U32 || !((d->ndim == 2 && d->shape[1] == 3) || (d->ndim == 1 && d->shape[0] % 3 == 0)))
+        const int shape_ok = (d->ndim == 2 && d->shape[1] == 3) || (d->ndim == 1 && d->shape[0] % 3 == 0);
+        if (d->dtype != RTO_DTYPE_U32 || !shape_ok)
             return bad_gpu(c, name, "holds %s; expected dtype <u4, shape (maxDepth + 1, 3) or (3 * (maxDepth + 1),)",
                            describe(d, have, sizeof have));
         c->g_ind_n = (size_t)(d->ndim == 2 ? d->shape[0] : d->shape[0] / 3);
@@ -695,8 +696,8 @@ static void counts_fault(fcheck *c, rto_frame_fault f, uint32_t d, const count_d
         return;
     for (uint32_t k = 0; k < nx; k++)
         uint_row(c, d, x[k].field, x[k].e, x[k].a);
-    rto_report_summary(c->r, "%s: queue %" PRIu32 ": %s %" PRIu32 " in the GPU's dump, %" PRIu32 " in the oracle's (%s)",
-                       rto_frame_fault_name(f), d, x[0].field, x[0].a, x[0].e, what);
+    rto_report_summary(c->r, "%s: queue %" PRIu32 ": %s %" PRIu32 " in the GPU's dump, %" PRIu32
+                       " in the oracle's (%s)", rto_frame_fault_name(f), d, x[0].field, x[0].a, x[0].e, what);
     if (c->drop_queue != NONE32 && d > c->drop_queue)
         rto_report_append(c->r, " [queue %" PRIu32 " dropped rays; on a GPU the rays kept there, and so the counts "
                           "after it, may differ]", c->drop_queue);
@@ -830,7 +831,10 @@ static int rkey_cmp(const void *pa, const void *pb)
     return a->index < b->index ? -1 : a->index > b->index;
 }
 
-static int same_key(const rkey *a, const rkey *b) { return a->pixel == b->pixel && a->kind == b->kind && a->slot == b->slot; }
+static int same_key(const rkey *a, const rkey *b)
+{
+    return a->pixel == b->pixel && a->kind == b->kind && a->slot == b->slot;
+}
 
 static rkey *keys_of(const rto_wf_ray *rays, size_t n)
 {
@@ -1033,16 +1037,17 @@ static void queue_fault(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, c
     rto_report_at(c->r, "kind", r->kind);
     switch (f->kind) {
     case Q_MISSING:
-        rto_report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " of the oracle's queue (%s) is missing from "
-                           "the GPU's queue", d, f->o, key);
+        rto_report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " of the oracle's queue (%s) is missing "
+                           "from the GPU's queue", d, f->o, key);
         break;
     case Q_EXTRA:
         rto_report_summary(c->r, "queue: bounce %" PRIu32 ": the GPU's ray %" PRIu32 " (%s) is not in the oracle's "
                            "queue", d, f->g, key);
         break;
     case Q_DUPLICATE:
-        rto_report_summary(c->r, "queue: bounce %" PRIu32 ": the key (%s) appears %" PRIu32 " times in the GPU's queue, "
-                           "%" PRIu32 " in the oracle's (its ray %" PRIu32 ")", d, key, f->count_g, f->count_o, f->o);
+        rto_report_summary(c->r, "queue: bounce %" PRIu32 ": the key (%s) appears %" PRIu32 " times in the GPU's "
+                           "queue, %" PRIu32 " in the oracle's (its ray %" PRIu32 ")", d, key, f->count_g, f->count_o,
+                           f->o);
         break;
     case Q_DIFFERS: {
         const rto_wf_ray *e = &ro[f->o], *a = &rg[f->g];
@@ -1055,8 +1060,8 @@ static void queue_fault(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, c
                                ray_float_names[f->field], (double)av, f->g, (double)ev,
                                fabs((double)av - (double)ev), tol);
         } else {
-            rto_report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " (%s) differs: %s is %" PRIu32 " in the "
-                               "GPU's ray %" PRIu32 ", %" PRIu32 " in the oracle's", d, f->o, key,
+            rto_report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " (%s) differs: %s is %" PRIu32
+                               " in the GPU's ray %" PRIu32 ", %" PRIu32 " in the oracle's", d, f->o, key,
                                ray_int_names[f->field - 8], (&a->pixel)[f->field - 8], f->g,
                                (&e->pixel)[f->field - 8]);
         }
@@ -1859,10 +1864,10 @@ static rto_status step_image(fcheck *c)
         }
         c->r->tolerance_bound = IMAGE_STEP;
         const pixel_diff *f = &ps->list[0];
-        rto_report_summary(c->r, "image: %" PRIu64 " of %" PRIu64 " compared pixels (%.3g %%) differ by more than +-1 in "
-                           "a channel, over the %.3g %% allowed; the first: pixel %" PRIu32 " (x %" PRIu32 ", y %" PRIu32
-                           "), rgba (%g, %g, %g, %g), the oracle's (%g, %g, %g, %g)", ps->over, ps->compared,
-                           ps->compared ? 100.0 * (double)ps->over / (double)ps->compared : 0.0, c->fail_percent, p,
+        rto_report_summary(c->r, "image: %" PRIu64 " of %" PRIu64 " compared pixels (%.3g %%) differ by more than +-1 "
+                           "in a channel, over the %.3g %% allowed; the first: pixel %" PRIu32 " (x %" PRIu32
+                           ", y %" PRIu32 "), rgba (%g, %g, %g, %g), the oracle's (%g, %g, %g, %g)", ps->over,
+                           ps->compared, ps->compared ? 100.0 * (double)ps->over / (double)ps->compared : 0.0, c->fail_percent, p,
                            f->x, f->y, (double)f->a[0], (double)f->a[1], (double)f->a[2],
                            ch == 4 ? (double)f->a[3] : 255.0, (double)f->e[0], (double)f->e[1], (double)f->e[2],
                            (double)f->e[3]);
@@ -2010,8 +2015,8 @@ static void finish_report(fcheck *c)
     rto_report_fact(r, "accum_over", (int64_t)c->accum.over);
     rto_report_fact(r, "image_over", (int64_t)c->image.over);
     if (r->code == RTO_FRAME_OK) {
-        rto_report_summary(r, "ok: %" PRIu64 " file(s) of the GPU dump agree with the frame (%" PRIu64 " rays compared)",
-                           c->files_compared, c->rays_compared);
+        rto_report_summary(r, "ok: %" PRIu64 " file(s) of the GPU dump agree with the frame (%" PRIu64
+                           " rays compared)", c->files_compared, c->rays_compared);
         if (c->image.run && c->image.over)
             rto_report_append(r, "; %" PRIu64 " image pixel(s) beyond +-1, within the %.3g %% allowed", c->image.over,
                               c->fail_percent);
