@@ -1867,8 +1867,8 @@ static rto_status step_image(fcheck *c)
         rto_report_summary(c->r, "image: %" PRIu64 " of %" PRIu64 " compared pixels (%.3g %%) differ by more than +-1 "
                            "in a channel, over the %.3g %% allowed; the first: pixel %" PRIu32 " (x %" PRIu32
                            ", y %" PRIu32 "), rgba (%g, %g, %g, %g), the oracle's (%g, %g, %g, %g)", ps->over,
-                           ps->compared, ps->compared ? 100.0 * (double)ps->over / (double)ps->compared : 0.0, c->fail_percent, p,
-                           f->x, f->y, (double)f->a[0], (double)f->a[1], (double)f->a[2],
+                           ps->compared, ps->compared ? 100.0 * (double)ps->over / (double)ps->compared : 0.0,
+                           c->fail_percent, p, f->x, f->y, (double)f->a[0], (double)f->a[1], (double)f->a[2],
                            ch == 4 ? (double)f->a[3] : 255.0, (double)f->e[0], (double)f->e[1], (double)f->e[2],
                            (double)f->e[3]);
     }
