@@ -79,6 +79,19 @@ fails accum-big - accum
 if [ -f "$T/e/image.png" ]; then
     fails image-shift - image
     [ -f "$T/g/check-frame.image_diff.png" ] && [ -f "$T/g/check-frame.diffs.json" ] || fail "no image diff artefacts"
+    # +-1 everywhere passes; 0.1 % of 768 pixels is 0.768: one pixel off by 2 fails, and with 0.5 % (3.84) three
+    # pass and four fail
+    w=$(dump "$T/e" image-noise)
+    run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g"
+    w=$(dump "$T/e" image-pixels 1)
+    run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --no-artifacts &&
+        has "^FAIL image: 1 of 768 compared pixels" out && has "where        pixel $(word pixel), x $(word x)" out
+    w=$(dump "$T/e" image-pixels 3)
+    run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --image-fail-percent 0.5 &&
+        has "3 image pixel(s) beyond +-1, within the 0.5 % allowed" out
+    w=$(dump "$T/e" image-pixels 4)
+    run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --image-fail-percent 0.5 --json --no-artifacts &&
+        has '"fault": "image"' out && has '"image_over": 4' out && loc pixel "$(word pixel)"
 else
     fail "the frame bundle has no image.png"
 fi
