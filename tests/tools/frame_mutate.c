@@ -21,6 +21,7 @@
  *   image-pixels N       the first N comparable pixels at or after the middle: red moved by 2 -> pixel= x= y=
  *   accum-exr            accum.npy replaced by accum.exr (RGBA float)
  *   words                every queue, hit and counter file as raw (n, words) uint32 / flat float32 arrays
+ *   full                 every queue and hit file as the whole GPU buffer: 2 W H records, garbage after the queue
  *   store                every payload file as the whole payload store: 2 W H rows, row = payloadSlot
  *   not-comparable       every pixel the bundle marks not comparable gets accum + 1 and a different image
  *                        colour, and the queues from the first that dropped rays on are reversed, with their first
@@ -368,6 +369,29 @@ int main(int argc, char **argv)
             rewrite_words(gpu, RTO_FILE_BOUNCE_HITS, k, RTO_LAYOUT_HIT_RECORD, 1);
         }
         rewrite_words(gpu, RTO_FILE_FRAME_COUNTERS, 0, RTO_LAYOUT_FRAME_COUNTERS, 0);
+    } else if (!strcmp(mut, "full")) {
+        const size_t cap = 2 * (size_t)W * H;
+        for (uint32_t k = 0; k <= D; k++) {
+            static const rto_bundle_file files[2] = {RTO_FILE_BOUNCE_RAYS, RTO_FILE_BOUNCE_HITS};
+            static const rto_layout layouts[2] = {RTO_LAYOUT_WF_RAY, RTO_LAYOUT_HIT_RECORD};
+            for (int f = 0; f < 2; f++) {
+                const char *pp = path_of(gpu, fname(files[f], k));
+                if (!exists(pp))
+                    continue;
+                rto_npy a = {0};
+                load(pp, &a);
+                const size_t rec = rto_layout_size(layouts[f]);
+                unsigned char *buf = malloc(cap * rec);
+                if (!buf)
+                    die("out of memory");
+                memset(buf, 0xAB, cap * rec); /* what a buffer holds past the queue: anything */
+                memcpy(buf, a.data, (size_t)a.desc.shape[0] * rec);
+                rto_npy_desc dd = rto_layout_desc(layouts[f], cap);
+                save(pp, &dd, buf);
+                free(buf);
+                rto_npy_free(&a);
+            }
+        }
     } else if (!strcmp(mut, "store")) {
         for (uint32_t k = 0; k <= D; k++) {
             const char *pp = path_of(gpu, fname(RTO_FILE_BOUNCE_PAYLOADS, k));
