@@ -53,7 +53,7 @@ const char *rto_frame_artifact_name(uint32_t artifact)
 #define FRAME_MAX_DEPTH 64u
 #define NONE32 UINT32_MAX
 
-/* Tolerances (docs/frame.md "Comparisons"). Ray floats: §9's relative 1e-5 of hit t, carried to the quantities a
+/* Tolerances (docs/frame.md "The GPU dump layout"). Ray floats: §9's relative 1e-5 of hit t, carried to the quantities a
  * SHADE pass derives from a hit. Accum: §9. Image: §9, the percentage configurable. */
 #define RAY_REL 1e-5
 #define ACCUM_REL 1e-4
@@ -129,7 +129,7 @@ typedef struct fcheck {
     uint32_t ninst;
     /* bookkeeping */
     uint32_t drop_queue; /* the first queue with drops, NONE32 if none */
-    uint64_t files_compared, files_not_dumped, rays_compared, drop_affected;
+    uint64_t files_compared, files_not_dumped, rays_compared;
     char not_dumped[200];
     char skipped[200];      /* dumped files that could not be compared, and why */
     char drop_skipped[160]; /* dumped queue files past a queue that dropped rays */
