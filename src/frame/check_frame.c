@@ -53,8 +53,8 @@ const char *rto_frame_artifact_name(uint32_t artifact)
 #define FRAME_MAX_DEPTH 64u
 #define NONE32 UINT32_MAX
 
-/* Tolerances (docs/frame.md "The GPU dump layout"). Ray floats: §9's relative 1e-5 of hit t, carried to the quantities a
- * SHADE pass derives from a hit. Accum: §9. Image: §9, the percentage configurable. */
+/* Tolerances (docs/frame.md "The GPU dump layout"). Ray floats: §9's relative 1e-5 of hit t, carried to the
+ * quantities a SHADE pass derives from a hit. Accum: §9. Image: §9, the percentage configurable. */
 #define RAY_REL 1e-5
 #define ACCUM_REL 1e-4
 #define ACCUM_ABS 1e-6
