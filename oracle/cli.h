@@ -107,5 +107,6 @@ int cmd_check_hits(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_trace(int argc, char **argv);
 int cmd_crosscheck(int argc, char **argv);
+int cmd_compare(int argc, char **argv);
 
 #endif

@@ -19,6 +19,7 @@ static const struct {
     {"check-hits", cmd_check_hits, "validate a GPU's hit records against a trace bundle (ties allowed)"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
     {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
+    {"compare", cmd_compare, "compare two images (PNG / OpenEXR) with idiff's thresholds and exit statuses"},
 };
 
 static void usage(FILE *to)
