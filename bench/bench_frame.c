@@ -4,15 +4,16 @@
  *
  * Each scene runs in two child processes (fork), so neither memory peak nor allocator state carries from one scene
  * or one measurement to the next:
- *   - golden: load, build, one frame with all threads and every stage kept (RTO_FRAME_KEEP_ALL), then the bundle
- *     `rtoracle render` writes (the build bundle, the mesh geometry and the frame's files) into a temporary
+ *   - golden: load, build, one frame with all (allowed) threads and every stage kept (RTO_FRAME_KEEP_ALL), then the
+ *     bundle `rtoracle render` writes (the build bundle, the mesh geometry and the frame's files) into a temporary
  *     directory, which is measured (bytes, files) and removed. Peak RSS is getrusage's ru_maxrss of that child, after
  *     the frame and after the write.
- *   - timing: RUNS frames with one thread and with all threads (rto_frame_desc.threads 1 and 0), interleaved with
- *     Embree tracing the frame's own queue 0 (primary) and queue 1 (shadow) rays: one device with "threads=1" traced
- *     in the calling thread, one with Embree's default thread count traced by emb_trace's static partition over all
- *     threads (as bench_trace). Embree runs its fastest mode, build quality HIGH (SAH with spatial splits) without
- *     RTC_SCENE_FLAG_ROBUST; shadow rays (TERMINATE_ON_FIRST_HIT) go through rtcOccluded1.
+ *   - timing: RUNS frames with one thread and with all threads (rto_frame_desc.threads 1 and the CPUs this process
+ *     may run on, so `taskset -c 0,1` measures 2 cores), interleaved with Embree tracing the frame's own queue 0
+ *     (primary) and queue 1 (shadow) rays: one device with "threads=1" traced in the calling thread, one with
+ *     "threads=N" for the same N traced by emb_trace's static partition over N threads (as bench_trace). Embree
+ *     runs its fastest mode, build quality HIGH (SAH with spatial splits) without RTC_SCENE_FLAG_ROBUST; shadow rays
+ *     (TERMINATE_ON_FIRST_HIT) go through rtcOccluded1.
  *     Same work in both timed regions: the frame's TRACE stage allocates its hit records and traces the queue of
  *     each bounce; Embree's timed region allocates a hit array for the same rays and traces them (the array is
  *     freed after the clock stops, as the frame's are freed after the frame). Stage times are rto_frame.seconds,
@@ -208,7 +209,7 @@ static golden_result child_golden(const char *spec)
     g.instances = l.scene->instance_count;
     for (uint32_t i = 0; i < l.scene->instance_count; i++)
         g.triangles += l.scene->meshes[l.scene->instances[i].blas].triangle_count;
-    rto_frame *f = frame_run(&l, 0, RTO_FRAME_KEEP_ALL, &g.render_s);
+    rto_frame *f = frame_run(&l, (uint32_t)hw_threads, RTO_FRAME_KEEP_ALL, &g.render_s);
     g.rss_after_render_kb = rss_kb();
     for (uint32_t d = 0; d < 3 && d <= f->max_depth; d++)
         g.rays[d] = f->counters[d].queued;
@@ -257,7 +258,7 @@ static timing_result child_timing(const char *spec)
         return r;
     /* The rays Embree traces: the frame's own primary and shadow queues. */
     double wall;
-    rto_frame *f = frame_run(&l, 0, RTO_FRAME_KEEP_RAYS, &wall);
+    rto_frame *f = frame_run(&l, (uint32_t)hw_threads, RTO_FRAME_KEEP_RAYS, &wall);
     r.primary = f->queues[0].count;
     r.shadow = f->queues[1].count;
     const size_t n = r.primary + r.shadow;
@@ -270,7 +271,7 @@ static timing_result child_timing(const char *spec)
     rto_msg msg = {{0}};
     emb_device *dev[2];
     emb_scene *es[2];
-    if (emb_device_create(1, NULL, &dev[0], &msg) || emb_device_create(0, NULL, &dev[1], &msg))
+    if (emb_device_create(1, NULL, &dev[0], &msg) || emb_device_create((uint32_t)hw_threads, NULL, &dev[1], &msg))
         die("Embree device", &msg);
     for (int d = 0; d < 2; d++) {
         emb_scene_desc desc = {EMB_QUALITY_HIGH, false, false};
@@ -284,7 +285,7 @@ static timing_result child_timing(const char *spec)
     double st[2][RTO_FRAME_STAGE_COUNT][RUNS], tot[2][RUNS], lean[2][RUNS], emb[2][RUNS], embw[2][RUNS];
     for (int run = 0; run < runs; run++)
         for (int d = 0; d < 2; d++) {
-            const uint32_t threads = d ? 0 : 1;
+            const uint32_t threads = d ? (uint32_t)hw_threads : 1u;
             f = frame_run(&l, threads, RTO_FRAME_KEEP_ALL, &tot[d][run]);
             for (int s = 0; s < RTO_FRAME_STAGE_COUNT; s++)
                 st[d][s][run] = f->seconds[s];
@@ -361,15 +362,15 @@ static void bench_scene(const char *spec, const char *label)
     memset(&t, 0, sizeof t);
     if ((!no_golden && (!in_child(golden_fn, spec, &g, sizeof g) || !g.ok)) ||
         !in_child(timing_fn, spec, &t, sizeof t) || !t.ok) {
-        printf("%-16s failed or skipped (see stderr)\n", label);
+        printf("%-19s failed or skipped (see stderr)\n", label);
         return;
     }
     for (int d = 0; d < 2; d++) {
         char th[16];
         snprintf(th, sizeof th, d ? "all(%d)" : "1", hw_threads);
         const double *s = t.stage[d];
-        printf("%-16s %-7s %8llu %8llu %7.1f %7.1f %8.1f %8.1f %7.1f %8.1f %8.1f %8.1f %8.1f %6.2f %6.2f %6.2f\n", label,
-               th, (unsigned long long)t.primary, (unsigned long long)t.shadow, s[RTO_STAGE_GENERATE] * 1e3,
+        printf("%-19s %-7s %8llu %8llu %7.1f %7.1f %8.1f %8.1f %7.1f %8.1f %8.1f %8.1f %8.1f %6.2f %6.2f %6.2f\n",
+               label, th, (unsigned long long)t.primary, (unsigned long long)t.shadow, s[RTO_STAGE_GENERATE] * 1e3,
                s[RTO_STAGE_PREP] * 1e3, s[RTO_STAGE_TRACE] * 1e3, s[RTO_STAGE_SHADE] * 1e3,
                s[RTO_STAGE_RESOLVE] * 1e3, t.total[d] * 1e3, t.lean[d] * 1e3, t.embree[d] * 1e3,
                t.embree_warm[d] * 1e3, s[RTO_STAGE_TRACE] / t.embree[d], t.total[d] / t.embree[d],
@@ -378,7 +379,7 @@ static void bench_scene(const char *spec, const char *label)
     const double mb = 1.0 / (1024.0 * 1024.0);
     const double bytes_mb = (double)g.bundle_bytes * mb, rss_mb = (double)g.rss_peak_kb / 1024.0;
     if (!no_golden)
-        printf("%-16s golden: camera '%s', %u instances, %llu triangles; queues %llu / %llu / %llu rays; render %.2f "
+        printf("%-19s golden: camera '%s', %u instances, %llu triangles; queues %llu / %llu / %llu rays; render %.2f "
                "s, bundle %.1f MiB in %llu files written in %.2f s; peak RSS %.1f MiB after the frame, %.1f MiB after "
                "the write\n", label, g.camera, g.instances, (unsigned long long)g.triangles,
                (unsigned long long)g.rays[0], (unsigned long long)g.rays[1], (unsigned long long)g.rays[2], g.render_s,
@@ -464,10 +465,10 @@ int main(int argc, char **argv)
            "robust) on the frame's primary + shadow rays; x/emb = time(oracle) / time(Embree with a fresh hit array); "
            "first touch of new memory here: %.0f ms per GiB\n", width, height, runs, RTC_VERSION_MAJOR,
            RTC_VERSION_MINOR, RTC_VERSION_PATCH, first_touch_ms_per_gib());
-    printf("%-16s %-7s %8s %8s %7s %7s %8s %8s %7s %8s %8s %8s %8s %6s %6s %6s\n", "scene", "threads", "primary",
+    printf("%-19s %-7s %8s %8s %7s %7s %8s %8s %7s %8s %8s %8s %8s %6s %6s %6s\n", "scene", "threads", "primary",
            "shadow", "gen", "prep", "trace", "shade", "resolve", "total", "no-keep", "embree", "emb warm", "trace/",
            "frame/", "nokeep");
-    printf("%-16s %-7s %8s %8s %7s %7s %8s %8s %7s %8s %8s %8s %8s %6s %6s %6s\n", "", "", "rays", "rays", "ms", "ms",
+    printf("%-19s %-7s %8s %8s %7s %7s %8s %8s %7s %8s %8s %8s %8s %6s %6s %6s\n", "", "", "rays", "rays", "ms", "ms",
            "ms", "ms", "ms", "ms", "total ms", "ms", "ms", "emb", "emb", "/emb");
     for (int i = 0; i < nscenes; i++) {
         const char *base = strrchr(scenes[i], '/');
