@@ -20,6 +20,7 @@ static const struct {
     {"render", cmd_render, "render a wavefront frame (every queue, hit, counter, accum and image) into a bundle"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
     {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
+    {"compare", cmd_compare, "compare two images (PNG / OpenEXR) with idiff's thresholds and exit statuses"},
 };
 
 static void usage(FILE *to)
