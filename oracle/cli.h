@@ -124,6 +124,7 @@ int cmd_info(int argc, char **argv);
 int cmd_trace(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_crosscheck(int argc, char **argv);
+int cmd_compare(int argc, char **argv);
 int cmd_check_frame(int argc, char **argv);
 
 #endif

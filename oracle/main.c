@@ -21,6 +21,7 @@ static const struct {
     {"check-frame", cmd_check_frame, "validate a GPU's dump of a frame stage by stage against a frame bundle"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
     {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
+    {"compare", cmd_compare, "compare two images (PNG / OpenEXR) with idiff's thresholds and exit statuses"},
 };
 
 static void usage(FILE *to)

@@ -2,7 +2,10 @@
 #include "opts.h"
 
 #include <assert.h>
+#include <errno.h>
+#include <math.h>
 #include <stdarg.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Bad usage: exit status 2, as every command's. */
@@ -75,6 +78,41 @@ bool opts_parse_uint(const char *text, uint64_t max, uint64_t *out)
     return true;
 }
 
+bool opts_parse_real(const char *text, double *out)
+{
+    if (!text)
+        return false;
+    /* The shape is checked first: strtod alone would take a sign, leading space, "inf", "nan" and hex floats. */
+    const char *p = text;
+    size_t digits = strspn(p, "0123456789");
+    p += digits;
+    if (*p == '.') {
+        size_t frac = strspn(p + 1, "0123456789");
+        digits += frac;
+        p += 1 + frac;
+    }
+    if (!digits)
+        return false;
+    if (*p == 'e' || *p == 'E') {
+        p++;
+        if (*p == '+' || *p == '-')
+            p++;
+        size_t exp = strspn(p, "0123456789");
+        if (!exp)
+            return false;
+        p += exp;
+    }
+    if (*p)
+        return false;
+    errno = 0;
+    char *end = NULL;
+    double v = strtod(text, &end);
+    if (*end || !isfinite(v) || (errno == ERANGE && v != 0))
+        return false;
+    *out = v;
+    return true;
+}
+
 static const opt_name *find_name(const opt_name *names, const char *text, size_t len)
 {
     for (const opt_name *n = names; n->name; n++)
@@ -136,6 +174,7 @@ static void check_table(const opt_command *c)
             break;
         case OPT_KIND_PATH: assert(s->target_size == sizeof(const char *)); break;
         case OPT_KIND_LIST: assert(s->target_size == sizeof(opt_list)); break;
+        case OPT_KIND_REAL: assert(s->target_size == sizeof(double)); break;
         }
     }
     assert(n <= OPT_MAX_SPECS && c->max_args <= OPT_MAX_ARGS && c->min_args <= c->max_args);
@@ -219,6 +258,17 @@ static int take_value(const opt_command *c, const opt_spec *s, const char *v)
         *(const char **)s->target = v;
         return -1;
     case OPT_KIND_LIST: return parse_list(c, s, v);
+    case OPT_KIND_REAL: {
+        double r = 0;
+        if (!opts_parse_real(v, &r) || (s->max && r > (double)s->max)) {
+            if (s->max)
+                return value_error(c, "--%s %s: expected a number 0 .. %llu", s->name, *v ? v : "''",
+                                   (unsigned long long)s->max);
+            return value_error(c, "--%s %s: expected a number >= 0 (such as 0.004 or 1e-6)", s->name, *v ? v : "''");
+        }
+        *(double *)s->target = r;
+        return -1;
+    }
     case OPT_KIND_FLAG: break;
     }
     return -1;
@@ -347,6 +397,8 @@ static void help_line(FILE *to, const opt_spec *s)
                                  (unsigned long long)s->max);
     else if (s->kind == OPT_KIND_ENUM || s->kind == OPT_KIND_UINT)
         used += (size_t)snprintf(line + used, sizeof line - used, ": %s", names_text(s->names, what, sizeof what));
+    else if (s->kind == OPT_KIND_REAL && s->max)
+        used += (size_t)snprintf(line + used, sizeof line - used, ": 0 .. %llu", (unsigned long long)s->max);
     else if (s->kind == OPT_KIND_LIST && s->names)
         used += (size_t)snprintf(line + used, sizeof line - used, ", each %s",
                                  names_text(s->names, what, sizeof what));

@@ -21,6 +21,7 @@ typedef enum opt_kind {
     OPT_KIND_ENUM, /* one of a table of names; the target gets the name's value */
     OPT_KIND_PATH, /* a non-empty string (a file or directory); the target is a const char * */
     OPT_KIND_LIST, /* comma-separated non-empty items, optionally from a table of names; duplicates dropped */
+    OPT_KIND_REAL, /* a finite decimal number >= 0 (0.004, 1e-6), at most max when max > 0; the target is a double */
 } opt_kind;
 
 /** A name and its value for OPT_ENUM and OPT_LIST; tables end with {NULL, 0}. */
@@ -56,7 +57,7 @@ typedef struct opt_spec {
 } opt_spec;
 
 /* Table entries. ptr is the target: bool * (FLAG), an unsigned integer or enum (UINT, CHOICE, ENUM), const char **
- * (PATH, STRING), opt_list * (LIST). CHOICE is a number that must be one of the table's values (--radix-bits).
+ * (PATH, STRING), opt_list * (LIST), double * (REAL: hi 0 for no upper bound). CHOICE is a number that must be one of the table's values (--radix-bits).
  * text is the help line; dflt the default as --help shows it (NULL for none). */
 #define OPT_FLAG(lname, ptr, text) {lname, 0, OPT_KIND_FLAG, (ptr), sizeof *(ptr), 0, 0, NULL, NULL, text, NULL}
 #define OPT_UINT(lname, ptr, lo, hi, meta, text, dflt)                                                             \
@@ -70,6 +71,8 @@ typedef struct opt_spec {
 #define OPT_STRING(lname, ptr, meta, text) OPT_PATH(lname, 0, ptr, meta, text)
 #define OPT_LIST(lname, ptr, table, text, dflt)                                                                    \
     {lname, 0, OPT_KIND_LIST, (ptr), sizeof *(ptr), 0, 0, table, "LIST", text, dflt}
+#define OPT_REAL(lname, ptr, hi, meta, text, dflt)                                                                 \
+    {lname, 0, OPT_KIND_REAL, (ptr), sizeof *(ptr), 0, (hi), NULL, meta, text, dflt}
 #define OPT_END {NULL, 0, OPT_KIND_FLAG, NULL, 0, 0, 0, NULL, NULL, NULL, NULL}
 
 /** A command: its name in messages, its usage and descriptive help, its option table and positional arguments. */
@@ -110,5 +113,9 @@ void opts_help(const opt_command *c, FILE *to);
 /** Strict unsigned number: decimal digits (leading zeros are decimal: "010" is 10), or 0x / 0X and hexadecimal
  * digits; no sign, space, exponent or suffix; false on overflow or a value above max. */
 bool opts_parse_uint(const char *text, uint64_t max, uint64_t *out);
+
+/** Strict non-negative real: decimal digits with an optional fraction and exponent ("0.004", "1e-6", ".5"); no sign,
+ * space, "inf", "nan" or hexadecimal; false when it does not round to a finite double. */
+bool opts_parse_real(const char *text, double *out);
 
 #endif

@@ -2,9 +2,9 @@
  * evaluated in binary64 here: for every ray, the nearest primitive and its t, and the normal at the binary64 hit
  * point. A ray whose answer depends on binary32 rounding is detected by the binary64 evaluation itself (a tangent
  * sphere ray, a ray grazing a box edge, a t next to the 0.001 epsilon or tMax, two primitives within 1e-4 of each
- * other, a box hit whose rounded position may fall either side of the face rule's 0.001 band) and checked only for what is defined (a finite t and
- * a primitive that does hit). Pinned cases with exact answers worked out by hand cover the rules the random rays
- * rarely reach: tMax, the epsilon, zero direction components, edges of the box. */
+ * other, a box hit whose rounded position may fall either side of the face rule's 0.001 band) and checked only for
+ * what is defined (a finite t and a primitive that does hit). Pinned cases with exact answers worked out by hand
+ * cover the rules the random rays rarely reach: tMax, the epsilon, zero direction components, edges of the box. */
 #include "testutil.h"
 
 #include "frame/frame_internal.h"
@@ -170,7 +170,8 @@ static rto_hit_record trace1(const rto_wf_ray *ray)
     return h;
 }
 
-/* Every field of a hit record of primitive k at t (header: instanceId = customIndex = k, objToWorld the translation). */
+/* Every field of a hit record of primitive k at t (NaN: any t), as the header states: instanceId = customIndex = k,
+ * objToWorld the translation to the centre. */
 static void assert_hit_record(const rto_hit_record *h, uint32_t k, float t)
 {
     assert_int_equal(h->miss_flag, 0);
@@ -241,8 +242,8 @@ static void test_pinned_spheres(void **state)
     assert_hit_record(&h, 0, 1.0f);
     normal_of(&r, &h, n);
     assert_true(n[0] == 1.0f && n[1] == 0.0f && n[2] == 0.0f);
-    /* The tangent alone: from (0, 0, 0) at z = 0 ... start past sphere 1 at x = 1.5: sphere 2 tangent at (2.5, 0, 0),
-     * t = 1 (disc exactly 0); the seed counts it as a hit. */
+    /* The tangent alone, from x = 1.5 (past sphere 1, both of its roots behind): sphere 2 touches the ray at
+     * (2.5, 0, 0), t = 1 (disc exactly 0), and the seed counts a tangent as a hit. */
     r = make_ray(1.5, 0, 0, 1, 0, 0, RTO_RAY_T_MAX);
     h = trace1(&r);
     assert_hit_record(&h, 1, 1.0f);
@@ -302,8 +303,7 @@ static void test_pinned_boxes(void **state)
     normal_of(&r, &h, n);
     const float s3 = 1.0f / sqrtf(3.0f);
     assert_true(fabsf(n[0] - s3) <= 1e-7f && fabsf(n[1] - s3) <= 1e-7f && fabsf(n[2] - s3) <= 1e-7f);
-    /* Box 1 hides nothing behind it along -y? The ground (y = -1) is farther (t = 6): box 1 stays the nearest. And
-     * from inside box 1 (its centre) along +y: tNear = -0.75 < 0.001, so tFar = 0.75 is taken (the inside face). */
+    /* From inside box 1 (its centre) along +y: tNear = -0.75 < 0.001, so tFar = 0.75 is taken (the inside face). */
     r = make_ray(-2.5, 0, 0, 0, 1, 0, RTO_RAY_T_MAX);
     h = trace1(&r);
     assert_hit_record(&h, 2, 0.75f);
@@ -371,7 +371,7 @@ static void check_ray(const rto_wf_ray *ray, const rto_hit_record *h, tally *ty,
     const ref e = reference(ray);
     ty->rays++;
     if (e.ambiguous) {
-        /* Only what is defined: a hit names a primitive that the binary64 evaluation finds hit at about that t. */
+        /* Only what is defined: a hit names one of the four primitives, at a finite t past the epsilon, before tMax. */
         ty->ambiguous++;
         if (!h->miss_flag) {
             assert_true(h->instance_id < 4);

@@ -121,6 +121,17 @@ rto_status rto_atomic_close(rto_atomic_file *f, rto_msg *msg);
 /** Closes and removes the temporary (a failed write). */
 void rto_atomic_discard(rto_atomic_file *f);
 
+/* Bundle entries that are not .npy arrays (io/bundle.c owns manifest.json; io/image.c writes and reads images). */
+
+/** Writes name (a plain file name) into the bundle's temporary directory with write(path, image) and lists it like an
+ * array: name, role, sha256 of the file written, and "image": {width, height, channels, type ("u8" / "f32")}. A
+ * failure, the writer's included, is kept for rto_bundle_commit. */
+rto_status rto__bundle_add_image(rto_bundle *b, const char *name, const char *role, const rto_image *image,
+                                 rto_status (*write)(const char *path, const rto_image *image, rto_msg *msg),
+                                 rto_msg *msg);
+/** The path (malloc'ed, in *path) of the file the manifest lists as name, once its sha256 matches the manifest's. */
+rto_status rto__bundle_checked_path(rto_bundle_reader *r, const char *name, char **path, rto_msg *msg);
+
 /* Input files. */
 
 /**

@@ -317,6 +317,9 @@ static void trace_stage2_range(void *ctx, uint32_t wi, size_t begin, size_t end)
     run *r = ctx;
     rto_frame_queue *q = r->tracing;
     rto_stage2_trace(q->rays + begin, end - begin, q->hits + begin);
+    /* The seed's traceScene tests its four primitives without a tree: no traversal to count. */
+    if (q->trace_counters)
+        memset(q->trace_counters + begin, 0, (end - begin) * sizeof *q->trace_counters);
 }
 
 static double now(void)

@@ -83,9 +83,17 @@ rto_status rto_frame_write_bundle(const rto_frame *f, int with_timings, rto_bund
             s = add(b, RTO_FILE_BOUNCE_PAYLOADS, d, NULL, &dp, q->payloads ? (const void *)q->payloads : none, msg);
         }
     }
+    char name[RTO_BUNDLE_FILE_NAME_MAX];
     if (!s && (f->keep & RTO_FRAME_KEEP_ACCUM)) {
         const rto_npy_desc da = rto_npy_desc_array(RTO_DTYPE_F32, 3, f->height, f->width, 4);
         s = add(b, RTO_FILE_ACCUM, 0, NULL, &da, f->accum, msg);
+        const rto_image img = {f->width, f->height, 4, RTO_PIXEL_F32, f->accum};
+        if (!s && !(s = rto_bundle_file_name(RTO_FILE_ACCUM_EXR, 0, name, sizeof name)))
+            s = rto_bundle_add_image(b, name, rto_bundle_file_role(RTO_FILE_ACCUM_EXR), &img, msg);
+    }
+    if (!s && !(s = rto_bundle_file_name(RTO_FILE_IMAGE, 0, name, sizeof name))) {
+        const rto_image img = {f->width, f->height, 4, RTO_PIXEL_U8, f->image};
+        s = rto_bundle_add_image(b, name, rto_bundle_file_role(RTO_FILE_IMAGE), &img, msg);
     }
     if (!s) {
         const rto_npy_desc dn = rto_npy_desc_array(RTO_DTYPE_U8, 2, f->height, f->width, 0);

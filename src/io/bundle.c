@@ -437,6 +437,41 @@ rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role,
     return keep_error(b, s, &why, "file ", "", name);
 }
 
+rto_status rto__bundle_add_image(rto_bundle *b, const char *name, const char *role, const rto_image *image,
+                                 rto_status (*write)(const char *path, const rto_image *image, rto_msg *msg),
+                                 rto_msg *msg)
+{
+    rto_msg why = {{0}};
+    char hex[65];
+    const bool valid = b && plain_name(name) && role && image && write;
+    char *path = valid ? join(b->tmpdir, name) : NULL;
+    rto_status s = path    ? write(path, image, &why)
+                   : valid ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
+                           : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
+    if (!s)
+        s = rto_sha256_file(path, hex, &why);
+    free(path);
+    if (!s) {
+        json_t *e = json_object(), *info = json_object();
+        int bad = !e || !info;
+        bad |= json_object_set_new(e, "name", json_string(name));
+        bad |= json_object_set_new(e, "role", json_string(role));
+        bad |= json_object_set_new(info, "width", json_integer((json_int_t)image->width));
+        bad |= json_object_set_new(info, "height", json_integer((json_int_t)image->height));
+        bad |= json_object_set_new(info, "channels", json_integer((json_int_t)image->channels));
+        bad |= json_object_set_new(info, "type", json_string(image->type == RTO_PIXEL_U8 ? "u8" : "f32"));
+        bad |= json_object_set_new(e, "image", info);
+        bad |= json_object_set_new(e, "sha256", json_string(hex));
+        bad |= json_array_append_new(b->files, e);
+        if (bad)
+            s = rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list %s in manifest.json (out of memory, or a name "
+                         "that is not UTF-8)", b->name, name);
+    }
+    if (s && msg)
+        *msg = why;
+    return keep_error(b, s, &why, "file ", "", name);
+}
+
 rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case_id, rto_msg *msg)
 {
     rto_msg why = {{0}};
@@ -646,9 +681,10 @@ int rto_bundle_get_int(rto_bundle_reader *r, const char *section, const char *ke
     return 1;
 }
 
-/* Loads the file of the first manifest entry whose field `key` equals `value`, after checking its sha256. */
-static rto_status read_entry(rto_bundle_reader *r, const char *key, const char *value, rto_npy *out, rto_msg *msg)
+/* The path of the first manifest entry whose field `key` equals `value` (malloc'ed), after checking its sha256. */
+static rto_status checked_path(rto_bundle_reader *r, const char *key, const char *value, char **out, rto_msg *msg)
 {
+    *out = NULL;
     json_t *files = r ? json_object_get(r->root, "files") : NULL;
     size_t i;
     json_t *e;
@@ -667,12 +703,32 @@ static rto_status read_entry(rto_bundle_reader *r, const char *key, const char *
         if (!s && strcmp(hex, sha) != 0)
             s = rto_fail(msg, RTO_ERR_PARSE, "%s: sha256 %s does not match the manifest's %s (file changed?)", path,
                          hex, sha);
-        if (!s)
-            s = rto_npy_read(path, out, msg);
-        free(path);
+        if (s)
+            free(path);
+        else
+            *out = path;
         return s;
     }
     return rto_fail(msg, RTO_ERR_IO, "%s: the bundle has no file with %s '%s'", r ? r->dir : "(null)", key, value);
+}
+
+/* Loads the file of the first manifest entry whose field `key` equals `value`, after checking its sha256. */
+static rto_status read_entry(rto_bundle_reader *r, const char *key, const char *value, rto_npy *out, rto_msg *msg)
+{
+    char *path = NULL;
+    rto_status s = checked_path(r, key, value, &path, msg);
+    if (!s)
+        s = rto_npy_read(path, out, msg);
+    free(path);
+    return s;
+}
+
+rto_status rto__bundle_checked_path(rto_bundle_reader *r, const char *name, char **path, rto_msg *msg)
+{
+    *path = NULL;
+    if (!r || !name)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle or name");
+    return checked_path(r, "name", name, path, msg);
 }
 
 rto_status rto_bundle_read_role(rto_bundle_reader *r, const char *role, rto_npy *out, rto_msg *msg)

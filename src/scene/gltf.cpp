@@ -46,7 +46,6 @@
 #define TINYGLTF_NO_EXTERNAL_IMAGE
 #include <tiny_gltf.h>
 
-#include <dlfcn.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -61,7 +60,6 @@
 #include <limits>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <new>
 #include <stdexcept>
 #include <string>
@@ -1034,48 +1032,6 @@ bool image_header(const unsigned char *b, size_t n, uint32_t *w, uint32_t *h, st
     return false;
 }
 
-// The image module, loaded on the first texture that passes the header and budget checks (image_module.h says why
-// it is a module). A failure to load it is remembered and reported with every texture, as a warning.
-struct ImageModule {
-    rto_image_decode_fn decode = nullptr;
-    std::string error;
-};
-
-const ImageModule &image_module()
-{
-    static ImageModule mod;
-    static std::once_flag once;
-    std::call_once(once, [] {
-        std::vector<std::string> paths;
-        if (const char *env = getenv("RTO_IMAGE_MODULE"); env && *env)
-            paths.push_back(env);
-        paths.push_back(RTO_IMAGE_MODULE_BUILD);
-        paths.push_back(RTO_IMAGE_MODULE_INSTALL);
-        for (const std::string &p : paths) {
-            if (access(p.c_str(), R_OK) != 0)
-                continue;
-            void *h = dlopen(p.c_str(), RTLD_NOW | RTLD_LOCAL);
-            if (!h) {
-                const char *e = dlerror();
-                mod.error = "cannot load " + p + ": " + (e ? e : "dlopen failed");
-                return;
-            }
-            void *abi = dlsym(h, RTO_IMAGE_MODULE_ABI_SYMBOL), *dec = dlsym(h, RTO_IMAGE_MODULE_DECODE_SYMBOL);
-            rto_image_abi_fn abi_fn = nullptr;
-            if (abi)
-                memcpy(&abi_fn, &abi, sizeof abi_fn); // object to function pointer without a cast warning
-            if (!abi_fn || !dec || abi_fn() != RTO_IMAGE_MODULE_ABI) {
-                mod.error = p + " is not a compatible image module";
-                return;
-            }
-            memcpy(&mod.decode, &dec, sizeof mod.decode);
-            return; // the module stays loaded for the life of the process
-        }
-        mod.error = "image module librto_image.so not found (set RTO_IMAGE_MODULE)";
-    });
-    return mod;
-}
-
 // tinygltf image callback: keep a data: URI image's encoded bytes (tinygltf frees its own copy); a bufferView
 // image's bytes stay in the buffer and are read from there, so they are not held twice. Decoding waits until a
 // material needs the image.
@@ -1216,10 +1172,13 @@ struct Loader {
                    "image %d ('%.80s', %ux%u): the decoded textures would take %s, over the texture budget of %s "
                    "(raise it with --texture-budget MB)",
                    i, label.c_str(), w, h, bytes_text(texture_bytes + need).c_str(), bytes_text(budget).c_str());
-        const ImageModule &mod = image_module();
-        if (!mod.decode) {
+        // The image module is loaded on the first texture that passes the header and budget checks; a failure to
+        // load it is reported with every texture, as a warning.
+        const char *module_error = "";
+        const rto_image_module *mod = rto__image_module(&module_error);
+        if (!mod) {
             rto__scene_warn(s, "image %d ('%.80s'): cannot decode: %.100s; material %zu is untextured", i,
-                            label.c_str(), mod.error.c_str(), material);
+                            label.c_str(), module_error, material);
             return -1;
         }
         TexBuf tb;
@@ -1227,7 +1186,7 @@ struct Loader {
         if (!tb.rgba)
             throw std::bad_alloc();
         char reason[256] = "";
-        if (!mod.decode(bytes, len, w, h, tb.rgba.get(), reason, sizeof reason)) {
+        if (!mod->decode_rgba(bytes, len, w, h, tb.rgba.get(), reason, sizeof reason)) {
             rto__scene_warn(s, "image %d ('%.80s'): cannot decode: %.100s; material %zu is untextured", i,
                             label.c_str(), reason, material);
             return -1;
