@@ -17,8 +17,8 @@
  *   accum-big / accum-small   the first comparable pixel at or after the middle, red channel moved by 10 / 0.5
  *                        times the §9 accum tolerance (1e-4 |e| + 1e-6)                  -> pixel= x= y=
  *   image-shift          image.png moved right by one pixel (column 0 kept)
- *   image-noise          every channel of every pixel of image.png moved by 1 (up, or down from 255)
- *   image-pixels N       the first N comparable pixels at or after the middle: red moved by 2 -> pixel= x= y=
+ *   image-pixels N       every channel of image.png moved by 1 (up, or down from 255), and in the first N
+ *                        comparable pixels at or after the middle red by 2 instead             -> pixel= x= y=
  *   accum-exr            accum.npy replaced by accum.exr (RGBA float)
  *   words                every queue, hit and counter file as raw (n, words) uint32 / flat float32 arrays
  *   full                 every queue and hit file as the whole GPU buffer: 2 W H records, garbage after the queue
@@ -322,7 +322,7 @@ int main(int argc, char **argv)
         if (rto_image_write(path, &img, &msg))
             die(msg.text);
         rto_image_free(&img);
-    } else if (!strcmp(mut, "image-noise") || !strcmp(mut, "image-pixels")) {
+    } else if (!strcmp(mut, "image-pixels")) {
         const char *path = path_of(gpu, fname(RTO_FILE_IMAGE, 0));
         rto_image img = {0};
         rto_msg msg = {{0}};
@@ -330,25 +330,28 @@ int main(int argc, char **argv)
             die(msg.text);
         uint8_t *px = img.pixels;
         const size_t ch = img.channels, n = (size_t)img.width * img.height;
-        if (!strcmp(mut, "image-noise")) {
-            for (size_t k = 0; k < n * ch; k++)
-                px[k] = px[k] == 255 ? 254 : px[k] + 1;
-        } else {
-            rto_npy m = {0};
-            load(path_of(bundle, fname(RTO_FILE_NOT_COMPARABLE, 0)), &m);
-            const uint8_t *mask = m.data;
-            uint32_t done = 0;
-            for (size_t k = 0; k < n && done < d; k++) {
-                const size_t p = (n / 2 + k) % n;
-                if (mask[p])
-                    continue;
-                if (!done)
-                    printf("pixel=%zu x=%zu y=%zu\n", p, p % W, p / W);
-                px[p * ch] = px[p * ch] >= 128 ? px[p * ch] - 2 : px[p * ch] + 2;
-                done++;
-            }
-            rto_npy_free(&m);
+        /* +-1 everywhere is within the rule; the N chosen pixels then get 2 instead */
+        for (size_t k = 0; k < n * ch; k++)
+            px[k] = px[k] == 255 ? 254 : px[k] + 1;
+        rto_npy m = {0};
+        load(path_of(bundle, fname(RTO_FILE_NOT_COMPARABLE, 0)), &m);
+        const uint8_t *mask = m.data, *orig = NULL;
+        rto_image o = {0};
+        if (rto_image_read(path_of(bundle, fname(RTO_FILE_IMAGE, 0)), &o, &msg))
+            die(msg.text);
+        orig = o.pixels;
+        uint32_t done = 0;
+        for (size_t k = 0; k < n && done < d; k++) {
+            const size_t p = (n / 2 + k) % n;
+            if (mask[p])
+                continue;
+            if (!done)
+                printf("pixel=%zu x=%zu y=%zu\n", p, p % W, p / W);
+            px[p * ch] = orig[p * o.channels] >= 128 ? orig[p * o.channels] - 2 : orig[p * o.channels] + 2;
+            done++;
         }
+        rto_image_free(&o);
+        rto_npy_free(&m);
         if (rto_image_write(path, &img, &msg))
             die(msg.text);
         rto_image_free(&img);
