@@ -2142,6 +2142,8 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
     {
         const char *program = rto_bundle_get_str(c.b, "program", "name");
         const char *scene = rto_bundle_get_str(c.b, "", "scene");
+        const char *slash = scene ? strrchr(scene, '/') : NULL;
+        scene = slash && slash[1] ? slash + 1 : scene; /* a scene file by its name: the report's line stays short */
         snprintf(report->what, sizeof report->what, "%.40s %" PRIu32 "x%" PRIu32 "%s%.40s", program ? program : "?",
                  c.w, c.h, c.stage2 ? " stage2" : scene ? " " : "", c.stage2 ? "" : scene ? scene : "");
         snprintf(report->context, sizeof report->context,
