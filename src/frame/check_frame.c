@@ -61,7 +61,7 @@ const char *rto_frame_artifact_name(uint32_t artifact)
 #define IMAGE_STEP 1
 #define IMAGE_PERCENT_DEFAULT 0.1
 /* Payload words are compared as binary32 only where both read as plausible floats: 0, or a magnitude of at least
- * 2^-64. An integer below 2^29 (a pixel, a slot, a count) reads as a denormal or a float under 2^-64, so it is
+ * 2^-64. An integer below 2^28 (a pixel, a slot, a count) reads as a denormal or a float under 2^-64, so it is
  * compared bit for bit and never passes as "close". */
 #define PAYLOAD_FLOAT_MIN 5.42101086242752217e-20 /* 2^-64 */
 
