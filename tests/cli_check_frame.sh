@@ -56,7 +56,7 @@ run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "^PASS ok: " out 
 rm "$T/g/image.png"
 run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --json && has '"result": "pass"' out &&
     has '"queues": true' out && has '"hits": true' out && has '"accum": true' out
-for m in "shuffle 0" "shuffle 1" words full store accum-exr accum-small; do
+for m in "shuffle 0" "shuffle 1" words full store accum-exr accum-small "payload-small 1"; do
     w=$(dump "$T/e" $m)
     run 0 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" || fail "control $m"
 done

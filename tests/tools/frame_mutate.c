@@ -11,6 +11,7 @@
  *   duplicate D          the middle ray of queue D appended once more                    -> ray= pixel=
  *   ray-dir D            the middle ray of queue D with dir.x + 0.01                     -> ray= pixel=
  *   payload D            the middle ray's first payload word + 1 (as a float)            -> ray= pixel=
+ *   payload-small D      the same word moved by half the accum tolerance (1e-4 |e| + 1e-6) -> ray= pixel=
  *   prim D               the first hit at or after the middle of queue D: primId ^ 2     -> ray= pixel=
  *   emit D               emit_counts[D] + 1
  *   indirect D           indirect_args[D][0] + 1
@@ -242,7 +243,8 @@ int main(int argc, char **argv)
 
     if (!strcmp(mut, "copy")) {
     } else if (!strcmp(mut, "shuffle") || !strcmp(mut, "missing") || !strcmp(mut, "duplicate") ||
-               !strcmp(mut, "ray-dir") || !strcmp(mut, "payload") || !strcmp(mut, "prim")) {
+               !strcmp(mut, "ray-dir") || !strcmp(mut, "payload") || !strcmp(mut, "payload-small") ||
+               !strcmp(mut, "prim")) {
         queue q;
         queue_load(gpu, d, &q);
         if (!q.n)
@@ -266,14 +268,14 @@ int main(int argc, char **argv)
         } else if (!strcmp(mut, "ray-dir")) {
             print_ray(&q, mid);
             ((rto_wf_ray *)q.rays.data)[mid].dir[0] += 0.01f;
-        } else if (!strcmp(mut, "payload")) {
+        } else if (!strcmp(mut, "payload") || !strcmp(mut, "payload-small")) {
             if (!q.has_pay || !q.pay.desc.shape[1])
                 die("the queue has no payloads");
             print_ray(&q, mid);
             uint32_t *w = (uint32_t *)q.pay.data + mid * (size_t)q.pay.desc.shape[1];
             float f;
             memcpy(&f, w, 4);
-            f += 1.0f;
+            f = !strcmp(mut, "payload") ? f + 1.0f : (float)((double)f + 0.5 * (1e-4 * fabs((double)f) + 1e-6));
             memcpy(w, &f, 4);
         } else {
             if (!q.has_hits)
