@@ -14,6 +14,7 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
+#include <OpenImageIO/strutil.h>
 #include <png.h>
 
 #include <algorithm>
@@ -465,14 +466,18 @@ std::unique_ptr<OIIO::ImageInput> oiio_open(const unsigned char *bytes, size_t l
     void *proxy = mem;
     config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy);
     config.attribute("oiio:UnassociatedAlpha", 1);
-    std::string fname = is_exr(bytes, len) ? std::string("image.exr") : std::string(name ? name : "image");
+    // The name only picks the reader (the bytes come from the proxy); an OpenEXR file is read as one whatever its
+    // name, and keeps its name in OpenEXR's messages.
+    std::string fname = name && *name ? name : "image";
+    if (is_exr(bytes, len) && !OIIO::Strutil::iends_with(fname, ".exr"))
+        fname += ".exr";
     auto in = OIIO::ImageInput::open(fname, &config);
     if (!in) {
         std::string e = last_line(OIIO::geterror());
-        refuse(e.find("not find") != std::string::npos || e.find("format") != std::string::npos
-                   ? RTO_IMAGE_MODULE_UNSUPPORTED
-                   : RTO_IMAGE_MODULE_CORRUPT,
-               e);
+        // OpenImageIO's words for a name whose extension names no reader it has, and no reader took the bytes.
+        if (e.find("does not exist") != std::string::npos || e.find("not the name of an image format") != std::string::npos)
+            refuse(RTO_IMAGE_MODULE_UNSUPPORTED, "not an image OpenImageIO can read (PNG, OpenEXR, ...)");
+        refuse(RTO_IMAGE_MODULE_CORRUPT, e);
     }
     return in;
 }
