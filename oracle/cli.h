@@ -63,6 +63,16 @@ int cli_bundle_count(const cli_bundle *cb, const char *section, const char *key,
 int cli_bundle_load(const cli_bundle *cb, const char *name, const rto_npy_desc *want, const char *layout, rto_npy *out);
 /** Removes the temporaries of unfinished outputs on SIGINT / SIGTERM / SIGHUP, then exits by that signal. */
 void cli_cleanup_on_signals(void);
+/* Scenes on the command line (scene_cli.c). */
+
+/** Parses exactly n comma-separated finite numbers (|v| <= 3e38). */
+bool cli_parse_floats(const char *text, float *out, size_t n);
+/** The camera --camera names (scene, auto, an index, or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY; NULL = scene) into *cam,
+ * the automatic framing resolved for an image of the given aspect. false after one line on a bad value. */
+bool cli_pick_camera(const char *cmd, const char *spec, const rto_scene *sc, float aspect, rto_camera *cam);
+/** Adds mesh_M_positions.npy and mesh_M_indices.npy of every mesh to a bundle. */
+rto_status cli_write_geometry(rto_bundle *b, const rto_scene *sc, rto_msg *msg);
+
 /* Names of the key formats and sort algorithms, for option tables and manifests. */
 extern const opt_name cli_format_names[];
 extern const opt_name cli_algo_names[];
@@ -106,6 +116,7 @@ int cmd_check_bvh(int argc, char **argv);
 int cmd_check_hits(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_trace(int argc, char **argv);
+int cmd_render(int argc, char **argv);
 int cmd_crosscheck(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 

@@ -34,61 +34,6 @@ static const opt_name tlas_names[] = {{"sweep", 0}, {"karras", 1}, {NULL, 0}};
 /* Most rays a command makes or reads: width * height or --count. */
 #define TRACE_MAX_RAYS (UINT64_C(1) << 26)
 
-/* Parses exactly n comma-separated finite numbers. */
-static bool parse_floats(const char *text, float *out, size_t n)
-{
-    const char *p = text;
-    for (size_t i = 0; i < n; i++) {
-        char *end = NULL;
-        const double v = strtod(p, &end);
-        if (end == p || !isfinite(v) || fabs(v) > 3.0e38)
-            return false;
-        out[i] = (float)v;
-        p = end;
-        if (i + 1 < n) {
-            if (*p != ',')
-                return false;
-            p++;
-        }
-    }
-    return *p == '\0';
-}
-
-/* The camera named by --camera into *cam; the automatic framing is resolved here, so the manifest can name the
- * camera used whichever way it was chosen. Returns false (after one line) on a bad value. */
-static bool pick_camera(const char *spec, const rto_scene *sc, float aspect, rto_camera *cam)
-{
-    uint64_t index = 0;
-    float v[10];
-    const bool scene_camera = (!spec || !strcmp(spec, "scene")) && sc->camera_count;
-    if (scene_camera) {
-        *cam = sc->cameras[0];
-    } else if (!spec || !strcmp(spec, "scene") || !strcmp(spec, "auto")) {
-        const rto_aabb bounds = rto_scene_aabb(sc);
-        *cam = rto_camera_frame(&bounds, aspect);
-        snprintf(cam->name, sizeof cam->name, "auto");
-    } else if (opts_parse_uint(spec, UINT32_MAX, &index)) {
-        if (index >= sc->camera_count) {
-            cli_fail("trace", "--camera %s: the scene has %u camera%s", spec, sc->camera_count,
-                     sc->camera_count == 1 ? "" : "s");
-            return false;
-        }
-        *cam = sc->cameras[index];
-    } else if (parse_floats(spec, v, 10)) {
-        *cam = rto_camera_default();
-        snprintf(cam->name, sizeof cam->name, "command line");
-        cam->position = (rto_vec3){v[0], v[1], v[2]};
-        cam->target = (rto_vec3){v[3], v[4], v[5]};
-        cam->up = (rto_vec3){v[6], v[7], v[8]};
-        cam->fov_y = (float)((double)v[9] * 3.14159265358979323846 / 180.0);
-    } else {
-        cli_fail("trace", "--camera %s: expected scene, auto, a camera index or 10 numbers "
-                          "EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY", spec);
-        return false;
-    }
-    return true;
-}
-
 /* Reads a ray file: WfRay records in any form rto_layout_accept takes. */
 static rto_status read_rays(const char *path, rto_wf_ray **rays, size_t *n, rto_msg *msg)
 {
@@ -157,26 +102,6 @@ static rto_status write_counter_stats(rto_bundle *b, const rto_trace_counters *c
     return bad ? RTO_ERR_OUT_OF_MEMORY : RTO_OK;
 }
 
-static rto_status write_geometry(rto_bundle *b, const rto_scene *sc, rto_msg *msg)
-{
-    rto_status s = RTO_OK;
-    for (uint32_t m = 0; m < sc->mesh_count && !s; m++) {
-        const rto_mesh *mesh = &sc->meshes[m];
-        char name[RTO_BUNDLE_FILE_NAME_MAX];
-        rto_npy_desc d = rto_npy_desc_array(RTO_DTYPE_F32, 2, mesh->vertex_count, 3, 0);
-        s = rto_bundle_file_name(RTO_FILE_MESH_POSITIONS, m, name, sizeof name);
-        if (!s)
-            s = rto_bundle_add_npy(b, name, rto_bundle_file_role(RTO_FILE_MESH_POSITIONS), NULL, &d, mesh->positions,
-                                   msg);
-        d = rto_npy_desc_array(RTO_DTYPE_U32, 2, mesh->triangle_count, 3, 0);
-        if (!s)
-            s = rto_bundle_file_name(RTO_FILE_MESH_INDICES, m, name, sizeof name);
-        if (!s)
-            s = rto_bundle_add_npy(b, name, rto_bundle_file_role(RTO_FILE_MESH_INDICES), NULL, &d, mesh->indices, msg);
-    }
-    return s;
-}
-
 static rto_status add_file(rto_bundle *b, rto_bundle_file f, rto_layout layout, const void *data, size_t n,
                            rto_msg *msg)
 {
@@ -231,7 +156,7 @@ int cmd_trace(int argc, char **argv)
         return cli_fail("trace", "--rays %s: expected primary, shadow, random, grazing, axis or a .npy ray file",
                         rays_arg);
     float light[3] = {0, 0, 0};
-    if (light_arg && !parse_floats(light_arg, light, 3))
+    if (light_arg && !cli_parse_floats(light_arg, light, 3))
         return cli_fail("trace", "--light %s: expected three numbers X,Y,Z", light_arg);
 
     rto_msg msg = {{0}};
@@ -244,7 +169,7 @@ int cmd_trace(int argc, char **argv)
     for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
         fprintf(stderr, "rtoracle trace: warning: %s\n", sc->warnings[w]);
     rto_camera cam;
-    if (!pick_camera(camera_arg, sc, (float)width / (float)height, &cam)) {
+    if (!cli_pick_camera("trace", camera_arg, sc, (float)width / (float)height, &cam)) {
         rto_scene_destroy(sc);
         return EXIT_BAD_INPUT;
     }
@@ -296,7 +221,7 @@ int cmd_trace(int argc, char **argv)
     if (!s)
         s = rto_accel_write_bundle(acc, b, &msg);
     if (!s)
-        s = write_geometry(b, sc, &msg);
+        s = cli_write_geometry(b, sc, &msg);
     if (!s)
         s = add_file(b, RTO_FILE_RAYS, RTO_LAYOUT_WF_RAY, rays, n, &msg);
     if (!s)

@@ -17,6 +17,7 @@ static const struct {
     {"check-bvh", cmd_check_bvh, "validate a GPU-built TLAS or BLAS node array"},
     {"trace", cmd_trace, "trace rays (camera, shadow, random, grazing, axis or a file) into hit records"},
     {"check-hits", cmd_check_hits, "validate a GPU's hit records against a trace bundle (ties allowed)"},
+    {"render", cmd_render, "render a wavefront frame (every queue, hit, counter, accum and image) into a bundle"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
     {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
     {"compare", cmd_compare, "compare two images (PNG / OpenEXR) with idiff's thresholds and exit statuses"},

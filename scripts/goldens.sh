@@ -24,3 +24,22 @@ mkdir -p "$out"
 "$rto" trace fixtures/Box/glTF/Box.gltf --rays primary --width 64 --height 48 -o "$out/trace-Box" 2>/dev/null
 "$rto" trace rtstress:2 --rays primary --width 64 --height 48 -o "$out/trace-rtstress-2" 2>/dev/null
 "$rto" trace rtstress:2 --rays random --count 1024 -o "$out/trace-rtstress-2-random" 2>/dev/null
+# Frames (--no-timings: the wall times are the only bytes that vary). Every per-bounce buffer of sun-shadow's two
+# bounces on the Box fixture and on rtstress:2; the other frames keep the accum buffer, image and counters only
+# (--stages accum), so the repository stays small: the Box with triangle and normals, the triangle scene, sun-shadow on
+# the textured Duck and on the Cornell box, and seed 002's stage2 scene at its 160x120.
+"$rto" render fixtures/Box/glTF/Box.gltf --program sun-shadow --width 96 --height 54 --no-timings \
+    -o "$out/frame-Box-sun-shadow" >/dev/null
+"$rto" render rtstress:2 --program sun-shadow --width 64 --height 48 --no-timings -o "$out/frame-rtstress-2" >/dev/null
+for prog in triangle normals; do
+    "$rto" render fixtures/Box/glTF/Box.gltf --program $prog --width 160 --height 90 --stages accum --no-timings \
+        -o "$out/frame-Box-$prog" >/dev/null
+done
+"$rto" render triangle --program triangle --width 160 --height 90 --stages accum --no-timings \
+    -o "$out/frame-triangle" >/dev/null
+"$rto" render fixtures/Duck/glTF/Duck.gltf --program sun-shadow --width 160 --height 90 --stages accum --no-timings \
+    -o "$out/frame-Duck" >/dev/null
+"$rto" render fixtures/CornellBox-nvpro-glTF/cornellBox.gltf --program sun-shadow --width 160 --height 90 \
+    --stages accum --no-timings -o "$out/frame-CornellBox" >/dev/null 2>&1
+"$rto" render stage2 --program normals --width 160 --height 120 --stages accum --no-timings \
+    -o "$out/frame-stage2" >/dev/null

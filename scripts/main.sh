@@ -34,5 +34,17 @@ done < <(find "$fix" \( -name '*.gltf' -o -name '*.glb' \) | sort)
 for spec in triangle rtstress:16; do
     build/oracle/rtoracle trace "$spec" --rays primary --width 320 --height 240 -o "$out/trace/${spec//:/-}-primary"
 done
+# Frame bundles: one wavefront frame per scene with a fitting program (every queue, hit, counter, indirect argument,
+# accum buffer and image a GPU's frame must produce), one summary line each.
+mkdir -p "$out/frame"
+while IFS= read -r f; do
+    name=$(basename "${f%.*}")
+    build/oracle/rtoracle render "$f" --program sun-shadow --width 320 --height 240 --no-timings \
+        -o "$out/frame/$name-sun-shadow" 2>"$out/build.err" || { cat "$out/build.err" >&2; exit 1; }
+done < <(find "$fix" \( -name '*.gltf' -o -name '*.glb' \) | sort)
+build/oracle/rtoracle render triangle --program triangle --width 320 --height 240 --no-timings -o "$out/frame/triangle"
+build/oracle/rtoracle render rtstress:16 --program sun-shadow --width 320 --height 240 --no-timings \
+    -o "$out/frame/rtstress-16-sun-shadow"
+build/oracle/rtoracle render stage2 --program normals --width 320 --height 240 --no-timings -o "$out/frame/stage2"
 rm -f "$out/build.err"
 echo "rtoracle: built build/oracle/rtoracle; golden bundles in $out/"

@@ -38,8 +38,13 @@ for b in build build-asan build-release; do
             "$b/oracle/rtoracle" trace rtstress:6 --rays $set --count 20000 --threads $t \
                 -o "$tmp/$b/trace-rtstress-$set-$t" 2>/dev/null
         done
+        # Frames: a textured fixture through both bounces of sun-shadow, and seed 002's analytic scene.
+        "$b/oracle/rtoracle" render "$fix/Duck/glTF/Duck.gltf" --program sun-shadow --width 96 --height 72 \
+            --no-timings --threads $t -o "$tmp/$b/frame-duck-$t" >/dev/null 2>&1
+        "$b/oracle/rtoracle" render stage2 --program normals --width 96 --height 72 --no-timings --threads $t \
+            -o "$tmp/$b/frame-stage2-$t" >/dev/null
     done
-    for d in "$tmp/$b"/trace-*-1; do
+    for d in "$tmp/$b"/trace-*-1 "$tmp/$b"/frame-*-1; do
         diff -r "$d" "${d%-1}-2" >/dev/null || { echo "FAIL: $d differs between 1 and 2 threads" >&2; exit 1; }
     done
 done
@@ -47,7 +52,7 @@ diff -r "$tmp/build" "$tmp/build-asan" >/dev/null && diff -r "$tmp/build" "$tmp/
     echo "FAIL: bundles differ between optimisation levels" >&2
     exit 1
 }
-echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases, 3 build bundles and 5 trace bundles byte-identical at -O0/asan, -O2, -O3 and with 1 and 2 threads"
+echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases, 3 build bundles, 5 trace bundles and 2 frame bundles byte-identical at -O0/asan, -O2, -O3 and with 1 and 2 threads"
 echo "== install: a user's program built against the installed library through pkg-config"
 bash tests/install.sh build-release
 echo "== all tests passed"

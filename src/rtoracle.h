@@ -1390,6 +1390,8 @@ typedef struct rto_frame_api {
     void (*surface)(const rto_frame_ctx *ctx, const rto_wf_ray *ray, const rto_hit_record *hit, rto_surface *out);
     /* Bilinear, wrapped, sRGB-decoded sample of a scene texture (rgba; alpha linear); (1, 1, 1, 1) for index < 0. */
     void (*sample_texture)(const rto_frame_ctx *ctx, int32_t texture, const float uv[2], float rgba[4]);
+    /* The frame camera's primary ray of pixel (x, y): rto_camera_ray of env->camera (kind RTO_RAY_KIND_PRIMARY). */
+    rto_wf_ray (*camera_ray)(const rto_frame_ctx *ctx, uint32_t x, uint32_t y);
 } rto_frame_api;
 
 /** The context of one callback invocation. */
@@ -1409,6 +1411,10 @@ static inline int rto_emit_ray(rto_frame_ctx *ctx, const rto_wf_ray *ray, const 
 static inline void rto_accumulate(rto_frame_ctx *ctx, uint32_t pixel, const float rgb[3])
 {
     ctx->api->accumulate(ctx, pixel, rgb);
+}
+static inline rto_wf_ray rto_frame_camera_ray(const rto_frame_ctx *ctx, uint32_t x, uint32_t y)
+{
+    return ctx->api->camera_ray(ctx, x, y);
 }
 static inline void rto_surface_at(const rto_frame_ctx *ctx, const rto_wf_ray *ray, const rto_hit_record *hit,
                                   rto_surface *out)

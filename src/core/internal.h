@@ -74,6 +74,10 @@ static inline double rto_box_area(const float *mn, const float *mx)
 rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *index, size_t n, uint32_t *keys,
                                  rto_msg *msg);
 
+/** The self-intersection offset of secondary rays (shadow rays, rto_frame_env.ray_offset): 1e-4 max(1, M), M the
+ * largest finite magnitude among the bounds' coordinates and the camera position (trace/ray.c). */
+float rto__ray_offset(const rto_aabb *bounds, const rto_camera_uniforms *u);
+
 /* Static thread partitioning (core/threads.c, DESIGN.md §2). */
 
 /** Most threads a parallel stage starts. */

@@ -526,9 +526,9 @@ static void gen_primary(const rto_camera_uniforms *u, uint32_t w, uint32_t h, rt
  * scene bounds' coordinates and the camera position's. A hit point o + t d carries a rounding error of a few ulp of
  * max(|o|, |t d|) <= ~2 M (2^-24 M each), so 1e-4 M, about 1700 ulp of M, clears it unless the light grazes the
  * surface at under ~1 degree. */
-static float shadow_offset(const rto_scene *s, const rto_camera_uniforms *u)
+float rto__ray_offset(const rto_aabb *bounds, const rto_camera_uniforms *u)
 {
-    const rto_aabb b = rto_scene_aabb(s);
+    const rto_aabb b = *bounds;
     double m = 1.0;
     const float c[9] = {b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z, u->position[0], u->position[1],
                         u->position[2]};
@@ -556,7 +556,8 @@ static rto_status gen_shadow(const rto_accel *accel, const rto_rays_desc *d, con
     if (!isfinite(l[0]) || !isfinite(l[1]) || !isfinite(l[2]))
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "light direction (%g, %g, %g) cannot be normalised",
                         (double)light[0], (double)light[1], (double)light[2]);
-    const float eps = shadow_offset(s, u);
+    const rto_aabb bounds = rto_scene_aabb(s);
+    const float eps = rto__ray_offset(&bounds, u);
     const size_t total = (size_t)d->width * d->height;
     /* The primary rays go into the caller's array; shadow ray k is written over slot k <= the primary ray it comes
      * from, which has been read by then, so one array holds both. */

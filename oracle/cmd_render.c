@@ -1,0 +1,287 @@
+/* rtoracle render: one wavefront frame (DESIGN.md §7) of a scene and a program into a frame bundle: what every GPU
+ * buffer of the frame should hold, bounce by bounce, and the image it should produce. */
+#include "cli.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+static const char render_usage[] =
+    "usage: rtoracle render SCENE --program NAME|PLUGIN.so [--width W --height H] [--max-depth D]\n"
+    "                       [--camera scene|auto|N|EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY] [--param NAME=V[,V..][:NAME=..]]\n"
+    "                       [--stages LIST] [--tlas sweep|karras] [--threads N] [--no-timings] -o OUTDIR\n\n"
+    "SCENE is a .gltf / .glb path, a procedural scene (see rtoracle info --help), or stage2 (seed 002's two\n"
+    "spheres, box and ground slab, traced analytically with the seed's own intersection code).\n"
+    "Programs: triangle (barycentric colours), sun-shadow (ambient + a shadow ray towards the sun, Reinhard and\n"
+    "gamma), normals (n * 0.5 + 0.5 and the sky gradient), or a plugin: a shared library exporting\n"
+    "rto_program_entry_v1 (see docs/frame.md). --program list prints each program's parameters.\n"
+    "Stages kept per bounce (--stages, comma-separated; default all): rays, hits, trace-counters, payloads, accum;\n"
+    "or all, none. The camera, counters, indirect args, image and not-comparable mask are always written.\n"
+    "Writes a bundle (atomically): for mesh scenes the build bundle's files and mesh geometry, and\n"
+    "  camera.npy                 CameraUniforms (144 bytes)\n"
+    "  emit_counts.npy            u32 (D+1,): each queue's emit counter\n"
+    "  indirect_args.npy          u32 (D+1, 3): PREP's [ceil(n/64), 1, 1]\n"
+    "  frame_counters.npy         FrameCounters (D+1,): emitted, queued, dropped, refused, traced, hits,\n"
+    "                             misses, shaded, accumulates, conflicts\n"
+    "  bounce_D_rays.npy          WfRay: the queue traced at bounce D (and the last, untraced queue)\n"
+    "  bounce_D_hits.npy          HitRecord, one per ray; bounce_D_trace_counters.npy TraceCounters\n"
+    "  bounce_D_payloads.npy      u32 (rays, payload words)\n"
+    "  accum.npy, accum.exr       the linear accum buffer, f32 RGBA (H, W, 4)\n"
+    "  image.png                  the resolved rgba8unorm image\n"
+    "  not_comparable.npy         u8 (H, W): 1 = accumulate conflict, 2 = a ray dropped at capacity\n"
+    "  manifest.json              scene, program and parameters, camera, counters, per-stage wall times\n"
+    "Everything but the manifest's timings is byte-identical across runs and --threads (--no-timings omits them).\n";
+
+/* Most pixels of a frame (the library's limit): 2^26. */
+#define RENDER_MAX_PIXELS (UINT64_C(1) << 26)
+
+static const opt_name tlas_names[] = {{"sweep", 0}, {"karras", 1}, {NULL, 0}};
+
+/* --param NAME=V[,V..][:NAME=V..] into values (at most RTO_PROGRAM_PARAMS_MAX). */
+static bool parse_params(const char *text, rto_param_value *out, uint32_t *n)
+{
+    *n = 0;
+    const char *p = text;
+    while (*p) {
+        const char *eq = strchr(p, '='), *end = strchr(p, ':');
+        if (!end)
+            end = p + strlen(p);
+        if (!eq || eq > end || eq == p || (size_t)(eq - p) >= sizeof out->name || *n == RTO_PROGRAM_PARAMS_MAX) {
+            cli_fail("render", "--param %s: expected NAME=V[,V..] items separated by ':'", text);
+            return false;
+        }
+        rto_param_value *v = &out[(*n)++];
+        memset(v, 0, sizeof *v);
+        memcpy(v->name, p, (size_t)(eq - p));
+        char values[256];
+        const size_t len = (size_t)(end - eq - 1);
+        if (len >= sizeof values) {
+            cli_fail("render", "--param %s: value too long", v->name);
+            return false;
+        }
+        memcpy(values, eq + 1, len);
+        values[len] = '\0';
+        uint32_t count = 1;
+        for (const char *c = values; *c; c++)
+            count += *c == ',';
+        if (count > 4 || !cli_parse_floats(values, v->value, count)) {
+            cli_fail("render", "--param %s=%s: expected 1 to 4 comma-separated finite numbers", v->name, values);
+            return false;
+        }
+        v->count = count;
+        p = *end ? end + 1 : end;
+    }
+    return true;
+}
+
+static void list_programs(void)
+{
+    for (uint32_t i = 0; rto_program_builtin_at(i); i++) {
+        const rto_program *p = rto_program_builtin_at(i);
+        printf("%s (maxDepth %u, payload %u bytes): %s\n", p->name, p->max_depth, p->payload_size, p->description);
+        for (uint32_t k = 0; k < p->param_count; k++) {
+            char v[96];
+            size_t len = 0;
+            for (uint32_t c = 0; c < p->params[k].count; c++)
+                len += (size_t)snprintf(v + len, sizeof v - len, "%s%g", c ? "," : "", (double)p->params[k].value[c]);
+            printf("  --param %s=%-18s %s\n", p->params[k].name, v, p->params[k].help);
+        }
+    }
+}
+
+/* A progress bar on stderr, only on a terminal, redrawn at most every 0.1 s. */
+typedef struct progress {
+    bool on;
+    double last;
+    int drawn;
+} progress;
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void on_progress(void *arg, double fraction)
+{
+    progress *p = arg;
+    const double t = now();
+    if (!p->on || (fraction < 1.0 && t - p->last < 0.1))
+        return;
+    p->last = t;
+    const int width = 30, full = (int)(fraction * width + 0.5);
+    fprintf(stderr, "\rrender [%.*s%*s] %3d%%", full, "##############################", width - full, "",
+            (int)(fraction * 100 + 0.5));
+    p->drawn = 1;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    const char *out = NULL, *program_arg = NULL, *camera_arg = NULL, *param_arg = NULL, *stages_arg = "all";
+    uint64_t width = 160, height = 90, depth = 0, threads = 0, budget_mb = 0;
+    unsigned karras = 0;
+    bool no_timings = false;
+    const opt_spec opts[] = {
+        OPT_STRING("program", &program_arg, "NAME", "triangle, sun-shadow, normals, a plugin .so, or list"),
+        OPT_UINT("width", &width, 1, 65536, "W", "image width", "160"),
+        OPT_UINT("height", &height, 1, 65536, "H", "image height", "90"),
+        OPT_UINT("max-depth", &depth, 0, 64, "D", "bounces (0: the program's default)", "0"),
+        OPT_STRING("camera", &camera_arg, "CAM", "scene, auto, a camera index, or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY"),
+        OPT_STRING("param", &param_arg, "P", "program parameters NAME=V[,V..], several separated by ':'"),
+        OPT_STRING("stages", &stages_arg, "LIST", "per-bounce buffers to write: rays,hits,trace-counters,payloads,"
+                                                  "accum, all or none"),
+        OPT_ENUM("tlas", &karras, tlas_names, "T", "TLAS layout", "sweep"),
+        OPT_UINT("threads", &threads, 0, 256, "N", "threads (0: one per CPU); the output is the same", "0"),
+        OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
+                 "decoded texture memory (RGBA8, MiB) the scene may take", "256"),
+        OPT_FLAG("no-timings", &no_timings, "leave the per-stage wall times out of the manifest"),
+        OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
+        OPT_END,
+    };
+    const opt_command cmd = {"render", render_usage, "exit status: 0 written, 2 bad usage or input\n", opts, 0, 1,
+                             "one SCENE"};
+    opt_args args;
+    int rc = opts_parse(&cmd, argc, argv, &args);
+    if (rc >= 0)
+        return rc;
+    if (program_arg && !strcmp(program_arg, "list")) {
+        list_programs();
+        return EXIT_PASS;
+    }
+    static const char *const required[] = {"program", "output", NULL};
+    if ((rc = opts_require(&cmd, &args, required)))
+        return rc;
+    if (args.count != 1)
+        return cli_fail("render", "expected one SCENE (rtoracle render --help)");
+    if (width * height > RENDER_MAX_PIXELS)
+        return cli_fail("render", "--width %llu --height %llu: more than %llu pixels", (unsigned long long)width,
+                        (unsigned long long)height, (unsigned long long)RENDER_MAX_PIXELS);
+    rto_msg msg = {{0}};
+    uint32_t keep = 0;
+    if (!rto_frame_keep_parse(stages_arg, &keep, &msg))
+        return cli_fail("render", "--stages %s: %s", stages_arg, msg.text);
+    rto_param_value params[RTO_PROGRAM_PARAMS_MAX];
+    uint32_t nparams = 0;
+    if (param_arg && !parse_params(param_arg, params, &nparams))
+        return EXIT_BAD_INPUT;
+
+    rto_plugin *plugin = NULL;
+    const rto_program *prog = rto_program_builtin(program_arg);
+    if (!prog && (strchr(program_arg, '/') || strstr(program_arg, ".so"))) {
+        rto_status s = rto_plugin_load(program_arg, &plugin, &msg);
+        if (s)
+            return cli_fail("render", "--program %s", msg.text);
+        prog = rto_plugin_program(plugin);
+    } else if (!prog) {
+        return cli_fail("render", "--program %s: not a built-in program (triangle, sun-shadow, normals) or a .so",
+                        program_arg);
+    }
+
+    const char *spec = args.arg[0];
+    const bool stage2 = !strcmp(spec, "stage2");
+    rto_scene *sc = NULL;
+    rto_accel *acc = NULL;
+    rto_camera cam;
+    rto_status s = RTO_OK;
+    if (!stage2) {
+        rto_scene_load_desc load = {0};
+        load.texture_budget_bytes = (size_t)(budget_mb << 20);
+        if ((s = rto_scene_load_ex(spec, &load, &sc, &msg))) {
+            rto_plugin_unload(plugin);
+            return cli_fail("render", "%s", msg.text);
+        }
+        for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
+            fprintf(stderr, "rtoracle render: warning: %s\n", sc->warnings[w]);
+        if (!cli_pick_camera("render", camera_arg, sc, (float)width / (float)height, &cam)) {
+            rto_scene_destroy(sc);
+            rto_plugin_unload(plugin);
+            return EXIT_BAD_INPUT;
+        }
+        rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+        rto_report r;
+        s = rto_accel_build(sc, &adesc, &acc, &msg);
+        if (!s && (s = rto_accel_check(acc, &r, &msg)) == RTO_ERR_MISMATCH) {
+            rto_accel_destroy(acc);
+            rto_scene_destroy(sc);
+            rto_plugin_unload(plugin);
+            return cli_fail("render", "internal self-check of the trees failed: %s", msg.text);
+        }
+    } else {
+        cam = rto_camera_default();
+        snprintf(cam.name, sizeof cam.name, "stage2 default");
+        float v[10];
+        if (camera_arg && cli_parse_floats(camera_arg, v, 10)) {
+            cam.position = (rto_vec3){v[0], v[1], v[2]};
+            cam.target = (rto_vec3){v[3], v[4], v[5]};
+            cam.up = (rto_vec3){v[6], v[7], v[8]};
+            cam.fov_y = (float)((double)v[9] * 3.14159265358979323846 / 180.0);
+            snprintf(cam.name, sizeof cam.name, "command line");
+        } else if (camera_arg && strcmp(camera_arg, "scene") && strcmp(camera_arg, "auto")) {
+            rto_plugin_unload(plugin);
+            return cli_fail("render", "--camera %s: stage2 takes scene (its default camera) or 10 numbers", camera_arg);
+        }
+    }
+
+    progress bar = {isatty(STDERR_FILENO) == 1, 0, 0};
+    rto_frame_desc fd;
+    memset(&fd, 0, sizeof fd);
+    fd.program = prog;
+    fd.scene_kind = stage2 ? RTO_FRAME_SCENE_STAGE2 : RTO_FRAME_SCENE_MESH;
+    fd.accel = acc;
+    fd.width = (uint32_t)width;
+    fd.height = (uint32_t)height;
+    fd.max_depth = (uint32_t)depth;
+    fd.camera = &cam;
+    fd.params = params;
+    fd.param_count = nparams;
+    fd.keep = keep;
+    fd.threads = (uint32_t)threads;
+    fd.progress = on_progress;
+    fd.progress_arg = &bar;
+    rto_frame *frame = NULL;
+    rto_bundle *b = NULL;
+    const double t0 = now();
+    if (!s)
+        s = rto_frame_render(&fd, &frame, &msg);
+    if (bar.drawn)
+        fputc('\n', stderr);
+    if (!s)
+        s = rto_bundle_begin(out, "frame", &b, &msg);
+    if (!s && !stage2)
+        s = rto_accel_write_bundle(acc, b, &msg);
+    if (!s && !stage2)
+        s = cli_write_geometry(b, sc, &msg);
+    if (!s)
+        s = rto_frame_write_bundle(frame, !no_timings, b, &msg);
+    if (!s) {
+        rto_bundle_set_str(b, "frame", "scene_kind", stage2 ? "stage2" : "mesh");
+        if (stage2)
+            rto_bundle_set_str(b, "", "scene", "stage2");
+        s = rto_bundle_commit(b, &msg);
+    } else {
+        rto_bundle_abort(b);
+    }
+    if (!s) {
+        uint64_t traced = 0, hits = 0, emitted = 0, dropped = 0, conflicts = 0;
+        for (uint32_t d = 0; d <= frame->max_depth; d++) {
+            traced += frame->counters[d].traced;
+            hits += frame->counters[d].hits;
+            emitted += frame->counters[d].emitted;
+            dropped += frame->counters[d].dropped;
+            conflicts += frame->counters[d].conflicts;
+        }
+        printf("render %s: %s %ux%u maxDepth %u: %llu rays traced (%llu hits), %llu emitted, %llu dropped, "
+               "%llu conflicts; %.2f s -> %s\n",
+               spec, frame->program, frame->width, frame->height, frame->max_depth, (unsigned long long)traced,
+               (unsigned long long)hits, (unsigned long long)emitted, (unsigned long long)dropped,
+               (unsigned long long)conflicts, now() - t0, out);
+    }
+    rto_frame_destroy(frame);
+    rto_accel_destroy(acc);
+    rto_scene_destroy(sc);
+    rto_plugin_unload(plugin);
+    return cli_status("render", s, &msg);
+}

@@ -1,0 +1,99 @@
+#!/usr/bin/env bash
+# Command-line tests of render: every built-in program on a fixture, a procedural scene and stage2; the bundle's files
+# and manifest; --stages, --param and --no-timings; bytes independent of --threads; the example plugin; refusals
+# (exit 2, one line, nothing written) of bad programs, plugins, parameters, sizes and outputs that are not ours.
+set -u
+RTO=$1
+FIX=$2
+JSON=$3
+PLUGIN=$4
+. "$(dirname "$0")/cli_lib.sh"
+
+field() { "$JSON" "$1/manifest.json" "$2"; }
+
+run 0 "$RTO" render --help && has usage out && has "indirect_args.npy" out
+run 0 "$RTO" render --program list && has "sun-shadow" out && has "sun_dir" out
+
+box="$FIX/Box/glTF/Box.gltf"
+for scene in "$box" rtstress:2 stage2; do
+    tag=$(basename "$scene" | tr -c 'a-zA-Z0-9\n' _)
+    for prog in triangle sun-shadow normals; do
+        out="$T/${tag}_$prog"
+        run 0 "$RTO" render "$scene" --program $prog --width 40 --height 30 -o "$out" || continue
+        has "render" out
+        [ "$(field "$out" kind)" = '"frame"' ] || fail "$tag $prog: kind $(field "$out" kind)"
+        [ "$(field "$out" program/name)" = "\"$prog\"" ] || fail "$tag $prog: program.name"
+        depth=$(field "$out" frame/max_depth)
+        want=1; [ $prog = sun-shadow ] && want=2
+        [ "$depth" = $want ] || fail "$tag $prog: max_depth $depth, want $want"
+        for f in camera.npy emit_counts.npy indirect_args.npy frame_counters.npy accum.npy not_comparable.npy \
+                 bounce_0_rays.npy bounce_0_hits.npy bounce_0_trace_counters.npy "bounce_${want}_rays.npy"; do
+            [ -f "$out/$f" ] || fail "$tag $prog: no $f"
+        done
+        # the first queue holds one primary ray per pixel
+        [ "$(field "$out" counters/traced)" -ge 1200 ] || fail "$tag $prog: traced $(field "$out" counters/traced)"
+        field "$out" timings/total >/dev/null 2>&1 || fail "$tag $prog: no timings"
+    done
+done
+[ -f "$T/stage2_normals/blas_0_nodes.npy" ] && fail "stage2: a build file in an analytic scene's bundle"
+[ "$(field "$T/stage2_normals" frame/scene_kind)" = '"stage2"' ] || fail "stage2: scene_kind"
+
+# --threads and repeated runs give the same bytes (the timings are left out)
+for t in 1 2 5; do
+    run 0 "$RTO" render rtstress:3 --program sun-shadow --width 48 --height 36 --threads $t --no-timings -o "$T/t$t"
+done
+diff -r "$T/t1" "$T/t2" >/dev/null || fail "--threads 1 and 2 differ"
+diff -r "$T/t1" "$T/t5" >/dev/null || fail "--threads 1 and 5 differ"
+field "$T/t1" timings >/dev/null 2>&1 && fail "--no-timings still wrote timings"
+
+# --stages none keeps the small files only; --stages rays,accum those two
+run 0 "$RTO" render rtstress:2 --program sun-shadow --width 32 --height 24 --stages none -o "$T/none"
+ls "$T/none" | grep -q bounce_ && fail "--stages none wrote per-bounce files"
+[ -f "$T/none/accum.npy" ] && fail "--stages none wrote accum.npy"
+[ "$(field "$T/none" frame/stages)" = '"none"' ] || fail "--stages none: manifest"
+run 0 "$RTO" render rtstress:2 --program sun-shadow --width 32 --height 24 --stages rays,accum -o "$T/ra"
+[ -f "$T/ra/bounce_1_rays.npy" ] && [ -f "$T/ra/accum.npy" ] && [ ! -f "$T/ra/bounce_0_hits.npy" ] ||
+    fail "--stages rays,accum"
+[ "$(field "$T/ra" counters/traced)" = "$(field "$T/none" counters/traced)" ] || fail "--stages changed the frame"
+
+# parameters: recorded, and they change the image
+run 0 "$RTO" render rtstress:2 --program sun-shadow --width 32 --height 24 --param "sky=1,0,0:ambient=0.5,0.5,0.5" \
+    --no-timings -o "$T/par"
+[ "$(field "$T/par" parameters/sky)" = '"1,0,0"' ] || fail "--param sky: $(field "$T/par" parameters/sky)"
+[ "$(field "$T/par" parameters/sun_dir)" = '"0.300000012,1,0.200000003"' ] || fail "default sun_dir not recorded"
+cmp -s "$T/par/accum.npy" "$T/t1/accum.npy" && fail "--param did not change the accum buffer"
+run 2 "$RTO" render rtstress:2 --program sun-shadow --param "nope=1" -o "$T/bad" && has "no parameter 'nope'" err
+run 2 "$RTO" render rtstress:2 --program sun-shadow --param "sky=1,2" -o "$T/bad" && has "takes 3 values" err
+run 2 "$RTO" render rtstress:2 --program sun-shadow --param "sky=1,x,2" -o "$T/bad" && has "finite numbers" err
+run 2 "$RTO" render rtstress:2 --program sun-shadow --param "sun_dir=0,0,0" -o "$T/bad" && has "cannot be normalised" err
+[ -e "$T/bad" ] && fail "a refused render left $T/bad"
+
+# the example plugin: loaded, its parameters settable, its init refusal reported
+run 0 "$RTO" render rtstress:2 --program "$PLUGIN" --width 32 --height 24 --param range=30 -o "$T/plug" &&
+    [ "$(field "$T/plug" program/name)" = '"depth"' ] && [ "$(field "$T/plug" program/kind)" = '"plugin"' ] &&
+    case "$(field "$T/plug" parameters/range)" in 30 | 30.0) true ;; *) false ;; esac || fail "plugin render: $(cat "$T/err")"
+run 2 "$RTO" render rtstress:2 --program "$PLUGIN" --param range=-1 -o "$T/bad" && has "range must be positive" err
+printf 'not an ELF' > "$T/fake.so"
+run 2 "$RTO" render rtstress:2 --program "$T/fake.so" -o "$T/bad" && has "cannot load" err
+run 2 "$RTO" render rtstress:2 --program "$T/missing.so" -o "$T/bad" && has "No such file" err
+mkfifo "$T/fifo.so"
+run 2 "$RTO" render rtstress:2 --program "$T/fifo.so" -o "$T/bad" && has "not a regular file" err
+run 2 "$RTO" render rtstress:2 --program nosuch -o "$T/bad" && has "not a built-in program" err
+
+# bad sizes, stages, scenes and outputs
+run 2 "$RTO" render rtstress:2 --program triangle --width 0 -o "$T/bad"
+run 2 "$RTO" render rtstress:2 --program triangle --width 65536 --height 65536 -o "$T/bad" && has "pixels" err
+run 2 "$RTO" render rtstress:2 --program triangle --stages rays,bogus -o "$T/bad" && has "unknown stage 'bogus'" err
+run 2 "$RTO" render "$T/nope.gltf" --program triangle -o "$T/bad"
+run 2 "$RTO" render stage2 --program triangle --camera 3 -o "$T/bad" && has "stage2 takes" err
+echo "keep me" > "$T/user.txt"
+run 2 "$RTO" render rtstress:2 --program triangle -o "$T/user.txt"
+[ "$(cat "$T/user.txt")" = "keep me" ] || fail "a user's file was replaced"
+[ "$(wc -l < "$T/err")" = 1 ] || fail "a refusal printed more than one line"
+[ -e "$T/bad" ] && fail "a refused render left output"
+
+# re-rendering over a previous frame bundle replaces it
+run 0 "$RTO" render rtstress:2 --program triangle --width 16 --height 8 -o "$T/plug"
+[ "$(field "$T/plug" program/name)" = '"triangle"' ] || fail "a previous bundle was not replaced"
+
+finish "cli.render: ok"
