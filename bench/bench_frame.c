@@ -15,7 +15,7 @@
  *     runs its fastest mode, build quality HIGH (SAH with spatial splits) without RTC_SCENE_FLAG_ROBUST; shadow rays
  *     (TERMINATE_ON_FIRST_HIT) go through rtcOccluded1.
  *     Same work in both timed regions: the frame's TRACE stage allocates its hit records and traces the queue of
- *     each bounce; Embree's timed region allocates a hit array for the same rays and traces them (the array is
+ *     each bounce; Embree's timed region allocates a hit array for the same rays the same way and traces them (the array is
  *     freed after the clock stops, as the frame's are freed after the frame). Stage times are rto_frame.seconds,
  *     the total is the wall time of rto_frame_render; every figure is the median of RUNS runs.
  * Ratios are time(oracle) / time(Embree): "trace/emb" compares the TRACE stage with Embree on the same rays,
@@ -28,6 +28,7 @@
  *        [2CylinderEngine.glb] (rtstress:16 is always added; --no-golden skips the bundle and RSS child). */
 #define _GNU_SOURCE
 #include "bench_util.h"
+#include "core/internal.h" /* rto__alloc_large: the frame's allocation of hit records */
 #include "embree.h"
 #include "rtoracle.h"
 
@@ -233,14 +234,15 @@ static golden_result child_golden(const char *spec)
     return g;
 }
 
-/* Embree on the rays: into a fresh hit array, allocated in the timed region as the frame's TRACE allocates its hit
- * records (warm == NULL), or into warm, an array already written once (tracing alone). */
+/* Embree on the rays: into a fresh hit array, allocated in the timed region exactly as the frame's TRACE allocates
+ * its hit records (rto__alloc_large: 2 MiB-aligned and advised as transparent huge pages, so both sides pay the same
+ * first touch) (warm == NULL), or into warm, an array already written once (tracing alone). */
 static double time_embree(const emb_scene *e, emb_device *dev, const rto_wf_ray *rays, size_t n, uint32_t threads,
                           rto_hit_record *warm)
 {
     rto_msg msg = {{0}};
     const double t0 = now();
-    rto_hit_record *hits = warm ? warm : malloc(n * sizeof *hits);
+    rto_hit_record *hits = warm ? warm : rto__alloc_large(n, sizeof *hits);
     if (!hits || emb_trace(e, dev, rays, n, threads, hits, &msg))
         die("emb_trace", &msg);
     const double t = now() - t0;

@@ -143,6 +143,9 @@ FILE *rto_open_regular(const char *path, uint64_t *size, rto_status *status, rto
 
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
 void *rto_alloc(size_t count, size_t size);
+/** rto_alloc for big buffers (frames): from 4 MiB up aligned to 2 MiB and advised as transparent huge pages, which
+ * makes their first touch several times cheaper. Release with free(). */
+void *rto__alloc_large(size_t count, size_t size);
 
 #if defined(__GNUC__)
 #pragma GCC visibility pop

@@ -3,6 +3,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <sys/mman.h>
 
 const char *rto_status_string(rto_status s)
 {
@@ -36,4 +37,26 @@ void *rto_alloc(size_t count, size_t size)
         return NULL;
     size_t bytes = count * size;
     return malloc(bytes ? bytes : 1);
+}
+
+/* Buffers from 4 MiB up are aligned to 2 MiB and advised as transparent huge pages (the kernel's default mode on
+ * Debian is "madvise"): a 1080p frame touches about a GiB of new memory, and first-touch page faults on 4 KiB pages
+ * cost more than tracing it. Plain malloc'ed memory either way, so free() releases it. */
+#define HUGE_FROM ((size_t)4 << 20)
+#define HUGE_PAGE ((size_t)2 << 20)
+
+void *rto__alloc_large(size_t count, size_t size)
+{
+    if (size != 0 && count > SIZE_MAX / size)
+        return NULL;
+    const size_t bytes = count * size;
+    if (bytes < HUGE_FROM)
+        return malloc(bytes ? bytes : 1);
+    void *p = NULL;
+    if (posix_memalign(&p, HUGE_PAGE, bytes))
+        return NULL;
+#ifdef MADV_HUGEPAGE
+    madvise(p, bytes & ~(HUGE_PAGE - 1), MADV_HUGEPAGE); /* advice only: a kernel without THP ignores it */
+#endif
+    return p;
 }

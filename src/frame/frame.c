@@ -71,18 +71,38 @@ typedef struct run {
     rto_status oom;
 } run;
 
-static int grow(void **p, size_t *cap, size_t need, size_t size)
+/* Grows *p (cap elements of size bytes) to hold need elements, doubling; large buffers are re-allocated as huge
+ * pages (rto__alloc_large) rather than realloc'ed, which would lose the advice. */
+static int grow(void **p, size_t *cap, size_t used, size_t need, size_t size)
 {
     if (need <= *cap)
         return 1;
     size_t c = *cap ? *cap : 256;
     while (c < need)
         c *= 2;
-    void *q = realloc(*p, c * size);
+    void *q = rto__alloc_large(c, size);
     if (!q)
         return 0;
+    if (used)
+        memcpy(q, *p, used * size);
+    free(*p);
     *p = q;
     *cap = c;
+    return 1;
+}
+
+/* Room in a worker's logs for `more` emits and accumulates (what one range makes in the common case). */
+static int reserve(worker *w, size_t more)
+{
+    const run *r = w->run;
+    size_t cap = w->caprays;
+    if (!grow((void **)&w->rays, &w->caprays, w->nrays, w->nrays + more, sizeof *w->rays) ||
+        (r->payload_words &&
+         !grow((void **)&w->payloads, &cap, w->nrays, w->nrays + more, (size_t)r->payload_words * sizeof(uint32_t))) ||
+        !grow((void **)&w->acc, &w->capacc, w->nacc, w->nacc + more, sizeof *w->acc)) {
+        w->oom = 1;
+        return 0;
+    }
     return 1;
 }
 
@@ -94,13 +114,9 @@ static int log_emit(worker *w, const rto_wf_ray *ray, const void *payload)
         w->refused++;
         return 0;
     }
-    size_t cap = w->caprays;
-    if (!grow((void **)&w->rays, &w->caprays, w->nrays + 1, sizeof *w->rays) ||
-        (r->payload_words &&
-         !grow((void **)&w->payloads, &cap, w->nrays + 1, (size_t)r->payload_words * sizeof(uint32_t)))) {
-        w->oom = 1;
+    /* the payload log always has the capacity of the ray log (reserve grows both from the same count) */
+    if (w->nrays == w->caprays && !reserve(w, w->caprays ? w->caprays : 256))
         return 0;
-    }
     rto_wf_ray e = *ray;
     e.pixel = w->pixel;
     e.payload_slot = w->pixel + w->emits * f->width * f->height;
@@ -147,10 +163,8 @@ static void api_accumulate(rto_frame_ctx *ctx, uint32_t pixel, const float rgb[3
         w->invalid++;
         return;
     }
-    if (!grow((void **)&w->acc, &w->capacc, w->nacc + 1, sizeof *w->acc)) {
-        w->oom = 1;
+    if (w->nacc == w->capacc && !reserve(w, w->capacc ? w->capacc : 256))
         return;
-    }
     acc_entry *e = &w->acc[w->nacc++];
     e->pixel = pixel;
     e->invocation = w->item;
@@ -204,6 +218,7 @@ static void generate_range(void *ctx, uint32_t wi, size_t begin, size_t end)
     worker *w = &r->workers[wi];
     const uint32_t width = r->frame->width;
     w->shading = 0;
+    reserve(w, end - begin);
     for (size_t p = begin; p < end && !w->oom; p++) {
         w->pixel = w->item = (uint32_t)p;
         w->emits = 0;
@@ -216,6 +231,7 @@ static void shade_range(void *ctx, uint32_t wi, size_t begin, size_t end)
     run *r = ctx;
     worker *w = &r->workers[wi];
     w->shading = 1;
+    reserve(w, end - begin);
     for (size_t i = begin; i < end && !w->oom; i++) {
         const rto_wf_ray *ray = &r->rays[i];
         const rto_hit_record *hit = &r->hits[i];
@@ -257,16 +273,14 @@ static rto_status apply_logs(run *r, uint32_t q, uint32_t row, rto_msg *msg)
     }
     const size_t room = (size_t)f->capacity - dst->count;
     const size_t store = total < room ? total : room;
-    if (store) {
-        rto_wf_ray *rays = realloc(dst->rays, (dst->count + store) * sizeof *rays);
-        if (!rays)
-            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays of queue %u", dst->count + store, q);
-        dst->rays = rays;
+    if (store) { /* each queue is filled by exactly one pass: it is empty here */
+        dst->rays = rto__alloc_large(store, sizeof *dst->rays);
+        if (!dst->rays)
+            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays of queue %u", store, q);
         if (r->payload_words) {
-            uint32_t *pl = realloc(dst->payloads, (dst->count + store) * r->payload_words * sizeof *pl);
-            if (!pl)
+            dst->payloads = rto__alloc_large(store * r->payload_words, sizeof *dst->payloads);
+            if (!dst->payloads)
                 return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for the payloads of queue %u", q);
-            dst->payloads = pl;
         }
     }
     r->pass++;
@@ -439,8 +453,8 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
     f->counters = calloc(depth + 1, sizeof *f->counters);
     f->indirect_args = calloc(depth + 1, sizeof *f->indirect_args);
     f->queues = calloc(depth + 1, sizeof *f->queues);
-    f->accum = rto_alloc(4 * pixels, sizeof *f->accum);
-    f->image = rto_alloc(4 * pixels, 1);
+    f->accum = rto__alloc_large(4 * pixels, sizeof *f->accum);
+    f->image = rto__alloc_large(4 * pixels, 1);
     f->not_comparable = calloc(pixels, 1);
 
     run r;
@@ -515,9 +529,9 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
         /* TRACE d */
         t0 = now();
         f->counters[d].traced = (uint32_t)q->count;
-        q->hits = rto_alloc(q->count, sizeof *q->hits);
+        q->hits = rto__alloc_large(q->count, sizeof *q->hits);
         if (desc->keep & RTO_FRAME_KEEP_TRACE_COUNTERS)
-            q->trace_counters = rto_alloc(q->count, sizeof *q->trace_counters);
+            q->trace_counters = rto__alloc_large(q->count, sizeof *q->trace_counters);
         if (!q->hits || ((desc->keep & RTO_FRAME_KEEP_TRACE_COUNTERS) && !q->trace_counters)) {
             s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu hit records", q->count);
             break;
