@@ -1297,7 +1297,8 @@ typedef enum rto_image_verdict { RTO_IMAGE_PASS = 0, RTO_IMAGE_WARN = 1, RTO_IMA
 
 /** What rto_image_compare measured (OpenImageIO's ImageBufAlgo::compare and PSNR over all channels). */
 typedef struct rto_image_compare_result {
-    double mean_error, rms_error, psnr, max_error; /* psnr is +inf for identical images */
+    double mean_error, rms_error, psnr, max_error; /* psnr = 20 log10(peak / rms_error), peak = max(1, the largest
+                                                    * value of either image): +inf for identical images */
     uint32_t max_x, max_y, max_c;                  /* where max_error is */
     uint64_t pixels, fail_count, warn_count;       /* pixels over the fail / warn threshold */
     rto_image_verdict verdict;

@@ -14,6 +14,7 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
+#include <OpenImageIO/strutil.h>
 #include <png.h>
 
 #include <algorithm>
@@ -465,14 +466,18 @@ std::unique_ptr<OIIO::ImageInput> oiio_open(const unsigned char *bytes, size_t l
     void *proxy = mem;
     config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy);
     config.attribute("oiio:UnassociatedAlpha", 1);
-    std::string fname = is_exr(bytes, len) ? std::string("image.exr") : std::string(name ? name : "image");
+    // The name only picks the reader (the bytes come from the proxy); an OpenEXR file is read as one whatever its
+    // name, and keeps its name in OpenEXR's messages.
+    std::string fname = name && *name ? name : "image";
+    if (is_exr(bytes, len) && !OIIO::Strutil::iends_with(fname, ".exr"))
+        fname += ".exr";
     auto in = OIIO::ImageInput::open(fname, &config);
     if (!in) {
         std::string e = last_line(OIIO::geterror());
-        refuse(e.find("not find") != std::string::npos || e.find("format") != std::string::npos
-                   ? RTO_IMAGE_MODULE_UNSUPPORTED
-                   : RTO_IMAGE_MODULE_CORRUPT,
-               e);
+        // OpenImageIO's words for a name whose extension names no reader it has, and no reader took the bytes.
+        if (e.find("does not exist") != std::string::npos || e.find("not the name of an image format") != std::string::npos)
+            refuse(RTO_IMAGE_MODULE_UNSUPPORTED, "not an image OpenImageIO can read (PNG, OpenEXR, ...)");
+        refuse(RTO_IMAGE_MODULE_CORRUPT, e);
     }
     return in;
 }
@@ -518,8 +523,26 @@ void read(const unsigned char *bytes, size_t len, const char *name, const rto_im
     if (now.width != image->width || now.height != image->height || now.channels != image->channels ||
         now.type != image->type)
         refuse(RTO_IMAGE_MODULE_CORRUPT, "the image header changed between two reads");
-    if (!in->read_image(0, 0, 0, int(image->channels), oiio_type(image->type), image->pixels))
-        refuse(RTO_IMAGE_MODULE_CORRUPT, last_line(in->geterror()));
+    // In bands of 64 rows, read in the file's own format and converted here by OpenImageIO's convert_pixel_values:
+    // read_image / read_scanlines stage every call through a 64 MiB block, whatever the image's size. A file whose
+    // channels have different formats takes that path still (OpenImageIO's conversion handles the mix).
+    const OIIO::ImageSpec &spec = in->spec();
+    const OIIO::TypeDesc want = oiio_type(image->type);
+    const size_t w = image->width, nc = image->channels, row = w * nc * want.size();
+    unsigned char *out = static_cast<unsigned char *>(image->pixels);
+    const bool uniform = spec.channelformats.empty();
+    std::vector<unsigned char> band(uniform ? size_t(spec.scanline_bytes(true)) * std::min<uint32_t>(64, image->height)
+                                            : 0);
+    for (uint32_t y = 0; y < image->height; y += 64) {
+        const uint32_t n = std::min<uint32_t>(64, image->height - y);
+        const int y0 = spec.y + int(y), y1 = y0 + int(n);
+        bool ok = uniform ? in->read_native_scanlines(0, 0, y0, y1, spec.z, 0, int(nc), band.data()) &&
+                                OIIO::convert_pixel_values(spec.format, band.data(), want, out + y * row,
+                                                           int(n * w * nc))
+                          : in->read_scanlines(0, 0, y0, y1, spec.z, 0, int(nc), want, out + y * row);
+        if (!ok)
+            refuse(RTO_IMAGE_MODULE_CORRUPT, last_line(in->geterror()));
+    }
 }
 
 void encode(const rto_image *image, int exr, unsigned char **bytes, size_t *len)

@@ -2,7 +2,8 @@
 """Test images made without rtoracle (Python standard library only), and a PNG pixel reader, for cli.compare.
 
   images.py make OUT.png|OUT.exr PATTERN [W H C]   writes the image (PNG: 8-bit; OpenEXR: float, uncompressed)
-  images.py pixel FILE.png X Y                       prints the channel values of pixel (X, Y) as integers
+  images.py set DIR                                  writes cli.compare's images (one Python start, not twelve)
+  images.py pixel FILE.png X Y [X Y ...]             prints the channel values of each pixel (X, Y), one a line
   images.py truncate IN OUT N                        writes the first N bytes of IN to OUT
 
 Patterns, all derived from one base image so that each differs from it in one known way:
@@ -143,10 +144,22 @@ def main(argv):
         w, h, c = (int(v) for v in argv[4:7]) if len(argv) > 4 else (16, 12, 4)
         img = pattern(name, w, h, c)
         (write_exr if out.endswith(".exr") else write_png)(out, img, c)
+    elif argv[1] == "set":
+        for name in ["base", "shift", "swap-rb", "invert-g", "gamma", "noise", "one-off"]:
+            write_png("%s/%s.png" % (argv[2], name), pattern(name, 16, 12, 4), 4)
+        for name in ["base", "one-off"]:
+            write_exr("%s/%s.exr" % (argv[2], name), pattern(name, 16, 12, 4), 4)
+        write_png(argv[2] + "/base3.png", pattern("base", 16, 12, 3), 3)
+        write_png(argv[2] + "/wide.png", pattern("base", 17, 12, 4), 4)
+        data = open(argv[2] + "/base.png", "rb").read()
+        open(argv[2] + "/cut.png", "wb").write(data[:100])
+        data = open(argv[2] + "/base.exr", "rb").read()
+        open(argv[2] + "/cut.exr", "wb").write(data[:400])
     elif argv[1] == "pixel":
         w, h, c, rows = read_png(argv[2])
-        x, y = int(argv[3]), int(argv[4])
-        print(" ".join(str(v) for v in rows[y][x * c:(x + 1) * c]))
+        for i in range(3, len(argv), 2):
+            x, y = int(argv[i]), int(argv[i + 1])
+            print(" ".join(str(v) for v in rows[y][x * c:(x + 1) * c]))
     elif argv[1] == "truncate":
         open(argv[3], "wb").write(open(argv[2], "rb").read()[:int(argv[4])])
     else:

@@ -1,0 +1,1005 @@
+/* Images: PNG and OpenEXR files written by hand here (stored deflate blocks, uncompressed scanlines) read back
+ * exactly; round trips through rto_image_write; the same bytes from two writes and two processes; refusals (missing,
+ * directory, FIFO, empty, every truncation, corrupt data with valid CRCs, absurd sizes) with one line and nothing on
+ * stderr; the metrics of rto_image_compare against values computed here in binary64 from the pixels; idiff's verdict
+ * rule on both sides of each threshold; diff images; bundle entries with their sha256. */
+#define _GNU_SOURCE /* memmem */
+#include "testutil.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <jansson.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static char root[256];
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(root, sizeof root, "/tmp/rto_image_XXXXXX");
+    return mkdtemp(root) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", root);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+static void path_in(char *out, size_t cap, const char *name) { snprintf(out, cap, "%s/%s", root, name); }
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Byte buffers and files */
+
+typedef struct bytes {
+    unsigned char *p;
+    size_t n, cap;
+} bytes;
+
+static void put(bytes *b, const void *src, size_t n)
+{
+    if (b->n + n > b->cap) {
+        b->cap = (b->n + n) * 2 + 64;
+        b->p = realloc(b->p, b->cap);
+        assert_non_null(b->p);
+    }
+    memcpy(b->p + b->n, src, n);
+    b->n += n;
+}
+static void put8(bytes *b, unsigned v)
+{
+    unsigned char c = (unsigned char)v;
+    put(b, &c, 1);
+}
+static void put_be32(bytes *b, uint32_t v)
+{
+    unsigned char c[4] = {(unsigned char)(v >> 24), (unsigned char)(v >> 16), (unsigned char)(v >> 8), (unsigned char)v};
+    put(b, c, 4);
+}
+static void put_le32(bytes *b, uint32_t v)
+{
+    unsigned char c[4] = {(unsigned char)v, (unsigned char)(v >> 8), (unsigned char)(v >> 16), (unsigned char)(v >> 24)};
+    put(b, c, 4);
+}
+static void put_str(bytes *b, const char *s) { put(b, s, strlen(s) + 1); }
+
+static void save(const char *path, const void *p, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(p, 1, n, f), n);
+    assert_int_equal(fclose(f), 0);
+}
+
+static bytes load(const char *path)
+{
+    bytes b = {0};
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    unsigned char buf[4096];
+    size_t got;
+    while ((got = fread(buf, 1, sizeof buf, f)) > 0)
+        put(&b, buf, got);
+    fclose(f);
+    return b;
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* A PNG writer of the tests' own (PNG spec §5, §9, §10; zlib RFC 1950 with stored deflate blocks, RFC 1951 §3.2.4):
+ * no compression library, so what the reader returns is checked against bytes nothing else produced. */
+
+static uint32_t crc32_png(const unsigned char *p, size_t n)
+{
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; i++) {
+        c ^= p[i];
+        for (int k = 0; k < 8; k++)
+            c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    }
+    return c ^ 0xFFFFFFFFu;
+}
+
+static void png_chunk(bytes *b, const char *kind, const unsigned char *data, size_t n)
+{
+    put_be32(b, (uint32_t)n);
+    size_t at = b->n;
+    put(b, kind, 4);
+    if (n)
+        put(b, data, n);
+    put_be32(b, crc32_png(b->p + at, n + 4));
+}
+
+/* colour type by channels: 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA; depth 8 or 16 (samples big-endian). */
+static bytes hand_png(uint32_t w, uint32_t h, uint32_t c, int depth, const uint16_t *samples)
+{
+    static const unsigned char colour_type[5] = {0, 0, 4, 2, 6};
+    bytes raw = {0}, z = {0}, out = {0};
+    for (uint32_t y = 0; y < h; y++) {
+        put8(&raw, 0); /* filter type None */
+        for (uint32_t i = 0; i < w * c; i++) {
+            uint16_t v = samples[(size_t)y * w * c + i];
+            if (depth == 16)
+                put8(&raw, v >> 8);
+            put8(&raw, v & 0xFF);
+        }
+    }
+    put8(&z, 0x78);
+    put8(&z, 0x01);
+    size_t at = 0;
+    do {
+        size_t n = raw.n - at > 65535 ? 65535 : raw.n - at;
+        put8(&z, at + n == raw.n ? 1 : 0);
+        put8(&z, n & 0xFF);
+        put8(&z, n >> 8);
+        put8(&z, ~n & 0xFF);
+        put8(&z, (~n >> 8) & 0xFF);
+        put(&z, raw.p + at, n);
+        at += n;
+    } while (at < raw.n);
+    uint32_t s1 = 1, s2 = 0;
+    for (size_t i = 0; i < raw.n; i++) {
+        s1 = (s1 + raw.p[i]) % 65521;
+        s2 = (s2 + s1) % 65521;
+    }
+    put_be32(&z, s2 << 16 | s1);
+    put(&out, "\x89PNG\r\n\x1a\n", 8);
+    bytes ihdr = {0};
+    put_be32(&ihdr, w);
+    put_be32(&ihdr, h);
+    put8(&ihdr, (unsigned)depth);
+    put8(&ihdr, colour_type[c]);
+    put8(&ihdr, 0);
+    put8(&ihdr, 0);
+    put8(&ihdr, 0);
+    png_chunk(&out, "IHDR", ihdr.p, ihdr.n);
+    png_chunk(&out, "IDAT", z.p, z.n);
+    png_chunk(&out, "IEND", NULL, 0);
+    free(raw.p);
+    free(z.p);
+    free(ihdr.p);
+    return out;
+}
+
+/* A single-part scanline OpenEXR file, compression NONE, FLOAT channels (the OpenEXR file layout document): channels
+ * are stored in alphabetical order of their names, every scanline is "y, byte count, each channel's row". */
+static bytes hand_exr(uint32_t w, uint32_t h, uint32_t c, const float *px, int32_t y0)
+{
+    static const char *const order[5][4] = {{0}, {"Y"}, {"Y", "A"}, {"R", "G", "B"}, {"R", "G", "B", "A"}};
+    static const char *const sorted[5][4] = {{0}, {"Y"}, {"A", "Y"}, {"B", "G", "R"}, {"A", "B", "G", "R"}};
+    bytes b = {0}, ch = {0};
+    put(&b, "\x76\x2f\x31\x01", 4);
+    put_le32(&b, 2);
+    for (uint32_t k = 0; k < c; k++) {
+        put_str(&ch, sorted[c][k]);
+        put_le32(&ch, 2); /* FLOAT */
+        put_le32(&ch, 0); /* pLinear + reserved */
+        put_le32(&ch, 1);
+        put_le32(&ch, 1);
+    }
+    put8(&ch, 0);
+    int32_t win[4] = {0, y0, (int32_t)w - 1, y0 + (int32_t)h - 1};
+    float one = 1, zero = 0;
+    uint32_t bits;
+    put_str(&b, "channels");
+    put_str(&b, "chlist");
+    put_le32(&b, (uint32_t)ch.n);
+    put(&b, ch.p, ch.n);
+    put_str(&b, "compression");
+    put_str(&b, "compression");
+    put_le32(&b, 1);
+    put8(&b, 0);
+    const char *windows[2] = {"dataWindow", "displayWindow"};
+    for (int i = 0; i < 2; i++) {
+        put_str(&b, windows[i]);
+        put_str(&b, "box2i");
+        put_le32(&b, 16);
+        for (int k = 0; k < 4; k++)
+            put_le32(&b, (uint32_t)win[k]);
+    }
+    put_str(&b, "lineOrder");
+    put_str(&b, "lineOrder");
+    put_le32(&b, 1);
+    put8(&b, 0);
+    put_str(&b, "pixelAspectRatio");
+    put_str(&b, "float");
+    put_le32(&b, 4);
+    memcpy(&bits, &one, 4);
+    put_le32(&b, bits);
+    put_str(&b, "screenWindowCenter");
+    put_str(&b, "v2f");
+    put_le32(&b, 8);
+    memcpy(&bits, &zero, 4);
+    put_le32(&b, bits);
+    put_le32(&b, bits);
+    put_str(&b, "screenWindowWidth");
+    put_str(&b, "float");
+    put_le32(&b, 4);
+    memcpy(&bits, &one, 4);
+    put_le32(&b, bits);
+    put8(&b, 0);
+    const size_t line_bytes = 8 + (size_t)w * c * 4;
+    uint64_t offset = b.n + 8 * (uint64_t)h;
+    for (uint32_t y = 0; y < h; y++, offset += line_bytes) {
+        put_le32(&b, (uint32_t)offset);
+        put_le32(&b, (uint32_t)(offset >> 32));
+    }
+    for (uint32_t y = 0; y < h; y++) {
+        put_le32(&b, (uint32_t)(y0 + (int32_t)y));
+        put_le32(&b, (uint32_t)(w * c * 4));
+        for (uint32_t k = 0; k < c; k++) {
+            uint32_t src = 0;
+            while (strcmp(order[c][src], sorted[c][k]))
+                src++;
+            for (uint32_t x = 0; x < w; x++) {
+                memcpy(&bits, &px[((size_t)y * w + x) * c + src], 4);
+                put_le32(&b, bits);
+            }
+        }
+    }
+    free(ch.p);
+    return b;
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+
+/* stderr goes to a file while f runs; returns what was written there (the library must print nothing). */
+static size_t stderr_bytes_during(void (*f)(void *), void *ctx)
+{
+    char path[300];
+    path_in(path, sizeof path, "stderr.txt");
+    fflush(stderr);
+    int saved = dup(2), fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    assert_true(saved >= 0 && fd >= 0);
+    dup2(fd, 2);
+    close(fd);
+    f(ctx);
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    return (size_t)st.st_size;
+}
+
+static void one_line(const rto_msg *m)
+{
+    assert_true(m->text[0] != '\0');
+    assert_null(strchr(m->text, '\n'));
+}
+
+static rto_image make_u8(uint32_t w, uint32_t h, uint32_t c)
+{
+    rto_image im = {w, h, c, RTO_PIXEL_U8, malloc((size_t)w * h * c)};
+    assert_non_null(im.pixels);
+    unsigned char *p = im.pixels;
+    for (size_t i = 0; i < (size_t)w * h * c; i++)
+        p[i] = (unsigned char)((i * 37 + 11) % 256);
+    return im;
+}
+
+static rto_image make_f32(uint32_t w, uint32_t h, uint32_t c)
+{
+    rto_image im = {w, h, c, RTO_PIXEL_F32, malloc((size_t)w * h * c * 4)};
+    assert_non_null(im.pixels);
+    float *p = im.pixels;
+    for (size_t i = 0; i < (size_t)w * h * c; i++)
+        p[i] = (float)((double)((i * 7919) % 1000) / 997.0 - 0.25);
+    return im;
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+
+/* Hand-made PNGs: every channel count, 8 and 16 bits, read back value for value. */
+static void test_reads_hand_made_png(void **state)
+{
+    (void)state;
+    char path[300];
+    path_in(path, sizeof path, "hand.png");
+    for (uint32_t c = 1; c <= 4; c++)
+        for (int depth = 8; depth <= 16; depth += 8) {
+            const uint32_t w = 7, h = 5;
+            uint16_t s[7 * 5 * 4];
+            for (uint32_t i = 0; i < w * h * c; i++)
+                s[i] = (uint16_t)(depth == 8 ? (i * 53 + c) % 256 : (i * 40503u + c) % 65536);
+            bytes b = hand_png(w, h, c, depth, s);
+            save(path, b.p, b.n);
+            free(b.p);
+            rto_image im;
+            rto_msg msg = {{0}};
+            assert_int_equal(rto_image_read(path, &im, &msg), RTO_OK);
+            assert_int_equal(im.width, w);
+            assert_int_equal(im.height, h);
+            assert_int_equal(im.channels, c);
+            assert_int_equal(im.type, depth == 8 ? RTO_PIXEL_U8 : RTO_PIXEL_F32);
+            for (uint32_t i = 0; i < w * h * c; i++) {
+                if (depth == 8)
+                    assert_int_equal(((unsigned char *)im.pixels)[i], s[i]);
+                else
+                    assert_true(((float *)im.pixels)[i] == (float)(s[i] / 65535.0));
+            }
+            rto_image_free(&im);
+            assert_null(im.pixels);
+        }
+}
+
+/* A hand-made OpenEXR (channels stored A, B, G, R) comes back as R, G, B, A, bit for bit, a non-zero data window
+ * origin included. */
+static void test_reads_hand_made_exr(void **state)
+{
+    (void)state;
+    char path[300];
+    path_in(path, sizeof path, "hand.exr");
+    for (uint32_t c = 1; c <= 4; c++) {
+        const uint32_t w = 6, h = 4;
+        float px[6 * 4 * 4];
+        for (uint32_t i = 0; i < w * h * c; i++)
+            px[i] = (float)i * 0.125f - 1.5f + (float)c;
+        px[1] = INFINITY;
+        bytes b = hand_exr(w, h, c, px, c == 3 ? 10 : 0);
+        save(path, b.p, b.n);
+        free(b.p);
+        rto_image im;
+        rto_msg msg = {{0}};
+        assert_int_equal(rto_image_read(path, &im, &msg), RTO_OK);
+        assert_int_equal(im.width, w);
+        assert_int_equal(im.height, h);
+        assert_int_equal(im.channels, c);
+        assert_int_equal(im.type, RTO_PIXEL_F32);
+        assert_memory_equal(im.pixels, px, (size_t)w * h * c * 4);
+        rto_image_free(&im);
+    }
+}
+
+/* Written, then read: the same pixels (8-bit alpha 0 and 128 kept as stored, not divided; NaN, infinities, -0 and
+ * subnormals kept in float), for every channel count and a size over several ZIP blocks. */
+static void test_round_trips(void **state)
+{
+    (void)state;
+    char png[300], exr[300];
+    path_in(png, sizeof png, "rt.png");
+    path_in(exr, sizeof exr, "rt.exr");
+    for (uint32_t c = 1; c <= 4; c++) {
+        rto_image a = make_u8(67, 33, c), f = make_f32(67, 33, c), back;
+        unsigned char *p = a.pixels;
+        p[c - 1] = 0; /* alpha 0 (for 2 and 4 channels) over colour that must survive */
+        p[2 * c - 1] = 128;
+        float *q = f.pixels;
+        q[0] = NAN;
+        q[1] = INFINITY;
+        q[2 % (67 * 33 * c)] = -INFINITY;
+        q[3] = -0.0f;
+        q[4] = 1e-40f;
+        rto_msg msg = {{0}};
+        assert_int_equal(rto_image_write(png, &a, &msg), RTO_OK);
+        assert_int_equal(rto_image_read(png, &back, &msg), RTO_OK);
+        assert_int_equal(back.type, RTO_PIXEL_U8);
+        assert_int_equal(back.channels, c);
+        assert_memory_equal(back.pixels, a.pixels, (size_t)67 * 33 * c);
+        rto_image_free(&back);
+        assert_int_equal(rto_image_write(exr, &f, &msg), RTO_OK);
+        assert_int_equal(rto_image_read(exr, &back, &msg), RTO_OK);
+        assert_int_equal(back.type, RTO_PIXEL_F32);
+        assert_int_equal(back.channels, c);
+        const float *r = back.pixels;
+        assert_true(isnan(r[0]));
+        assert_memory_equal(r + 1, q + 1, ((size_t)67 * 33 * c - 1) * 4);
+        rto_image_free(&back);
+        rto_image_free(&a);
+        rto_image_free(&f);
+    }
+}
+
+/* What a PNG's chunks and an OpenEXR header's attributes are called: nothing that could vary (tIME, text, software),
+ * and OpenEXR's capDate (OpenImageIO always writes one) is the fixed epoch. */
+static void check_no_varying_metadata(const bytes *pngb, const bytes *exrb)
+{
+    for (size_t at = 8; at + 12 <= pngb->n;) {
+        uint32_t n = (uint32_t)pngb->p[at] << 24 | (uint32_t)pngb->p[at + 1] << 16 | (uint32_t)pngb->p[at + 2] << 8 |
+                     pngb->p[at + 3];
+        const char *kind = (const char *)pngb->p + at + 4;
+        assert_true(!memcmp(kind, "IHDR", 4) || !memcmp(kind, "IDAT", 4) || !memcmp(kind, "IEND", 4) ||
+                    !memcmp(kind, "oFFs", 4));
+        at += 12 + (size_t)n;
+    }
+    const char *allowed[] = {"capDate", "channels", "compression", "dataWindow", "displayWindow", "lineOrder",
+                             "pixelAspectRatio", "screenWindowCenter", "screenWindowWidth"};
+    size_t at = 8;
+    for (;;) {
+        const char *name = (const char *)exrb->p + at;
+        if (!*name)
+            break;
+        const char *type = name + strlen(name) + 1;
+        const unsigned char *sz = (const unsigned char *)type + strlen(type) + 1;
+        uint32_t n = sz[0] | (uint32_t)sz[1] << 8 | (uint32_t)sz[2] << 16 | (uint32_t)sz[3] << 24;
+        bool ok = false;
+        for (size_t i = 0; i < sizeof allowed / sizeof allowed[0]; i++)
+            ok |= !strcmp(name, allowed[i]);
+        if (!ok)
+            fail_msg("unexpected OpenEXR attribute '%s'", name);
+        if (!strcmp(name, "capDate")) {
+            assert_int_equal(n, 19);
+            assert_memory_equal(sz + 4, "1970:01:01 00:00:00", 19);
+        }
+        at = (size_t)(sz + 4 + n - exrb->p);
+    }
+}
+
+/* The images test_same_bytes writes, the same in every process. */
+static void write_pair(const char *png, const char *exr)
+{
+    rto_image a = make_u8(40, 30, 4), f = make_f32(40, 30, 4);
+    assert_int_equal(rto_image_write(png, &a, NULL), RTO_OK);
+    assert_int_equal(rto_image_write(exr, &f, NULL), RTO_OK);
+    rto_image_free(&a);
+    rto_image_free(&f);
+}
+
+/* The same image gives the same bytes: twice in one process, and in another process started later (this program
+ * run again with --write; a fork would inherit OpenEXR's thread pool without its threads). */
+static void test_same_bytes(void **state)
+{
+    (void)state;
+    char png[2][300], exr[2][300], cmd[1000];
+    path_in(png[0], 300, "a.png");
+    path_in(png[1], 300, "b.png");
+    path_in(exr[0], 300, "a.exr");
+    path_in(exr[1], 300, "b.exr");
+    write_pair(png[0], exr[0]);
+    sleep(1); /* a timestamp would now differ */
+    snprintf(cmd, sizeof cmd, "/proc/%d/exe --write '%s' '%s'", (int)getpid(), png[1], exr[1]);
+    assert_int_equal(system(cmd), 0);
+    bytes p0 = load(png[0]), p1 = load(png[1]), e0 = load(exr[0]), e1 = load(exr[1]);
+    assert_int_equal(p0.n, p1.n);
+    assert_memory_equal(p0.p, p1.p, p0.n);
+    assert_int_equal(e0.n, e1.n);
+    assert_memory_equal(e0.p, e1.p, e0.n);
+    check_no_varying_metadata(&p0, &e0);
+    /* and again in this process, over the first files */
+    write_pair(png[0], exr[0]);
+    bytes p2 = load(png[0]), e2 = load(exr[0]);
+    assert_memory_equal(p0.p, p2.p, p0.n);
+    assert_memory_equal(e0.p, e2.p, e0.n);
+    free(p0.p), free(p1.p), free(e0.p), free(e1.p), free(p2.p), free(e2.p);
+}
+
+static size_t entries(void)
+{
+    DIR *d = opendir(root);
+    size_t n = 0;
+    for (struct dirent *e; d && (e = readdir(d));)
+        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
+    if (d)
+        closedir(d);
+    return n;
+}
+
+/* Writing follows rto_file_write: a regular file replaced, a link followed, a directory or FIFO refused and left as
+ * it was, no temporary left; a format that does not hold the pixel type refused before anything is written. */
+static void test_write_rules(void **state)
+{
+    (void)state;
+    char path[300], dir[300], fifo[300], link[300], txt[300];
+    path_in(path, sizeof path, "x.png");
+    path_in(dir, sizeof dir, "d.png");
+    path_in(fifo, sizeof fifo, "f.png");
+    path_in(link, sizeof link, "l.png");
+    path_in(txt, sizeof txt, "x.tif");
+    rto_image a = make_u8(5, 4, 3), f = make_f32(5, 4, 3), back;
+    rto_msg msg = {{0}};
+    save(path, "old", 3);
+    assert_int_equal(rto_image_write(path, &a, &msg), RTO_OK);
+    assert_int_equal(rto_image_read(path, &back, &msg), RTO_OK);
+    rto_image_free(&back);
+    assert_int_equal(symlink("x.png", link), 0);
+    assert_int_equal(rto_image_write(link, &a, &msg), RTO_OK);
+    struct stat st;
+    assert_int_equal(lstat(link, &st), 0);
+    assert_true(S_ISLNK(st.st_mode));
+    assert_int_equal(mkdir(dir, 0777), 0);
+    assert_int_equal(rto_image_write(dir, &a, &msg), RTO_ERR_IO);
+    one_line(&msg);
+    assert_int_equal(mkfifo(fifo, 0666), 0);
+    assert_int_equal(rto_image_write(fifo, &a, &msg), RTO_ERR_IO);
+    one_line(&msg);
+    assert_int_equal(rto_image_write(path, &f, &msg), RTO_ERR_INVALID_ARGUMENT); /* float into PNG */
+    one_line(&msg);
+    char e[300];
+    path_in(e, sizeof e, "y.exr");
+    assert_int_equal(rto_image_write(e, &a, &msg), RTO_ERR_INVALID_ARGUMENT); /* 8-bit into OpenEXR */
+    assert_int_equal(rto_image_write(txt, &a, &msg), RTO_ERR_UNSUPPORTED);
+    rto_image bad = a;
+    bad.channels = 5;
+    assert_int_equal(rto_image_write(path, &bad, &msg), RTO_ERR_INVALID_ARGUMENT);
+    bad = a;
+    bad.width = 1u << 20;
+    bad.height = 1u << 9;
+    assert_int_equal(rto_image_write(path, &bad, &msg), RTO_ERR_UNSUPPORTED); /* 2^29 pixels */
+    assert_int_equal(entries(), 4); /* x.png, l.png, d.png, f.png: nothing else, no temporary */
+    assert_int_equal(lstat(dir, &st), 0);
+    assert_true(S_ISDIR(st.st_mode));
+    rto_image_free(&a);
+    rto_image_free(&f);
+}
+
+typedef struct refusal {
+    const char *path;
+    rto_status got;
+    rto_msg msg;
+} refusal;
+
+static void read_one(void *ctx)
+{
+    refusal *r = ctx;
+    rto_image im = {1, 1, 1, RTO_PIXEL_U8, NULL};
+    r->got = rto_image_read(r->path, &im, &r->msg);
+    if (r->got == RTO_OK)
+        rto_image_free(&im);
+    else
+        assert_null(im.pixels);
+}
+
+static void expect_refused(const char *path, rto_status want)
+{
+    refusal r = {path, RTO_OK, {{0}}};
+    size_t printed = stderr_bytes_during(read_one, &r);
+    if (r.got == RTO_OK)
+        fail_msg("%s was read", path);
+    if (want != RTO_OK && r.got != want)
+        fail_msg("%s: status %d (want %d): %s", path, (int)r.got, (int)want, r.msg.text);
+    one_line(&r.msg);
+    assert_int_equal(printed, 0);
+}
+
+/* Every prefix of a PNG and of an OpenEXR file is refused (one line, nothing printed), as are missing files,
+ * directories, FIFOs, empty files and a corrupt zlib stream whose CRCs are right. */
+static void test_read_refusals(void **state)
+{
+    (void)state;
+    char path[300], cut[300], fifo[300];
+    path_in(path, sizeof path, "ok.png");
+    path_in(cut, sizeof cut, "cut.png");
+    path_in(fifo, sizeof fifo, "fifo.png");
+    rto_image a = make_u8(9, 7, 4);
+    assert_int_equal(rto_image_write(path, &a, NULL), RTO_OK);
+    bytes b = load(path);
+    for (size_t n = 1; n < b.n; n++) {
+        save(cut, b.p, n);
+        expect_refused(cut, RTO_ERR_PARSE);
+    }
+    save(cut, "", 0);
+    expect_refused(cut, RTO_ERR_PARSE);
+    /* a flipped bit in the compressed data, its chunk's CRC recomputed: libpng's inflate finds it */
+    size_t idat = 8;
+    while (memcmp(b.p + idat + 4, "IDAT", 4))
+        idat += 12 + ((size_t)b.p[idat] << 24 | (size_t)b.p[idat + 1] << 16 | (size_t)b.p[idat + 2] << 8 |
+                      b.p[idat + 3]);
+    uint32_t n = (uint32_t)b.p[idat] << 24 | (uint32_t)b.p[idat + 1] << 16 | (uint32_t)b.p[idat + 2] << 8 |
+                 b.p[idat + 3];
+    b.p[idat + 8 + 2] ^= 0xFF;
+    uint32_t crc = crc32_png(b.p + idat + 4, (size_t)n + 4);
+    unsigned char be[4] = {(unsigned char)(crc >> 24), (unsigned char)(crc >> 16), (unsigned char)(crc >> 8),
+                           (unsigned char)crc};
+    memcpy(b.p + idat + 8 + n, be, 4);
+    save(cut, b.p, b.n);
+    expect_refused(cut, RTO_ERR_PARSE);
+    free(b.p);
+
+    float px[4 * 3 * 3];
+    for (int i = 0; i < 36; i++)
+        px[i] = (float)i;
+    bytes e = hand_exr(4, 3, 3, px, 0);
+    path_in(cut, sizeof cut, "cut.exr");
+    for (size_t k = 1; k < e.n; k++) {
+        save(cut, e.p, k);
+        expect_refused(cut, RTO_OK);
+    }
+    free(e.p);
+
+    char missing[300];
+    path_in(missing, sizeof missing, "missing.png");
+    expect_refused(missing, RTO_ERR_IO);
+    expect_refused(root, RTO_ERR_IO);
+    assert_int_equal(mkfifo(fifo, 0666), 0);
+    expect_refused(fifo, RTO_ERR_IO); /* at once: no writer is ever opened */
+    expect_refused("/dev/zero", RTO_ERR_IO);
+    rto_image_free(&a);
+}
+
+/* Headers claiming more than 2^28 pixels are refused from the header, before anything image-sized is allocated
+ * (the files are a few hundred bytes; a read would need gigabytes). */
+static void test_absurd_sizes(void **state)
+{
+    (void)state;
+    char path[300];
+    path_in(path, sizeof path, "huge.png");
+    uint16_t s[4] = {1, 2, 3, 4};
+    bytes b = hand_png(1, 1, 1, 8, s);
+    /* IHDR width and height (bytes 16..23) rewritten to 2^15 x 2^14 = 2^29 pixels, CRC recomputed */
+    const unsigned char wh[8] = {0, 0, 0x80, 0, 0, 0, 0x40, 0};
+    memcpy(b.p + 16, wh, 8);
+    uint32_t crc = crc32_png(b.p + 12, 17);
+    unsigned char be[4] = {(unsigned char)(crc >> 24), (unsigned char)(crc >> 16), (unsigned char)(crc >> 8),
+                           (unsigned char)crc};
+    memcpy(b.p + 29, be, 4);
+    save(path, b.p, b.n);
+    expect_refused(path, RTO_ERR_UNSUPPORTED);
+    free(b.p);
+
+    float px[3] = {1, 2, 3};
+    bytes e = hand_exr(1, 1, 3, px, 0);
+    /* dataWindow's xMax, yMax (after "dataWindow\0box2i\0" and the size) set to 2^20 - 1 and 2^30 */
+    path_in(path, sizeof path, "huge.exr");
+    const char key[] = "dataWindow\0box2i";
+    unsigned char *at = memmem(e.p, e.n, key, sizeof key);
+    assert_non_null(at);
+    at += sizeof key + 4;
+    const int32_t big[4] = {0, 0, (1 << 20) - 1, 1 << 30};
+    memcpy(at, big, 16); /* little-endian host, as the file */
+    save(path, e.p, e.n);
+    expect_refused(path, RTO_ERR_UNSUPPORTED);
+    /* exactly at the limit in pixels but with an inverted window: corrupt */
+    const int32_t inverted[4] = {0, 5, 0, 2};
+    memcpy(at, inverted, 16);
+    save(path, e.p, e.n);
+    expect_refused(path, RTO_ERR_PARSE);
+    free(e.p);
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Metrics, computed here in binary64 from the pixels in [0, 1] units. */
+
+typedef struct reference {
+    double mean, rms, max, peak; /* peak: OpenImageIO's PSNR peak, max(1, the largest value of either image) */
+    uint32_t max_x, max_y, max_c;
+    uint64_t fail, warn;
+} reference;
+
+static double unit_value(const rto_image *im, size_t i)
+{
+    return im->type == RTO_PIXEL_U8 ? ((const unsigned char *)im->pixels)[i] / 255.0
+                                    : (double)((const float *)im->pixels)[i];
+}
+
+static reference reference_metrics(const rto_image *a, const rto_image *b, double fail, double warn)
+{
+    reference r = {0};
+    r.peak = 1;
+    double sum = 0, sq = 0;
+    const size_t c = a->channels;
+    for (uint32_t y = 0; y < a->height; y++)
+        for (uint32_t x = 0; x < a->width; x++) {
+            bool f = false, w = false;
+            for (uint32_t k = 0; k < c; k++) {
+                size_t i = ((size_t)y * a->width + x) * c + k;
+                double d = fabs(unit_value(a, i) - unit_value(b, i));
+                r.peak = fmax(r.peak, fmax(unit_value(a, i), unit_value(b, i)));
+                sum += d;
+                sq += d * d;
+                if (d > r.max) {
+                    r.max = d;
+                    r.max_x = x;
+                    r.max_y = y;
+                    r.max_c = k;
+                }
+                f |= d > fail;
+                w |= d > warn;
+            }
+            r.fail += f;
+            r.warn += w;
+        }
+    const double n = (double)a->width * a->height * c;
+    r.mean = sum / n;
+    r.rms = sqrt(sq / n);
+    return r;
+}
+
+/* OpenImageIO converts values to binary32 and subtracts in binary32: each |difference| (of values within [0, 1])
+ * is off by at most 2^-24 from the binary64 one, and so are mean, RMS and max. */
+#define F32_SUM_TOL 1e-7
+
+static void assert_close(double got, double want, double tol, const char *what)
+{
+    if (!(fabs(got - want) <= tol))
+        fail_msg("%s: got %.17g, want %.17g (tolerance %g)", what, got, want, tol);
+}
+
+/* PSNR = 20 log10(peak / RMS), peak = 1 for images within [0, 1] (OpenImageIO's definition): an RMS error e moves it by 20 / ln 10 * e / RMS dB. */
+static double psnr_tol(double rms) { return 20 / log(10.0) * F32_SUM_TOL / rms * 1.01 + 1e-12; }
+
+/* One channel of one pixel off by k/255: max error k/255 there, mean k/255 / (W H C), RMS k/255 / sqrt(W H C),
+ * PSNR 20 log10(1 / RMS); one pixel over fail and warn: FAIL with the defaults. */
+static void test_one_pixel_off(void **state)
+{
+    (void)state;
+    const uint32_t w = 8, h = 5, c = 3, k = 7, px = 6, py = 3, pc = 1;
+    rto_image a = make_u8(w, h, c), b = make_u8(w, h, c);
+    unsigned char *q = b.pixels;
+    size_t i = ((size_t)py * w + px) * c + pc;
+    q[i] = (unsigned char)(q[i] >= k ? q[i] - k : q[i] + k);
+    rto_image_compare_result r;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_image_compare(&a, &b, NULL, &r, &msg), RTO_OK);
+    const double n = (double)w * h * c, d = k / 255.0;
+    assert_close(r.max_error, d, F32_SUM_TOL, "max error");
+    assert_int_equal(r.max_x, px);
+    assert_int_equal(r.max_y, py);
+    assert_int_equal(r.max_c, pc);
+    assert_close(r.mean_error, d / n, F32_SUM_TOL, "mean error");
+    assert_close(r.rms_error, d / sqrt(n), F32_SUM_TOL, "RMS error");
+    assert_close(r.psnr, 20 * log10(sqrt(n) / d), psnr_tol(d / sqrt(n)), "PSNR");
+    assert_close(r.psnr, 20 * log10(1 / r.rms_error), 1e-9, "PSNR from its own RMS");
+    assert_int_equal(r.pixels, (uint64_t)w * h);
+    assert_int_equal(r.fail_count, 1);
+    assert_int_equal(r.warn_count, 1);
+    assert_int_equal(r.verdict, RTO_IMAGE_FAIL);
+    /* identical: zero errors, PSNR +inf, PASS */
+    assert_int_equal(rto_image_compare(&a, &a, NULL, &r, &msg), RTO_OK);
+    assert_true(r.mean_error == 0 && r.rms_error == 0 && r.max_error == 0);
+    assert_true(isinf(r.psnr) && r.psnr > 0);
+    assert_int_equal(r.verdict, RTO_IMAGE_PASS);
+    rto_image_free(&a);
+    rto_image_free(&b);
+}
+
+/* Many differences, 8-bit against float and float against float: every metric against the binary64 reference. */
+static void test_metrics_against_reference(void **state)
+{
+    (void)state;
+    uint64_t seed = 0x1234;
+    for (int round = 0; round < 6; round++) {
+        const uint32_t w = 13 + (uint32_t)round, h = 9, c = 1 + (uint32_t)round % 4;
+        rto_image a = round % 2 ? make_f32(w, h, c) : make_u8(w, h, c);
+        rto_image b = make_f32(w, h, c);
+        float *q = b.pixels;
+        for (size_t i = 0; i < (size_t)w * h * c; i++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            double noise = ((double)(seed >> 40) / (double)(1 << 24) - 0.5) * 0.05;
+            q[i] = (float)(unit_value(&a, i) + ((seed >> 20) % 3 == 0 ? noise : 0));
+        }
+        const double fail = 0.02, warn = 0.004;
+        rto_image_compare_desc d = {0};
+        d.fail = fail;
+        d.warn = warn;
+        rto_image_compare_result r;
+        rto_msg msg = {{0}};
+        assert_int_equal(rto_image_compare(&a, &b, &d, &r, &msg), RTO_OK);
+        reference ref = reference_metrics(&a, &b, fail, warn);
+        assert_close(r.mean_error, ref.mean, F32_SUM_TOL, "mean");
+        assert_close(r.rms_error, ref.rms, F32_SUM_TOL, "rms");
+        assert_close(r.max_error, ref.max, F32_SUM_TOL, "max");
+        assert_close(r.psnr, 20 * log10(ref.peak / ref.rms), psnr_tol(ref.rms), "psnr");
+        assert_close(r.psnr, 20 * log10(ref.peak / r.rms_error), 1e-6, "psnr from its own rms");
+        assert_int_equal(r.max_x, ref.max_x);
+        assert_int_equal(r.max_y, ref.max_y);
+        assert_int_equal(r.max_c, ref.max_c);
+        assert_int_equal(r.fail_count, ref.fail);
+        assert_int_equal(r.warn_count, ref.warn);
+        assert_int_equal(r.verdict, ref.fail ? RTO_IMAGE_FAIL : ref.warn ? RTO_IMAGE_WARN : RTO_IMAGE_PASS);
+        rto_image_free(&a);
+        rto_image_free(&b);
+    }
+}
+
+/* idiff's rule on both sides of each threshold: 4 of 100 pixels off by 3/255. */
+static void test_verdicts(void **state)
+{
+    (void)state;
+    rto_image a = make_u8(10, 10, 1), b = make_u8(10, 10, 1);
+    unsigned char *q = b.pixels;
+    for (int i = 0; i < 4; i++)
+        q[i * 17] = (unsigned char)(q[i * 17] + 3);
+    rto_image_compare_result r;
+    struct {
+        double fail, fail_percent, hard_fail, warn, warn_percent, hard_warn;
+        int hard_fail_set, hard_warn_set;
+        rto_image_verdict want;
+    } cases[] = {
+        {0, 0, 0, 0, 0, 0, 0, 0, RTO_IMAGE_FAIL},                    /* defaults: any difference fails */
+        {0, 4, 0, 0, 0, 0, 0, 0, RTO_IMAGE_WARN},                    /* 4 % may fail: then it warns */
+        {0, 3.99, 0, 0, 0, 0, 0, 0, RTO_IMAGE_FAIL},                 /* 4 > 3.99 % */
+        {0, 4, 0, 0, 4, 0, 0, 0, RTO_IMAGE_PASS},                    /* within both percentages */
+        {0.0118, 0, 0, 0.0118, 0, 0, 0, 0, RTO_IMAGE_PASS},          /* 3/255 = 0.01176 is under both */
+        {0.0117, 0, 0, 0.0118, 0, 0, 0, 0, RTO_IMAGE_FAIL},          /* ... and over 0.0117 */
+        {0.02, 0, 0.0117, 0.02, 0, 0, 1, 0, RTO_IMAGE_FAIL},         /* hard fail */
+        {0.02, 0, 0.0118, 0.02, 0, 0, 1, 0, RTO_IMAGE_PASS},         /* under the hard fail */
+        {0.02, 0, 0, 0.02, 0, 0.0117, 0, 1, RTO_IMAGE_WARN},         /* hard warn */
+        {0, 100, 0, 0, 100, 0, 0, 0, RTO_IMAGE_PASS},                /* everything may differ */
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        rto_image_compare_desc d = {cases[i].fail,      cases[i].fail_percent,  cases[i].hard_fail,
+                                    cases[i].warn,      cases[i].warn_percent,  cases[i].hard_warn,
+                                    cases[i].hard_fail_set, cases[i].hard_warn_set, NULL, 0};
+        rto_msg msg = {{0}};
+        assert_int_equal(rto_image_compare(&a, &b, &d, &r, &msg), RTO_OK);
+        if (r.verdict != cases[i].want)
+            fail_msg("case %zu: verdict %d, want %d", i, (int)r.verdict, (int)cases[i].want);
+    }
+    /* bad thresholds are refused */
+    rto_image_compare_desc bad = {0};
+    bad.fail = -1;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_image_compare(&a, &b, &bad, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    bad.fail = 0;
+    bad.fail_percent = 101;
+    assert_int_equal(rto_image_compare(&a, &b, &bad, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    rto_image_free(&a);
+    rto_image_free(&b);
+}
+
+/* NaN matches NaN; NaN against a number is an infinite error, which fails even with the default thresholds. */
+static void test_non_finite(void **state)
+{
+    (void)state;
+    rto_image a = make_f32(4, 4, 3), b = make_f32(4, 4, 3);
+    ((float *)a.pixels)[5] = NAN;
+    ((float *)b.pixels)[5] = NAN;
+    rto_image_compare_result r;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_image_compare(&a, &b, NULL, &r, &msg), RTO_OK);
+    assert_int_equal(r.verdict, RTO_IMAGE_PASS);
+    ((float *)b.pixels)[5] = 0.5f;
+    rto_image_compare_desc d = {0};
+    d.fail_percent = d.warn_percent = 100;
+    assert_int_equal(rto_image_compare(&a, &b, &d, &r, &msg), RTO_OK);
+    assert_true(isinf(r.max_error));
+    assert_int_equal(r.max_x, 1);
+    assert_int_equal(r.max_c, 2);
+    assert_int_equal(r.verdict, RTO_IMAGE_FAIL);
+    rto_image_free(&a);
+    rto_image_free(&b);
+}
+
+/* Different sizes or channel counts: refused with both sizes named. */
+static void test_size_mismatch(void **state)
+{
+    (void)state;
+    rto_image a = make_u8(4, 3, 3), b = make_u8(5, 3, 3), c = make_u8(4, 3, 4);
+    rto_image_compare_result r;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_image_compare(&a, &b, NULL, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "4x3, 3 channels"));
+    assert_non_null(strstr(msg.text, "5x3, 3 channels"));
+    assert_int_equal(rto_image_compare(&a, &c, NULL, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg.text, "4x3, 4 channels"));
+    rto_image_free(&a);
+    rto_image_free(&b);
+    rto_image_free(&c);
+}
+
+/* The diff image is |expected - actual| * scale: 8-bit in a PNG (an alpha channel opaque), float in an OpenEXR. */
+static void test_diff_image(void **state)
+{
+    (void)state;
+    char png[300], exr[300], bad[300];
+    path_in(png, sizeof png, "diff.png");
+    path_in(exr, sizeof exr, "diff.exr");
+    path_in(bad, sizeof bad, "diff.bmp");
+    rto_image a = make_u8(6, 4, 4), b = make_u8(6, 4, 4), d;
+    unsigned char *q = b.pixels;
+    q[(2 * 6 + 3) * 4 + 1] = (unsigned char)(q[(2 * 6 + 3) * 4 + 1] + 5);
+    q[(1 * 6 + 0) * 4 + 3] = (unsigned char)(q[(1 * 6 + 0) * 4 + 3] + 9); /* alpha differs too */
+    rto_image_compare_desc desc = {0};
+    desc.diff_path = png;
+    desc.diff_scale = 10;
+    rto_image_compare_result r;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_image_compare(&a, &b, &desc, &r, &msg), RTO_OK);
+    assert_int_equal(rto_image_read(png, &d, &msg), RTO_OK);
+    assert_int_equal(d.type, RTO_PIXEL_U8);
+    const unsigned char *p = d.pixels;
+    for (uint32_t i = 0; i < 6 * 4; i++)
+        for (uint32_t k = 0; k < 4; k++) {
+            unsigned want = k == 3 ? 255 : i == 2 * 6 + 3 && k == 1 ? 50 : 0;
+            if (p[i * 4 + k] != want)
+                fail_msg("diff pixel %u channel %u: %u, want %u", i, k, p[i * 4 + k], want);
+        }
+    rto_image_free(&d);
+    desc.diff_path = exr;
+    desc.diff_scale = 0; /* 1 */
+    assert_int_equal(rto_image_compare(&a, &b, &desc, &r, &msg), RTO_OK);
+    assert_int_equal(rto_image_read(exr, &d, &msg), RTO_OK);
+    assert_int_equal(d.type, RTO_PIXEL_F32);
+    assert_close(((float *)d.pixels)[(2 * 6 + 3) * 4 + 1], 5 / 255.0, F32_SUM_TOL, "float diff");
+    assert_true(((float *)d.pixels)[0] == 0);
+    rto_image_free(&d);
+    desc.diff_path = bad;
+    assert_int_equal(rto_image_compare(&a, &b, &desc, &r, &msg), RTO_ERR_UNSUPPORTED);
+    assert_int_equal(access(bad, F_OK), -1);
+    rto_image_free(&a);
+    rto_image_free(&b);
+}
+
+/* Bundle images: listed with role, sha256 and their "image" object; read back after the sha256 check; a changed
+ * byte refused; a bad name kept as the bundle's error. */
+static void test_bundle_images(void **state)
+{
+    (void)state;
+    char dir[300], file[400];
+    path_in(dir, sizeof dir, "bundle");
+    rto_image a = make_u8(5, 3, 4), f = make_f32(5, 3, 4), back;
+    rto_bundle *b = NULL;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_bundle_begin(dir, "frame", &b, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_add_image(b, "image.png", "image", &a, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_add_image(b, "accum.exr", "accum-image", &f, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_commit(b, &msg), RTO_OK);
+
+    snprintf(file, sizeof file, "%s/manifest.json", dir);
+    json_error_t err;
+    json_t *m = json_load_file(file, 0, &err);
+    assert_non_null(m);
+    json_t *files = json_object_get(m, "files");
+    assert_int_equal(json_array_size(files), 2);
+    json_t *e = json_array_get(files, 1);
+    assert_string_equal(json_string_value(json_object_get(e, "name")), "accum.exr");
+    assert_string_equal(json_string_value(json_object_get(e, "role")), "accum-image");
+    json_t *info = json_object_get(e, "image");
+    assert_int_equal(json_integer_value(json_object_get(info, "width")), 5);
+    assert_int_equal(json_integer_value(json_object_get(info, "height")), 3);
+    assert_int_equal(json_integer_value(json_object_get(info, "channels")), 4);
+    assert_string_equal(json_string_value(json_object_get(info, "type")), "f32");
+    char hex[65];
+    snprintf(file, sizeof file, "%s/accum.exr", dir);
+    assert_int_equal(rto_sha256_file(file, hex, &msg), RTO_OK);
+    assert_string_equal(json_string_value(json_object_get(e, "sha256")), hex);
+    json_decref(m);
+
+    rto_bundle_reader *r = NULL;
+    assert_int_equal(rto_bundle_open(dir, &r, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_read_image(r, "image.png", &back, &msg), RTO_OK);
+    assert_memory_equal(back.pixels, a.pixels, 5 * 3 * 4);
+    rto_image_free(&back);
+    assert_int_equal(rto_bundle_read_image(r, "accum.exr", &back, &msg), RTO_OK);
+    assert_memory_equal(back.pixels, f.pixels, 5 * 3 * 4 * 4);
+    rto_image_free(&back);
+    assert_int_equal(rto_bundle_read_image(r, "nope.png", &back, &msg), RTO_ERR_IO);
+    /* one byte changed: the sha256 no longer matches */
+    bytes x = load(file);
+    x.p[x.n - 1] ^= 1;
+    save(file, x.p, x.n);
+    free(x.p);
+    assert_int_equal(rto_bundle_read_image(r, "accum.exr", &back, &msg), RTO_ERR_PARSE);
+    assert_non_null(strstr(msg.text, "sha256"));
+    assert_null(back.pixels);
+    rto_bundle_close(r);
+
+    /* a name with a directory in it is refused, and the commit fails with that reason */
+    path_in(dir, sizeof dir, "bundle2");
+    assert_int_equal(rto_bundle_begin(dir, "frame", &b, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_add_image(b, "../image.png", "image", &a, &msg), RTO_ERR_INVALID_ARGUMENT);
+    assert_int_not_equal(rto_bundle_commit(b, &msg), RTO_OK);
+    assert_int_equal(access(dir, F_OK), -1);
+    rto_image_free(&a);
+    rto_image_free(&f);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 4 && !strcmp(argv[1], "--write")) { /* test_same_bytes's second process */
+        write_pair(argv[2], argv[3]);
+        return 0;
+    }
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_reads_hand_made_png, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_reads_hand_made_exr, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_round_trips, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_same_bytes, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_write_rules, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_read_refusals, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_absurd_sizes, setup, teardown),
+        cmocka_unit_test(test_one_pixel_off),
+        cmocka_unit_test(test_metrics_against_reference),
+        cmocka_unit_test(test_verdicts),
+        cmocka_unit_test(test_non_finite),
+        cmocka_unit_test(test_size_mismatch),
+        cmocka_unit_test_setup_teardown(test_diff_image, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_bundle_images, setup, teardown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
