@@ -171,26 +171,33 @@ static const char *file_name(rto_bundle_file f, uint32_t d, char name[RTO_BUNDLE
     return name;
 }
 
+/* A one-line fault of an input file: "<where> <dir>: <file>: <text>". */
+static rto_status bad_file(fcheck *c, const char *where, const char *dir, const char *file, const char *fmt,
+                           va_list ap)
+{
+    char text[360];
+    vsnprintf(text, sizeof text, fmt, ap);
+    return rto_fail(c->msg, RTO_ERR_PARSE, "%s %s: %s: %s", where, dir, file, text);
+}
+
 static rto_status bad_expected(fcheck *c, const char *file, const char *fmt, ...) RTO_PRINTF(3, 4);
 static rto_status bad_expected(fcheck *c, const char *file, const char *fmt, ...)
 {
-    char text[360];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
+    const rto_status s = bad_file(c, "expected bundle", c->desc->expected_dir, file, fmt, ap);
     va_end(ap);
-    return rto_fail(c->msg, RTO_ERR_PARSE, "expected bundle %s: %s: %s", c->desc->expected_dir, file, text);
+    return s;
 }
 
 static rto_status bad_gpu(fcheck *c, const char *file, const char *fmt, ...) RTO_PRINTF(3, 4);
 static rto_status bad_gpu(fcheck *c, const char *file, const char *fmt, ...)
 {
-    char text[360];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
+    const rto_status s = bad_file(c, "GPU dump", c->desc->gpu_dir, file, fmt, ap);
     va_end(ap);
-    return rto_fail(c->msg, RTO_ERR_PARSE, "GPU dump %s: %s: %s", c->desc->gpu_dir, file, text);
+    return s;
 }
 
 static int same_desc(const rto_npy_desc *have, const rto_npy_desc *want)
@@ -261,10 +268,13 @@ static int gpu_has(fcheck *c, const char *name)
     return has;
 }
 
-/* Reads a file of the dump into out; *present 0 when the dump has none (not dumped, not a fault). */
-static rto_status gpu_load(fcheck *c, const char *name, rto_npy *out, int *present)
+static rto_status read_npy(const char *path, void *out, rto_msg *m) { return rto_npy_read(path, out, m); }
+static rto_status read_image(const char *path, void *out, rto_msg *m) { return rto_image_read(path, out, m); }
+
+/* Reads a file of the dump with read into out; *present 0 when the dump has none (not dumped, not a fault). */
+static rto_status gpu_read(fcheck *c, const char *name, rto_status (*read)(const char *, void *, rto_msg *), void *out,
+                           int *present)
 {
-    memset(out, 0, sizeof *out);
     *present = 0;
     char *path = join(c->desc->gpu_dir, name);
     if (!path)
@@ -278,7 +288,7 @@ static rto_status gpu_load(fcheck *c, const char *name, rto_npy *out, int *prese
         return rto_fail(c->msg, RTO_ERR_IO, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, strerror(e));
     }
     rto_msg m = {{0}};
-    rto_status s = rto_npy_read(path, out, &m);
+    rto_status s = read(path, out, &m);
     free(path);
     if (s)
         return rto_fail(c->msg, s, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, m.text);
@@ -286,28 +296,16 @@ static rto_status gpu_load(fcheck *c, const char *name, rto_npy *out, int *prese
     return RTO_OK;
 }
 
+static rto_status gpu_load(fcheck *c, const char *name, rto_npy *out, int *present)
+{
+    memset(out, 0, sizeof *out);
+    return gpu_read(c, name, read_npy, out, present);
+}
+
 static rto_status gpu_image(fcheck *c, const char *name, rto_image *out, int *present)
 {
     memset(out, 0, sizeof *out);
-    *present = 0;
-    char *path = join(c->desc->gpu_dir, name);
-    if (!path)
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-    struct stat st;
-    if (lstat(path, &st) != 0) {
-        const int e = errno;
-        free(path);
-        if (e == ENOENT)
-            return RTO_OK;
-        return rto_fail(c->msg, RTO_ERR_IO, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, strerror(e));
-    }
-    rto_msg m = {{0}};
-    rto_status s = rto_image_read(path, out, &m);
-    free(path);
-    if (s)
-        return rto_fail(c->msg, s, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, m.text);
-    *present = 1;
-    return RTO_OK;
+    return gpu_read(c, name, read_image, out, present);
 }
 
 /* The note for a file the dump lacks, unless the bundle lacks it too (then nothing was expected of the GPU). */
