@@ -398,6 +398,15 @@ static void at_pixel(fcheck *c, uint32_t pixel)
     }
 }
 
+/* Oracle ray i of a queue and its GPU partner as location fields: ray, gpu_ray, pixel (x, y) and slot. */
+static void at_ray(fcheck *c, const rto_wf_ray *ro, const uint32_t *gpu_of, size_t i)
+{
+    rto_report_at(c->r, "ray", (int64_t)i);
+    rto_report_at(c->r, "gpu_ray", gpu_of[i]);
+    at_pixel(c, ro[i].pixel);
+    rto_report_at(c->r, "slot", ro[i].payload_slot);
+}
+
 /* Where a ray of queue d came from, for sentences. */
 static const char *filled_by(uint32_t d) { return d == 0 ? "GENERATE" : "the SHADE pass of the bounce before"; }
 
@@ -701,6 +710,19 @@ static void counts_fault(fcheck *c, rto_frame_fault f, uint32_t d, const count_d
                           "after it, may differ]", c->drop_queue);
 }
 
+/* A frame-wide array of the dump that ends before queue d: claims fault f with its length n (what: the row
+ * field, unit: what its entries count). Returns whether f was claimed. */
+static int short_array(fcheck *c, rto_frame_fault f, uint32_t d, const char *what, const char *file, size_t n,
+                       const char *unit)
+{
+    if (!claim(c, f, d))
+        return 0;
+    uint_row(c, d, what, (uint64_t)c->depth + 1, n);
+    rto_report_summary(c->r, "%s: queue %" PRIu32 ": the GPU's %s ends after %zu %s; the frame has %" PRIu32,
+                       rto_frame_fault_name(f), d, file, n, unit, c->depth + 1);
+    return 1;
+}
+
 /* A FrameCounters field of the dump, row d. */
 static uint32_t gcnt(const fcheck *c, uint32_t d, size_t offset)
 {
@@ -738,21 +760,15 @@ static void step_counts(fcheck *c, uint32_t d)
             const uint32_t a = ((const uint32_t *)c->g_emit.data)[d];
             if (a != c->emit[d])
                 x[nx++] = (count_diff){"emit_counts", c->emit[d], a};
-        } else if (claim(c, RTO_FRAME_COUNTS, d)) {
-            uint_row(c, d, "emit_counts entries", (uint64_t)c->depth + 1, c->g_emit_n);
-            rto_report_summary(c->r, "emit-count: queue %" PRIu32 ": the GPU's emit_counts.npy ends after %zu queue(s);"
-                               " the frame has %" PRIu32, d, c->g_emit_n, c->depth + 1);
+        } else if (short_array(c, RTO_FRAME_COUNTS, d, "emit_counts entries", "emit_counts.npy", c->g_emit_n,
+                               "queue(s)")) {
             return;
         }
     }
     static const cnt_field emit_fields[] = {CNT_FIELD(emitted), CNT_FIELD(queued), CNT_FIELD(dropped),
                                             CNT_FIELD(refused)};
     if (c->have_g_cnt && d >= c->g_cnt_n) {
-        if (claim(c, RTO_FRAME_COUNTS, d)) {
-            uint_row(c, d, "frame_counters rows", (uint64_t)c->depth + 1, c->g_cnt_n);
-            rto_report_summary(c->r, "emit-count: queue %" PRIu32 ": the GPU's frame_counters.npy ends after %zu "
-                               "row(s); the frame has %" PRIu32, d, c->g_cnt_n, c->depth + 1);
-        }
+        short_array(c, RTO_FRAME_COUNTS, d, "frame_counters rows", "frame_counters.npy", c->g_cnt_n, "row(s)");
         return;
     }
     /* the emit counter itself, then the FrameCounters fields that follow from it */
@@ -768,11 +784,7 @@ static void step_indirect(fcheck *c, uint32_t d)
         return;
     const uint32_t *e = &c->ind[3 * d];
     if (d >= c->g_ind_n) {
-        if (claim(c, RTO_FRAME_INDIRECT, d)) {
-            uint_row(c, d, "indirect_args rows", (uint64_t)c->depth + 1, c->g_ind_n);
-            rto_report_summary(c->r, "indirect-args: queue %" PRIu32 ": the GPU's indirect_args.npy ends after %zu "
-                               "queue(s); the frame has %" PRIu32, d, c->g_ind_n, c->depth + 1);
-        }
+        short_array(c, RTO_FRAME_INDIRECT, d, "indirect_args rows", "indirect_args.npy", c->g_ind_n, "queue(s)");
         return;
     }
     const uint32_t *a = (const uint32_t *)c->g_ind.data + 3 * (size_t)d;
@@ -1126,7 +1138,8 @@ static int payload_float(uint32_t w)
     return isfinite(f) && (f == 0.0f || fabs((double)f) >= PAYLOAD_FLOAT_MIN);
 }
 
-static double payload_tolerance(float e) { return ACCUM_REL * fabs((double)e) + ACCUM_ABS; }
+/* Payload floats carry colour on its way to accum, so they compare with accum's §9 rule. */
+static double accum_tolerance(float e) { return ACCUM_REL * fabs((double)e) + ACCUM_ABS; }
 
 /* Whether two payload words agree: bit for bit, or as close binary32 values (see PAYLOAD_FLOAT_MIN). */
 static int word_close(uint32_t e, uint32_t a)
@@ -1138,7 +1151,32 @@ static int word_close(uint32_t e, uint32_t a)
     float fe, fa;
     memcpy(&fe, &e, 4);
     memcpy(&fa, &a, 4);
-    return fabs((double)fa - (double)fe) <= payload_tolerance(fe);
+    return fabs((double)fa - (double)fe) <= accum_tolerance(fe);
+}
+
+/* Reads the dump's file of a bounce that pairs with its rays (payloads, hits) into g. Returns 1 when there is
+ * something to compare: the dump has the file, the bundle keeps it, and the dump's queue is there to pair it with;
+ * otherwise notes why not (not dumped, skipped) and returns 0, with *s set on an error. */
+static int gpu_bounce_file(fcheck *c, const char *name, const rto_wf_ray *rg, rto_npy *g, rto_status *s)
+{
+    const int expected = exp_has(c, name);
+    int present = 0;
+    if ((*s = gpu_load(c, name, g, &present)))
+        return 0;
+    if (!present) {
+        if (expected)
+            not_dumped(c, name);
+        return 0;
+    }
+    if (!expected) {
+        skipped(c, name, "not kept by the bundle");
+        return 0;
+    }
+    if (!rg) {
+        skipped(c, name, "no rays dumped to pair them with");
+        return 0;
+    }
+    return 1;
 }
 
 /* The GPU's payload of oracle ray i: its partner's row, or the store's row at its payloadSlot; NULL for a ray
@@ -1160,24 +1198,9 @@ static void step_payloads(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n,
     file_name(RTO_FILE_BOUNCE_PAYLOADS, d, name);
     if (!c->words)
         return; /* the program carries no payload */
-    const int expected = exp_has(c, name);
     rto_npy e = {0}, g = {0};
-    int present = 0;
-    if ((*st = gpu_load(c, name, &g, &present)))
-        return;
-    if (!present) {
-        if (expected)
-            not_dumped(c, name);
-        return;
-    }
-    if (!expected) {
-        skipped(c, name, "not kept by the bundle");
+    if (!gpu_bounce_file(c, name, rg, &g, st))
         goto out;
-    }
-    if (!rg) {
-        skipped(c, name, "no rays dumped to pair them with");
-        goto out;
-    }
     rto_npy_desc want = rto_npy_desc_array(RTO_DTYPE_U32, 2, n, c->words, 0);
     if ((*st = exp_load(c, name, &want, &e)))
         goto out;
@@ -1213,10 +1236,7 @@ static void step_payloads(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n,
     }
     if (!wrong || !claim(c, RTO_FRAME_PAYLOAD, d))
         goto out;
-    rto_report_at(c->r, "ray", (int64_t)first);
-    rto_report_at(c->r, "gpu_ray", q->gpu_of[first]);
-    at_pixel(c, ro[first].pixel);
-    rto_report_at(c->r, "slot", ro[first].payload_slot);
+    at_ray(c, ro, q->gpu_of, first);
     char key[128];
     key_text(c, &ro[first], key, sizeof key);
     rto_report_summary(c->r, "payload: bounce %" PRIu32 ": the payload of ray %zu (%s) differs in the GPU's dump (%s);"
@@ -1234,7 +1254,7 @@ static void step_payloads(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n,
             memcpy(&fa, &a[k], 4);
             if (payload_float(x[k]) && payload_float(a[k]))
                 add_row(c, i, field, rto_val_f32(fe), rto_val_f32(fa), rto_val_f64((double)fa - (double)fe),
-                        rto_val_f64(payload_tolerance(fe)));
+                        rto_val_f64(accum_tolerance(fe)));
             else
                 add_row(c, i, field, rto_val_hex32(x[k]), rto_val_hex32(a[k]), rto_val_hex32(x[k] ^ a[k]),
                         rto_val_none());
@@ -1334,10 +1354,7 @@ static rto_status stage2_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_
     if (!wrong || !claim(c, RTO_FRAME_HITS, d))
         return RTO_OK;
     const rto_hit_fault f = stage2_hit_diff(&eh[first], &gh[first], &x);
-    rto_report_at(c->r, "ray", (int64_t)first);
-    rto_report_at(c->r, "gpu_ray", q->gpu_of[first]);
-    at_pixel(c, ro[first].pixel);
-    rto_report_at(c->r, "slot", ro[first].payload_slot);
+    at_ray(c, ro, q->gpu_of, first);
     c->r->tolerance_bound = x.tol.type == RTO_VALUE_NONE ? 0 : x.tol.v.f;
     rto_report_summary(c->r, "hits: bounce %" PRIu32 " (stage2 scene: IDs, missFlag, objToWorld exact, t and bary "
                        "within §9): %s: ray %zu: %s differs; %zu of %zu paired rays wrong", d, rto_hit_fault_name(f),
@@ -1348,24 +1365,27 @@ static rto_status stage2_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_
     return RTO_OK;
 }
 
+/* The FrameCounters fields a pass of bounce d fills (at most 4), as fault f. */
+static void pass_counters(fcheck *c, uint32_t d, rto_frame_fault f, const char *pass, const cnt_field *fields,
+                          size_t nf)
+{
+    count_diff x[4];
+    const uint32_t nx = compare_counters(c, d, fields, nf, x, 0);
+    char what[96];
+    snprintf(what, sizeof what, "FrameCounters of the %s pass of bounce %" PRIu32, pass, d);
+    counts_fault(c, f, d, x, nx, what);
+}
+
 static void step_hit_counters(fcheck *c, uint32_t d)
 {
     static const cnt_field fields[] = {CNT_FIELD(traced), CNT_FIELD(hits), CNT_FIELD(misses)};
-    count_diff x[4];
-    const uint32_t nx = compare_counters(c, d, fields, 3, x, 0);
-    char what[96];
-    snprintf(what, sizeof what, "FrameCounters of the TRACE pass of bounce %" PRIu32, d);
-    counts_fault(c, RTO_FRAME_HITS, d, x, nx, what);
+    pass_counters(c, d, RTO_FRAME_HITS, "TRACE", fields, 3);
 }
 
 static void step_shade_counters(fcheck *c, uint32_t d)
 {
     static const cnt_field fields[] = {CNT_FIELD(shaded), CNT_FIELD(accumulates)};
-    count_diff x[4];
-    const uint32_t nx = compare_counters(c, d, fields, 2, x, 0);
-    char what[96];
-    snprintf(what, sizeof what, "FrameCounters of the SHADE pass of bounce %" PRIu32, d);
-    counts_fault(c, RTO_FRAME_COUNTS, d, x, nx, what);
+    pass_counters(c, d, RTO_FRAME_COUNTS, "SHADE", fields, 2);
 }
 
 static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, const rto_wf_ray *rg, size_t m,
@@ -1373,24 +1393,11 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
 {
     char name[RTO_BUNDLE_FILE_NAME_MAX];
     file_name(RTO_FILE_BOUNCE_HITS, d, name);
-    const int expected = exp_has(c, name);
     rto_npy e = {0}, g = {0};
     rto_hit_record *paired = NULL;
-    int present = 0;
-    rto_status s = gpu_load(c, name, &g, &present);
-    if (s || !present) {
-        if (!s && expected)
-            not_dumped(c, name);
-        return s;
-    }
-    if (!expected) {
-        skipped(c, name, "not kept by the bundle");
+    rto_status s = RTO_OK;
+    if (!gpu_bounce_file(c, name, rg, &g, &s))
         goto out;
-    }
-    if (!rg) {
-        skipped(c, name, "no rays dumped to pair them with");
-        goto out;
-    }
     rto_npy_desc want = rto_layout_desc(RTO_LAYOUT_HIT_RECORD, n);
     if ((s = exp_load(c, name, &want, &e)))
         goto out;
@@ -1453,12 +1460,10 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
     if (hs == RTO_ERR_MISMATCH && claim(c, RTO_FRAME_HITS, d)) {
         int64_t ray = 0;
         rto_report_where(&sub, "ray", &ray);
-        rto_report_at(c->r, "ray", ray);
-        if (ray >= 0 && (size_t)ray < n) {
-            rto_report_at(c->r, "gpu_ray", q->gpu_of[ray]);
-            at_pixel(c, ro[ray].pixel);
-            rto_report_at(c->r, "slot", ro[ray].payload_slot);
-        }
+        if (ray >= 0 && (size_t)ray < n)
+            at_ray(c, ro, q->gpu_of, (size_t)ray);
+        else
+            rto_report_at(c->r, "ray", ray);
         for (uint32_t r = 0; r < sub.nrows && r < RTO_REPORT_MAX_ROWS; r++)
             add_row(c, sub.rows[r].index, sub.rows[r].field, sub.rows[r].expected, sub.rows[r].actual,
                     sub.rows[r].diff, sub.rows[r].tolerance);
@@ -1578,8 +1583,6 @@ static rto_status mark_drop_pixels(fcheck *c)
     return RTO_OK;
 }
 
-static double accum_tolerance(float e) { return ACCUM_REL * fabs((double)e) + ACCUM_ABS; }
-
 /* §9's accum rule for one channel: within 1e-4 |e| + 1e-6; infinities must match, NaN matches only NaN. */
 static int accum_close(float e, float a)
 {
@@ -1604,14 +1607,42 @@ static void stats_note(pixel_stats *ps, uint32_t x, uint32_t y, const float *e, 
     }
 }
 
-/* Compares an accum of ch channels (3 or 4) with the bundle's RGBA accum, pixel by pixel, and claims the fault. */
-static void compare_accum(fcheck *c, const char *file, const float *e, const float *a, uint32_t ch)
+/* Starts the statistics of one accum or image comparison of file (ch channels). */
+static void stats_begin(pixel_stats *ps, const char *file, uint32_t ch)
 {
-    pixel_stats *ps = &c->accum;
     memset(ps, 0, offsetof(pixel_stats, expected));
     ps->run = 1;
     snprintf(ps->file, sizeof ps->file, "%s", file);
     ps->channels = ch;
+}
+
+/* Keeps the largest difference seen: channel k of pixel p. */
+static void stats_max(pixel_stats *ps, double diff, uint64_t p, uint32_t w, uint32_t k)
+{
+    if (diff > ps->max_diff) {
+        ps->max_diff = diff;
+        ps->max_x = (uint32_t)(p % w);
+        ps->max_y = (uint32_t)(p / w);
+        ps->max_c = k;
+    }
+}
+
+/* A dumped accum or image of another size than the frame: fault f, with both sizes as rows. */
+static void size_fault(fcheck *c, rto_frame_fault f, const char *file, uint32_t gw, uint32_t gh)
+{
+    if (!claim(c, f, -1))
+        return;
+    uint_row(c, 0, "width", c->w, gw);
+    uint_row(c, 0, "height", c->h, gh);
+    rto_report_summary(c->r, "%s: %s is %" PRIu32 " x %" PRIu32 "; the frame is %" PRIu32 " x %" PRIu32,
+                       rto_frame_fault_name(f), file, gw, gh, c->w, c->h);
+}
+
+/* Compares an accum of ch channels (3 or 4) with the bundle's RGBA accum, pixel by pixel, and claims the fault. */
+static void compare_accum(fcheck *c, const char *file, const float *e, const float *a, uint32_t ch)
+{
+    pixel_stats *ps = &c->accum;
+    stats_begin(ps, file, ch);
     for (uint64_t p = 0; p < c->pixels; p++) {
         if (c->mask[p]) {
             ps->excluded++;
@@ -1621,13 +1652,7 @@ static void compare_accum(fcheck *c, const char *file, const float *e, const flo
         const float *ep = e + 4 * p, *ap = a + (size_t)ch * p;
         int over = 0;
         for (uint32_t k = 0; k < ch; k++) {
-            const double diff = fabs((double)ap[k] - (double)ep[k]);
-            if (diff > ps->max_diff) {
-                ps->max_diff = diff;
-                ps->max_x = (uint32_t)(p % c->w);
-                ps->max_y = (uint32_t)(p / c->w);
-                ps->max_c = k;
-            }
+            stats_max(ps, fabs((double)ap[k] - (double)ep[k]), p, c->w, k);
             over |= !accum_close(ep[k], ap[k]);
         }
         if (over) {
@@ -1741,12 +1766,7 @@ static rto_status step_accum(fcheck *c)
         if (gw != c->w || gh != c->h) {
             c->accum.run = 1;
             c->accum.failed = 1;
-            if (claim(c, RTO_FRAME_ACCUM, -1)) {
-                uint_row(c, 0, "width", c->w, gw);
-                uint_row(c, 0, "height", c->h, gh);
-                rto_report_summary(c->r, "accum: %s is %" PRIu32 " x %" PRIu32 "; the frame is %" PRIu32 " x %" PRIu32,
-                                   file, gw, gh, c->w, c->h);
-            }
+            size_fault(c, RTO_FRAME_ACCUM, file, gw, gh);
             continue;
         }
         if (c->accum.failed)
@@ -1798,18 +1818,10 @@ static rto_status step_image(fcheck *c)
     }
     c->files_compared++;
     pixel_stats *ps = &c->image;
-    memset(ps, 0, offsetof(pixel_stats, expected));
-    ps->run = 1;
-    snprintf(ps->file, sizeof ps->file, "%s", name);
-    ps->channels = g.channels;
+    stats_begin(ps, name, g.channels);
     if (g.width != c->w || g.height != c->h) {
         ps->failed = 1;
-        if (claim(c, RTO_FRAME_IMAGE, -1)) {
-            uint_row(c, 0, "width", c->w, g.width);
-            uint_row(c, 0, "height", c->h, g.height);
-            rto_report_summary(c->r, "image: %s is %" PRIu32 " x %" PRIu32 "; the frame is %" PRIu32 " x %" PRIu32,
-                               name, g.width, g.height, c->w, c->h);
-        }
+        size_fault(c, RTO_FRAME_IMAGE, name, g.width, g.height);
         goto out;
     }
     const uint8_t *ep = e.pixels, *ap = g.pixels;
@@ -1825,12 +1837,7 @@ static rto_status step_image(fcheck *c)
         int over = 0;
         for (uint32_t k = 0; k < ch; k++) {
             const int diff = abs((int)y[k] - (int)x[k]);
-            if ((double)diff > ps->max_diff) {
-                ps->max_diff = diff;
-                ps->max_x = (uint32_t)(p % c->w);
-                ps->max_y = (uint32_t)(p / c->w);
-                ps->max_c = k;
-            }
+            stats_max(ps, diff, p, c->w, k);
             over |= diff > IMAGE_STEP;
         }
         if (!over)
