@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <inttypes.h>
+#include <jansson.h>
 #include <math.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -219,6 +220,18 @@ int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, 
 int cli_report_at(const char *cmd, const rto_report *r, bool json, const char *report_path)
 {
     return report_out(cmd, r, json, report_path, cli_write_report_at);
+}
+
+json_t *cli_json_text(const char *text)
+{
+    size_t need = rto_utf8_repair(text, NULL, 0);
+    char *buf = malloc(need + 1);
+    if (!buf)
+        return NULL;
+    rto_utf8_repair(text, buf, need + 1);
+    json_t *s = json_string(buf);
+    free(buf);
+    return s;
 }
 
 bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want)

@@ -40,6 +40,9 @@ int cli_report(const char *cmd, const rto_report *r, bool json, bool artifacts, 
 /** cli_report with the failure report's JSON written to report_path (NULL: nowhere), for validators whose GPU dump
  * is a directory (check-frame writes DIR/check-frame.json). */
 int cli_report_at(const char *cmd, const rto_report *r, bool json, const char *report_path);
+/** A JSON string of text that may not be UTF-8 (a path): repaired first (rto_utf8_repair), as jansson requires.
+ * NULL when out of memory. */
+struct json_t *cli_json_text(const char *text);
 /** Whether a loaded array has exactly the dtype (struct fields included) and shape of want. */
 bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want);
 /** "dtype <u4, shape (1,)": what an array holds, for messages; a structured dtype is named by layout ("Aabb

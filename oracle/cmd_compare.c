@@ -45,19 +45,6 @@ static const char *verdict_word(rto_image_verdict v)
 
 static double percent_of(uint64_t count, uint64_t pixels) { return pixels ? 100.0 * (double)count / (double)pixels : 0; }
 
-/* A JSON string of text that may not be UTF-8 (a path): repaired first, as jansson requires. */
-static json_t *jstr(const char *text)
-{
-    size_t need = rto_utf8_repair(text, NULL, 0);
-    char *buf = malloc(need + 1);
-    if (!buf)
-        return NULL;
-    rto_utf8_repair(text, buf, need + 1);
-    json_t *s = json_string(buf);
-    free(buf);
-    return s;
-}
-
 /* JSON has no infinities or NaN: those are the strings "inf", "-inf", "nan", as in manifests (DESIGN.md §8). */
 static json_t *jreal(double v)
 {
@@ -82,8 +69,8 @@ static int print_json(const compare_run *c)
     json_t *root = json_object(), *at = json_object(), *th = json_object();
     int bad = !root || !at || !th;
     bad |= json_object_set_new(root, "command", json_string("compare"));
-    bad |= json_object_set_new(root, "expected", jstr(c->expected_path));
-    bad |= json_object_set_new(root, "actual", jstr(c->actual_path));
+    bad |= json_object_set_new(root, "expected", cli_json_text(c->expected_path));
+    bad |= json_object_set_new(root, "actual", cli_json_text(c->actual_path));
     bad |= json_object_set_new(root, "width", json_integer(c->expected->width));
     bad |= json_object_set_new(root, "height", json_integer(c->expected->height));
     bad |= json_object_set_new(root, "channels", json_integer(c->expected->channels));
@@ -108,7 +95,7 @@ static int print_json(const compare_run *c)
     bad |= json_object_set_new(th, "warn_percent", jreal(d->warn_percent));
     bad |= json_object_set_new(th, "hard_warn", d->hard_warn_set ? jreal(d->hard_warn) : json_null());
     bad |= json_object_set_new(root, "thresholds", th);
-    bad |= json_object_set_new(root, "diff", d->diff_path ? jstr(d->diff_path) : json_null());
+    bad |= json_object_set_new(root, "diff", d->diff_path ? cli_json_text(d->diff_path) : json_null());
     bad |= json_object_set_new(root, "diff_scale", jreal(d->diff_scale));
     bad |= json_object_set_new(root, "verdict",
                                json_string(r->verdict == RTO_IMAGE_PASS   ? "pass"

@@ -277,25 +277,12 @@ static void print_text(const run *r, const char *scene_name, const char *mode)
     }
 }
 
-/* A JSON string of text that may not be UTF-8 (a path): repaired first, as jansson requires. */
-static json_t *jstr(const char *text)
-{
-    size_t need = rto_utf8_repair(text, NULL, 0);
-    char *buf = malloc(need + 1);
-    if (!buf)
-        return NULL;
-    rto_utf8_repair(text, buf, need + 1);
-    json_t *s = json_string(buf);
-    free(buf);
-    return s;
-}
-
 static json_t *jreal(double v) { return isfinite(v) ? json_real(v) : json_null(); }
 
 static json_t *jrow(const row *w, const char *name)
 {
     json_t *o = json_object();
-    json_object_set_new(o, "rays", jstr(name));
+    json_object_set_new(o, "rays", cli_json_text(name));
     json_object_set_new(o, "count", json_integer((json_int_t)w->rays));
     json_object_set_new(o, "hits", json_integer((json_int_t)w->oracle_hits));
     for (int c = 0; c < XC_CLASS_COUNT; c++)
@@ -322,7 +309,7 @@ static int print_json(const run *r, const char *scene_name, const char *mode)
 {
     json_t *root = json_object();
     json_object_set_new(root, "command", json_string("crosscheck"));
-    json_object_set_new(root, "scene", jstr(scene_name));
+    json_object_set_new(root, "scene", cli_json_text(scene_name));
     json_t *e = json_object();
     char ver[32];
     snprintf(ver, sizeof ver, "%d.%d.%d", RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH);
@@ -364,7 +351,7 @@ static int print_json(const run *r, const char *scene_name, const char *mode)
         json_object_set_new(o, "cull_mask", json_integer(d->ray.cull_mask));
         json_object_set_new(o, "oracle", jhit(&d->oracle));
         json_object_set_new(o, "embree", jhit(&d->embree));
-        json_object_set_new(o, "why", jstr(d->res.why));
+        json_object_set_new(o, "why", cli_json_text(d->res.why));
         json_array_append_new(un, o);
     }
     json_object_set_new(root, "unexplained_total", json_integer((json_int_t)r->unexplained));
