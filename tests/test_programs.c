@@ -47,20 +47,6 @@ static const rto_program *builtin(const char *name)
     return p;
 }
 
-static double dot3d(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-static void cross3d(const double a[3], const double b[3], double o[3])
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
-static void unit3d(double v[3])
-{
-    const double l = sqrt(dot3d(v, v));
-    for (int k = 0; k < 3; k++)
-        v[k] /= l;
-}
-
 /* A pinhole camera in binary64 from its definition (seed 002 §2.2, gl-matrix lookAt): z = normalize(eye - target),
  * x = normalize(up x z), y = z x x; the image plane at distance 1 spans tan(fovY / 2) vertically and aspect times
  * that horizontally. */
@@ -79,10 +65,10 @@ static cam64 cam64_make(const rto_camera *c, uint32_t w, uint32_t h)
     memcpy(k.eye, eye, sizeof eye);
     for (int a = 0; a < 3; a++)
         k.z[a] = eye[a] - tgt[a];
-    unit3d(k.z);
-    cross3d(up, k.z, k.x);
-    unit3d(k.x);
-    cross3d(k.z, k.x, k.y);
+    tu_unit3(k.z);
+    tu_cross3(up, k.z, k.x);
+    tu_unit3(k.x);
+    tu_cross3(k.z, k.x, k.y);
     k.tan_half = tan((double)c->fov_y / 2.0);
     k.aspect = c->aspect > 0.0f ? (double)c->aspect : (double)w / (double)h;
     k.width = w;
@@ -97,7 +83,7 @@ static void cam64_dir(const cam64 *k, uint32_t px, uint32_t py, double d[3])
     const double sx = nx * k->tan_half * k->aspect, sy = ny * k->tan_half;
     for (int a = 0; a < 3; a++)
         d[a] = sx * k->x[a] + sy * k->y[a] - k->z[a];
-    unit3d(d);
+    tu_unit3(d);
 }
 
 /* The 144-byte block from gl-matrix's closed forms in binary64, rounded once: inverseView has the camera's axes x, y,
@@ -240,8 +226,8 @@ static void triangle_case(uint32_t w, uint32_t h, uint32_t threads)
         e1[a] = v[1][a] - v[0][a];
         e2[a] = v[2][a] - v[0][a];
     }
-    cross3d(e1, e2, n);
-    const double nn = dot3d(n, n);
+    tu_cross3(e1, e2, n);
+    const double nn = tu_dot3(n, n);
     const cam64 k = cam64_make(&cam, w, h);
     size_t inside = 0, outside = 0, edge = 0, off1 = 0;
     double max_accum_err = 0.0;
@@ -255,14 +241,14 @@ static void triangle_case(uint32_t w, uint32_t h, uint32_t threads)
             double rel[3], o_v0[3], pp[3], c1[3], c2[3];
             for (int a = 0; a < 3; a++)
                 o_v0[a] = v[0][a] - k.eye[a];
-            const double t = dot3d(n, o_v0) / dot3d(n, dir);
+            const double t = tu_dot3(n, o_v0) / tu_dot3(n, dir);
             for (int a = 0; a < 3; a++) {
                 pp[a] = k.eye[a] + t * dir[a];
                 rel[a] = pp[a] - v[0][a];
             }
-            cross3d(rel, e2, c1);
-            cross3d(e1, rel, c2);
-            const double u = dot3d(c1, n) / nn, vv = dot3d(c2, n) / nn, wv = 1.0 - u - vv;
+            tu_cross3(rel, e2, c1);
+            tu_cross3(e1, rel, c2);
+            const double u = tu_dot3(c1, n) / nn, vv = tu_dot3(c2, n) / nn, wv = 1.0 - u - vv;
             const double m = fmin(wv, fmin(u, vv));
             if (fabs(m) < 1e-4 || !(t > 0)) {
                 edge++;
@@ -346,19 +332,19 @@ static void test_normals_sphere(void **state)
         double v[3][3], e1[3], e2[3], n[3];
         for (int c = 0; c < 3; c++) {
             tu_world_vertex(s, 0, t, c, v[c]);
-            r_out = fmax(r_out, sqrt(dot3d(v[c], v[c])));
+            r_out = fmax(r_out, sqrt(tu_dot3(v[c], v[c])));
         }
         for (int a = 0; a < 3; a++) {
             e1[a] = v[1][a] - v[0][a];
             e2[a] = v[2][a] - v[0][a];
         }
-        cross3d(e1, e2, n);
-        unit3d(n);
-        r_in = fmin(r_in, dot3d(n, v[0]));
+        tu_cross3(e1, e2, n);
+        tu_unit3(n);
+        r_in = fmin(r_in, tu_dot3(n, v[0]));
         for (int c = 0; c < 3; c++) {
             double u[3] = {v[c][0], v[c][1], v[c][2]};
-            unit3d(u);
-            theta_c = fmax(theta_c, acos(fmin(1.0, dot3d(u, n))));
+            tu_unit3(u);
+            theta_c = fmax(theta_c, acos(fmin(1.0, tu_dot3(u, n))));
         }
     }
     const rto_camera cam = s->cameras[0];
@@ -383,7 +369,7 @@ static void test_normals_sphere(void **state)
             double dir[3];
             cam64_dir(&k, x, y, dir);
             /* Closest approach of the ray's line to the centre: hd^2 = |eye|^2 - (eye . dir)^2. */
-            const double b = dot3d(k.eye, dir), hd2 = dot3d(k.eye, k.eye) - b * b;
+            const double b = tu_dot3(k.eye, dir), hd2 = tu_dot3(k.eye, k.eye) - b * b;
             const double hd = sqrt(fmax(hd2, 0.0));
             double e[3], tol8;
             if (hd < r_in && b < 0) {
@@ -397,7 +383,7 @@ static void test_normals_sphere(void **state)
                 double ps[3];
                 for (int a = 0; a < 3; a++)
                     ps[a] = k.eye[a] + t1 * dir[a];
-                unit3d(ps);
+                tu_unit3(ps);
                 for (int c = 0; c < 3; c++)
                     e[c] = ps[c] * 0.5 + 0.5;
                 const double theta = theta_c + (t2 - t1) / r_in;

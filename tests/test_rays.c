@@ -33,25 +33,6 @@ static rto_wf_ray *gen(const rto_accel *a, const rto_rays_desc *d, size_t *n, rt
     return r;
 }
 
-static void sub3(const double a[3], const double b[3], double o[3])
-{
-    for (int k = 0; k < 3; k++)
-        o[k] = a[k] - b[k];
-}
-static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-static void cross3(const double a[3], const double b[3], double o[3])
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
-static void unit3(double v[3])
-{
-    const double l = sqrt(dot3(v, v));
-    for (int k = 0; k < 3; k++)
-        v[k] /= l;
-}
-
 /* The camera's orthonormal frame in binary64, from its definition: forward f = normalize(target - eye), right
  * x = normalize(f x up), true up y = x x f. (lookAt's z axis is -f.) */
 typedef struct frame {
@@ -65,11 +46,11 @@ static frame camera_frame_d(const rto_camera *c)
     const double tgt[3] = {c->target.x, c->target.y, c->target.z};
     const double up[3] = {c->up.x, c->up.y, c->up.z};
     memcpy(fr.eye, eye, sizeof eye);
-    sub3(tgt, eye, fr.f);
-    unit3(fr.f);
-    cross3(fr.f, up, fr.x);
-    unit3(fr.x);
-    cross3(fr.x, fr.f, fr.y);
+    tu_sub3(tgt, eye, fr.f);
+    tu_unit3(fr.f);
+    tu_cross3(fr.f, up, fr.x);
+    tu_unit3(fr.x);
+    tu_cross3(fr.x, fr.f, fr.y);
     return fr;
 }
 
@@ -82,7 +63,7 @@ static void pinhole_dir(const rto_camera *c, const frame *fr, uint32_t w, uint32
     const double sx = (2.0 * (x + 0.5) / w - 1.0) * t * aspect, sy = (1.0 - 2.0 * (y + 0.5) / h) * t;
     for (int k = 0; k < 3; k++)
         d[k] = fr->f[k] + sx * fr->x[k] + sy * fr->y[k];
-    unit3(d);
+    tu_unit3(d);
 }
 
 /* The glTF-like camera of the tests: an arbitrary pose (what the loader makes of a node: target one unit ahead,
@@ -92,10 +73,10 @@ static rto_camera gltf_like_camera(void)
     rto_camera c = rto_camera_default();
     snprintf(c.name, sizeof c.name, "gltf-like");
     double f[3] = {0.3, -0.4, -0.866}, up0[3] = {0, 1, 0}, x[3], y[3];
-    unit3(f);
-    cross3(f, up0, x);
-    unit3(x);
-    cross3(x, f, y);
+    tu_unit3(f);
+    tu_cross3(f, up0, x);
+    tu_unit3(x);
+    tu_cross3(x, f, y);
     c.position = (rto_vec3){12.5f, -3.25f, 40.0f};
     c.target = (rto_vec3){(float)(12.5 + f[0]), (float)(-3.25 + f[1]), (float)(40.0 + f[2])};
     c.up = (rto_vec3){(float)y[0], (float)y[1], (float)y[2]};
@@ -358,7 +339,7 @@ static void test_camera_rays(void **state)
         assert_int_equal(rto_camera_uniforms_make(c, 4001, h, &u, &msg), RTO_OK);
         const rto_wf_ray top = rto_camera_ray(&u, 4001, h, 2000, 0);
         const double d[3] = {top.dir[0], top.dir[1], top.dir[2]};
-        const double vertical = atan2(dot3(d, fr.y), dot3(d, fr.f));
+        const double vertical = atan2(tu_dot3(d, fr.y), tu_dot3(d, fr.f));
         const double expect = atan((1.0 - 1.0 / h) * tan(c->fov_y / 2.0));
         if (fabs(vertical - expect) > 1e-6)
             fail_msg("camera '%s': top ray at %.9g rad above the view, expected %.9g", c->name, vertical, expect);
@@ -366,12 +347,12 @@ static void test_camera_rays(void **state)
         const double aspect = c->aspect > 0 ? c->aspect : 1.0;
         const rto_wf_ray right = rto_camera_ray(&u, 4001, h, 4000, 2000);
         const double e[3] = {right.dir[0], right.dir[1], right.dir[2]};
-        const double horizontal = atan2(dot3(e, fr.x), dot3(e, fr.f));
+        const double horizontal = atan2(tu_dot3(e, fr.x), tu_dot3(e, fr.f));
         assert_true(fabs(horizontal - atan((1.0 - 1.0 / 4001) * tan(c->fov_y / 2.0) * aspect)) < 1e-6);
         /* Row 0 is the top: its rays point above the view direction, the last row's below. */
         const rto_wf_ray bottom = rto_camera_ray(&u, 4001, h, 2000, h - 1);
         const double b[3] = {bottom.dir[0], bottom.dir[1], bottom.dir[2]};
-        assert_true(dot3(d, fr.y) > 0 && dot3(b, fr.y) < 0);
+        assert_true(tu_dot3(d, fr.y) > 0 && tu_dot3(b, fr.y) < 0);
     }
 }
 
@@ -395,9 +376,9 @@ static void check_framing(const rto_aabb *b, float aspect)
         assert_true(fabs(tgt[k] - centre[k]) <= 0x1p-24 * fabs(centre[k]));
     /* The eye sits along (0, 2, 5) from the centre. */
     double dir[3];
-    sub3(fr.eye, tgt, dir);
-    const double dist = sqrt(dot3(dir, dir));
-    unit3(dir);
+    tu_sub3(fr.eye, tgt, dir);
+    const double dist = sqrt(tu_dot3(dir, dir));
+    tu_unit3(dir);
     const double stage2[3] = {0, 2 / sqrt(29.0), 5 / sqrt(29.0)};
     /* Up to the binary32 rounding of eye and target, a few ulp of their magnitude over the distance. */
     const double big = fmax(fmax(fabs(fr.eye[0]), fabs(fr.eye[1])), fmax(fabs(fr.eye[2]), 1e-30));
@@ -408,11 +389,11 @@ static void check_framing(const rto_aabb *b, float aspect)
         const double p[3] = {(corner & 1) ? b->max.x : b->min.x, (corner & 2) ? b->max.y : b->min.y,
                              (corner & 4) ? b->max.z : b->min.z};
         double q[3];
-        sub3(p, fr.eye, q);
-        const double depth = dot3(q, fr.f);
+        tu_sub3(p, fr.eye, q);
+        const double depth = tu_dot3(q, fr.f);
         assert_true(depth > c.znear && depth < c.zfar);
-        assert_true(fabs(dot3(q, fr.y)) <= depth * t * (1 + 1e-6));
-        assert_true(fabs(dot3(q, fr.x)) <= depth * t * a * (1 + 1e-6));
+        assert_true(fabs(tu_dot3(q, fr.y)) <= depth * t * (1 + 1e-6));
+        assert_true(fabs(tu_dot3(q, fr.x)) <= depth * t * a * (1 + 1e-6));
     }
     const double dx = (double)b->max.x - b->min.x, dy = (double)b->max.y - b->min.y, dz = (double)b->max.z - b->min.z;
     const double r = 0.5 * sqrt(dx * dx + dy * dy + dz * dz);
@@ -548,19 +529,19 @@ static void test_random_rays(void **state)
 static double segment_distance(const double p0[3], const double u[3], const double q0[3], const double v[3])
 {
     double r[3];
-    sub3(p0, q0, r);
-    const double a = dot3(u, u), e = dot3(v, v), f = dot3(v, r);
+    tu_sub3(p0, q0, r);
+    const double a = tu_dot3(u, u), e = tu_dot3(v, v), f = tu_dot3(v, r);
     double s, t;
     if (e <= 0) {
         t = 0;
-        s = a > 0 ? fmin(1, fmax(0, -dot3(u, r) / a)) : 0;
+        s = a > 0 ? fmin(1, fmax(0, -tu_dot3(u, r) / a)) : 0;
     } else {
-        const double c = dot3(u, r);
+        const double c = tu_dot3(u, r);
         if (a <= 0) {
             s = 0;
             t = fmin(1, fmax(0, f / e));
         } else {
-            const double b = dot3(u, v), den = a * e - b * b;
+            const double b = tu_dot3(u, v), den = a * e - b * b;
             s = den > 0 ? fmin(1, fmax(0, (b * f - c * e) / den)) : 0;
             t = (b * s + f) / e;
             if (t < 0) {
@@ -575,7 +556,7 @@ static double segment_distance(const double p0[3], const double u[3], const doub
     double d[3];
     for (int k = 0; k < 3; k++)
         d[k] = (p0[k] + u[k] * s) - (q0[k] + v[k] * t);
-    return sqrt(dot3(d, d));
+    return sqrt(tu_dot3(d, d));
 }
 
 static double scene_diagonal(const rto_scene *s)
@@ -629,7 +610,7 @@ static void test_grazing_rays(void **state)
                         tu_world_vertex(s, inst, t, j, v[j]);
                     for (int j = 0; j < 3; j++) {
                         double e[3];
-                        sub3(v[(j + 1) % 3], v[j], e);
+                        tu_sub3(v[(j + 1) % 3], v[j], e);
                         best_edge = fmin(best_edge, segment_distance(o, u, v[j], e));
                         const double zero[3] = {0, 0, 0};
                         best_vertex = fmin(best_vertex, segment_distance(o, u, v[j], zero));
@@ -816,7 +797,7 @@ static void light_d(const float given[3], double l[3])
         l[0] = (double)0.3f;
         l[2] = (double)0.2f;
     }
-    unit3(l);
+    tu_unit3(l);
 }
 
 /* Shadow rays against the brute-force tracer on the same primary rays: one ray per pixel the tracer hits, in pixel
@@ -949,11 +930,11 @@ static void test_shadow_offset(void **state)
         for (int j = 0; j < 3; j++)
             for (int c = 0; c < 3; c++)
                 v[j][c] = m->positions[3 * (size_t)m->indices[3 * (size_t)h->prim_id + (size_t)j] + (size_t)c];
-        sub3(v[1], v[0], e1);
-        sub3(v[2], v[0], e2);
-        cross3(e1, e2, n);
-        unit3(n);
-        const double nl = dot3(n, l);
+        tu_sub3(v[1], v[0], e1);
+        tu_sub3(v[2], v[0], e2);
+        tu_cross3(e1, e2, n);
+        tu_unit3(n);
+        const double nl = tu_dot3(n, l);
         if (nl > 0.05) {
             lit++;
             if (!hs[k].miss_flag)
@@ -1105,7 +1086,7 @@ static void test_sphere(void **state)
         for (uint32_t v = 0; v < m->vertex_count; v++) {
             const double p[3] = {m->positions[3 * v], m->positions[3 * v + 1], m->positions[3 * v + 2]};
             const double q[3] = {mb->positions[3 * v], mb->positions[3 * v + 1], mb->positions[3 * v + 2]};
-            const double lp = sqrt(dot3(p, p)), lq = sqrt(dot3(q, q));
+            const double lp = sqrt(tu_dot3(p, p)), lq = sqrt(tu_dot3(q, q));
             assert_true(fabs(lp - 1.0) < 2e-7); /* on the unit sphere, binary64 rounded once */
             /* The bumpy vertex lies on the same radius, 0.6 .. 1.4 of the way out. */
             fmin_ = fmin(fmin_, lq);
@@ -1125,14 +1106,14 @@ static void test_sphere(void **state)
                 for (int j = 0; j < 3; j++)
                     for (int c = 0; c < 3; c++)
                         v[j][c] = ms[k]->positions[3 * (size_t)ms[k]->indices[3 * t + (uint32_t)j] + (size_t)c];
-                cross3(v[1], v[2], nrm);
-                if (!(dot3(v[0], nrm) > 0))
+                tu_cross3(v[1], v[2], nrm);
+                if (!(tu_dot3(v[0], nrm) > 0))
                     fail_msg("%s triangle %u: det[a, b, c] <= 0", k ? bumpy : spec, t);
-                sub3(v[1], v[0], e1);
-                sub3(v[2], v[0], e2);
-                cross3(e1, e2, nrm);
+                tu_sub3(v[1], v[0], e1);
+                tu_sub3(v[2], v[0], e2);
+                tu_cross3(e1, e2, nrm);
                 if (k == 0)
-                    assert_true(dot3(nrm, v[0]) > 0);
+                    assert_true(tu_dot3(nrm, v[0]) > 0);
             }
         rto_scene_destroy(s);
         rto_scene_destroy(b);
@@ -1203,13 +1184,13 @@ static void test_random_scene(void **state)
                         v[j][c] = me->positions[3 * (size_t)ix[j] + (size_t)c];
                 for (int j = 0; j < 3; j++) {
                     double e[3];
-                    sub3(v[(j + 1) % 3], v[j], e);
-                    longest = fmax(longest, sqrt(dot3(e, e)));
+                    tu_sub3(v[(j + 1) % 3], v[j], e);
+                    longest = fmax(longest, sqrt(tu_dot3(e, e)));
                 }
-                sub3(v[1], v[0], e1);
-                sub3(v[2], v[0], e2);
-                cross3(e1, e2, nrm);
-                slivers += sqrt(dot3(nrm, nrm)) / longest < 1e-3 * longest;
+                tu_sub3(v[1], v[0], e1);
+                tu_sub3(v[2], v[0], e2);
+                tu_cross3(e1, e2, nrm);
+                slivers += sqrt(tu_dot3(nrm, nrm)) / longest < 1e-3 * longest;
                 /* (quadratic: over the first 40 seeds only) */
                 for (uint32_t u = 0; seed < 40 && u < t; u++)
                     for (int j = 0; j < 3; j++)
@@ -1243,8 +1224,8 @@ static void test_random_scene(void **state)
             const double p[3] = {(corner & 1) ? box.max.x : box.min.x, (corner & 2) ? box.max.y : box.min.y,
                                  (corner & 4) ? box.max.z : box.min.z};
             double q[3];
-            sub3(p, fr.eye, q);
-            assert_true(dot3(q, fr.f) > s->cameras[0].znear);
+            tu_sub3(p, fr.eye, q);
+            assert_true(tu_dot3(q, fr.f) > s->cameras[0].znear);
         }
         rto_scene_destroy(s);
     }

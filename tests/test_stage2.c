@@ -31,8 +31,6 @@ typedef struct ref {
     double n[3];   /* the seed's normal at the binary64 hit point */
 } ref;
 
-static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-
 /* |a - b| <= rel max(1, |a|, |b|) for finite a and b (infinite slab bounds are never near anything). */
 static int near_rel(double a, double b, double rel)
 {
@@ -45,7 +43,7 @@ static int sphere64(const double o[3], const double d[3], const double c[3], dou
                     double *t_amb)
 {
     double oc[3] = {o[0] - c[0], o[1] - c[1], o[2] - c[2]};
-    const double a = dot3(d, d), b = 2.0 * dot3(oc, d), cc = dot3(oc, oc) - r * r;
+    const double a = tu_dot3(d, d), b = 2.0 * tu_dot3(oc, d), cc = tu_dot3(oc, oc) - r * r;
     const double disc = b * b - 4.0 * a * cc;
     /* Near a tangent t moves by err(disc) / (4 a sqrt(disc)): a binary32 discriminant (error a few ulp of b^2 +
      * 4|ac|) keeps t within 1e-5 only when disc is above ~1.5e-4 of that scale; twice that margin is taken. */
@@ -134,13 +132,13 @@ static ref reference(const rto_wf_ray *ray)
         for (int k = 0; k < 3; k++) {
             const double band = scene[r.prim].h[k] - 0.001;
             /* The rounded position is off by a few 1e-6 of the distance travelled and of |origin|. */
-            if (fabs(fabs(p[k]) - band) < 1e-5 * fmax(1.0, fmax(r.t * sqrt(dot3(d, d)), fmax(fabs(o[0]),
+            if (fabs(fabs(p[k]) - band) < 1e-5 * fmax(1.0, fmax(r.t * sqrt(tu_dot3(d, d)), fmax(fabs(o[0]),
                                                                      fmax(fabs(o[1]), fabs(o[2]))))))
                 r.box_band = 1;
             n[k] = (fabs(p[k]) > band ? 1.0 : 0.0) * sign64(p[k]);
         }
     }
-    const double len = sqrt(dot3(n, n));
+    const double len = sqrt(tu_dot3(n, n));
     for (int k = 0; k < 3; k++)
         r.n[k] = n[k] / len;
     return r;
@@ -486,7 +484,7 @@ static void test_random_rays(void **state)
         const double scale = (i % 3 == 0) ? 0.25 + 4 * tu_rng_unit(&seed) : 1.0;
         for (int a = 0; a < 3; a++)
             d[a] = p[a] - o[a];
-        const double len = sqrt(dot3(d, d));
+        const double len = sqrt(tu_dot3(d, d));
         for (int a = 0; a < 3; a++)
             d[a] = d[a] / len * scale;
         const float tmax = (i % 5 == 0) ? (float)(len / scale * (0.5 + tu_rng_unit(&seed))) : RTO_RAY_T_MAX;
@@ -505,7 +503,7 @@ static void test_random_rays(void **state)
             d[a] = 2.0 * tu_rng_unit(&seed) - 1.0;
         for (int z = 0; z < zeros; z++)
             d[(first + z) % 3] = ((pick >> (16 + z)) & 1) ? -0.0 : 0.0;
-        const double len = sqrt(dot3(d, d));
+        const double len = sqrt(tu_dot3(d, d));
         if (len == 0) {
             d[first] = 1.0;
         } else {

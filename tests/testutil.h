@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include <cmocka.h>
+#include <dirent.h>
 
 #include "rtoracle.h"
 
@@ -87,6 +88,70 @@ static inline void tu_rng_dir(uint64_t *s, double d[3])
     d[0] = r * cos(phi);
     d[1] = r * sin(phi);
     d[2] = z;
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Vectors in binary64, for references computed independently of the library's binary32 code                       */
+
+static inline void tu_sub3(const double a[3], const double b[3], double o[3])
+{
+    for (int k = 0; k < 3; k++)
+        o[k] = a[k] - b[k];
+}
+static inline double tu_dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static inline void tu_cross3(const double a[3], const double b[3], double o[3])
+{
+    o[0] = a[1] * b[2] - a[2] * b[1];
+    o[1] = a[2] * b[0] - a[0] * b[2];
+    o[2] = a[0] * b[1] - a[1] * b[0];
+}
+static inline void tu_unit3(double v[3])
+{
+    const double l = sqrt(tu_dot3(v, v));
+    for (int k = 0; k < 3; k++)
+        v[k] /= l;
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Scratch directories and files                                                                                    */
+
+/* A fresh directory /tmp/rto_<name>_XXXXXX in dir (a cmocka setup's work): 0, or -1 when it cannot be made. */
+static inline int tu_tmpdir_make(char *dir, size_t cap, const char *name)
+{
+    snprintf(dir, cap, "/tmp/rto_%s_XXXXXX", name);
+    return mkdtemp(dir) ? 0 : -1;
+}
+
+/* Removes a scratch directory and everything in it (a cmocka teardown's work): 0, or -1 on failure. */
+static inline int tu_tmpdir_remove(const char *dir)
+{
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+/* How many entries a directory holds, "." and ".." not counted: what an atomic writer left behind. */
+static inline size_t tu_dir_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    size_t n = 0;
+    for (struct dirent *e; d && (e = readdir(d));)
+        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
+    if (d)
+        closedir(d);
+    return n;
+}
+
+/* The CRC-32 of a PNG chunk (PNG spec §5.5, ISO 3309), bit by bit: the tests write their own PNG files. */
+static inline uint32_t tu_crc32_png(const unsigned char *p, size_t n)
+{
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; i++) {
+        c ^= p[i];
+        for (int k = 0; k < 8; k++)
+            c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    }
+    return c ^ 0xFFFFFFFFu;
 }
 
 /* Loads a scene or fails the test with the library's message. A spec naming a relative path is taken under
