@@ -2,7 +2,6 @@
  * replace, temporaries removed on a signal, JSON that is valid whatever the values, every jansson failure reported. */
 #include "testutil.h"
 
-#include <dirent.h>
 #include <errno.h>
 #include <jansson.h>
 #include <math.h>
@@ -14,27 +13,13 @@ static char root[256];
 static int setup(void **state)
 {
     (void)state;
-    snprintf(root, sizeof root, "/tmp/rto_bundle_XXXXXX");
-    return mkdtemp(root) ? 0 : -1;
+    return tu_tmpdir_make(root, sizeof root, "bundle");
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    char cmd[300];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", root);
-    return system(cmd) == 0 ? 0 : -1;
-}
-
-static size_t entries(const char *dir)
-{
-    DIR *d = opendir(dir);
-    size_t n = 0;
-    for (struct dirent *e; d && (e = readdir(d));)
-        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
-    if (d)
-        closedir(d);
-    return n;
+    return tu_tmpdir_remove(root);
 }
 
 static void write_bundle(const char *dir, uint32_t fill)
@@ -60,12 +45,12 @@ static void test_commit_abort_and_replace(void **state)
     uint32_t x = 1;
     rto_npy_desc d = rto_npy_desc_keys(RTO_KEY_U32, 1);
     assert_int_equal(rto_bundle_add_npy(b, "x.npy", "x", NULL, &d, &x, NULL), RTO_OK);
-    assert_int_equal(entries(root), 1); /* only the temporary directory */
+    assert_int_equal(tu_dir_entries(root), 1); /* only the temporary directory */
     rto_bundle_abort(b);
-    assert_int_equal(entries(root), 0);
+    assert_int_equal(tu_dir_entries(root), 0);
 
     write_bundle(dir, 1);
-    assert_int_equal(entries(root), 1);
+    assert_int_equal(tu_dir_entries(root), 1);
     rto_bundle_reader *r = NULL;
     assert_int_equal(rto_bundle_open(dir, &r, NULL), RTO_OK);
     assert_string_equal(rto_bundle_get_str(r, "params", "algo"), "bitonic");
@@ -84,7 +69,7 @@ static void test_commit_abort_and_replace(void **state)
 
     /* replacing a previous bundle swaps it whole and leaves no temporary behind */
     write_bundle(dir, 7);
-    assert_int_equal(entries(root), 1);
+    assert_int_equal(tu_dir_entries(root), 1);
     assert_int_equal(rto_bundle_open(dir, &r, NULL), RTO_OK);
     assert_int_equal(rto_bundle_read_role(r, "things", &a, NULL), RTO_OK);
     assert_int_equal(((uint32_t *)a.data)[0], 7);
@@ -285,7 +270,7 @@ static void test_setter_failure_fails_commit(void **state)
     assert_int_equal(rto_bundle_set_int(b, "params", "n", 1), RTO_OK);
     assert_int_equal(rto_bundle_commit(b, &msg), RTO_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(msg.text, "manifest.json"));
-    assert_int_equal(entries(root), 0);
+    assert_int_equal(tu_dir_entries(root), 0);
 }
 
 /* jansson's allocation number g_json_budget (counting from 0) fails, the others succeed: each must give an error,
@@ -356,7 +341,7 @@ static void test_every_jansson_failure_is_an_error(void **state)
                 rto_npy_free(&a);
                 rto_bundle_close(r);
             }
-            assert_int_equal(entries(root), 2); /* ref and prev: no temporaries, no half bundle */
+            assert_int_equal(tu_dir_entries(root), 2); /* ref and prev: no temporaries, no half bundle */
             json_set_alloc_funcs(budget_malloc, free);
         }
         if (untouched)
@@ -452,21 +437,21 @@ static void test_temporaries_remove(void **state)
     uint32_t x = 1;
     rto_npy_desc d = rto_npy_desc_keys(RTO_KEY_U32, 1);
     assert_int_equal(rto_bundle_add_npy(inner, "x.npy", "x", NULL, &d, &x, NULL), RTO_OK);
-    assert_int_equal(entries(root), 2); /* keep, out.tmp.* */
+    assert_int_equal(tu_dir_entries(root), 2); /* keep, out.tmp.* */
 
     rto_temporaries_remove();
-    assert_int_equal(entries(root), 1);
+    assert_int_equal(tu_dir_entries(root), 1);
     assert_int_equal(access(keep, F_OK), 0);
     rto_msg msg = {{0}};
     assert_int_not_equal(rto_bundle_commit(inner, &msg), RTO_OK);
     rto_bundle_abort(outer);
-    assert_int_equal(entries(root), 1);
+    assert_int_equal(tu_dir_entries(root), 1);
     /* the registry's slots were released: another bundle is cleaned up as well */
     for (int i = 0; i < 40; i++) {
         assert_int_equal(rto_bundle_begin(dir, "test", &outer, NULL), RTO_OK);
         if (i == 39) {
             rto_temporaries_remove();
-            assert_int_equal(entries(root), 1);
+            assert_int_equal(tu_dir_entries(root), 1);
         }
         rto_bundle_abort(outer);
     }
@@ -502,7 +487,7 @@ static void test_file_write(void **state)
     assert_non_null(strstr(msg.text, "directory"));
     snprintf(path, sizeof path, "%s/no/such.json", root);
     assert_int_equal(rto_file_write(path, "x", 1, &msg), RTO_ERR_IO);
-    assert_int_equal(entries(root), 3); /* report.json, link.json, fifo.json: no temporaries */
+    assert_int_equal(tu_dir_entries(root), 3); /* report.json, link.json, fifo.json: no temporaries */
 }
 
 int main(void)

@@ -6,34 +6,12 @@
 #define _GNU_SOURCE
 #include "testutil.h"
 
-#include <dirent.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-static void remove_tree(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return;
-    struct dirent *e;
-    char path[4096];
-    while ((e = readdir(d))) {
-        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
-            continue;
-        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-        struct stat st;
-        if (lstat(path, &st) == 0 && S_ISDIR(st.st_mode))
-            remove_tree(path);
-        else
-            unlink(path);
-    }
-    closedir(d);
-    rmdir(dir);
-}
 
 static void test_names(void **state)
 {
@@ -93,8 +71,8 @@ static float largest_within(float e)
 static void test_accum_boundary(void **state)
 {
     (void)state;
-    char root[] = "/tmp/rto_check_frame_XXXXXX";
-    assert_non_null(mkdtemp(root));
+    char root[64];
+    assert_int_equal(tu_tmpdir_make(root, sizeof root, "check_frame"), 0);
     char bundle[4200], gpu[4200], path[4300];
     snprintf(bundle, sizeof bundle, "%s/e", root);
     snprintf(gpu, sizeof gpu, "%s/g", root);
@@ -173,7 +151,7 @@ static void test_accum_boundary(void **state)
     rto_frame_destroy(frame);
     rto_accel_destroy(accel);
     rto_scene_destroy(scene);
-    remove_tree(root);
+    assert_int_equal(tu_tmpdir_remove(root), 0);
 }
 
 int main(void)

@@ -6,7 +6,6 @@
 #define _GNU_SOURCE /* memmem */
 #include "testutil.h"
 
-#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <jansson.h>
@@ -20,16 +19,13 @@ static char root[256];
 static int setup(void **state)
 {
     (void)state;
-    snprintf(root, sizeof root, "/tmp/rto_image_XXXXXX");
-    return mkdtemp(root) ? 0 : -1;
+    return tu_tmpdir_make(root, sizeof root, "image");
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    char cmd[300];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", root);
-    return system(cmd) == 0 ? 0 : -1;
+    return tu_tmpdir_remove(root);
 }
 
 static void path_in(char *out, size_t cap, const char *name) { snprintf(out, cap, "%s/%s", root, name); }
@@ -94,17 +90,6 @@ static bytes load(const char *path)
 /* A PNG writer of the tests' own (PNG spec §5, §9, §10; zlib RFC 1950 with stored deflate blocks, RFC 1951 §3.2.4):
  * no compression library, so what the reader returns is checked against bytes nothing else produced. */
 
-static uint32_t crc32_png(const unsigned char *p, size_t n)
-{
-    uint32_t c = 0xFFFFFFFFu;
-    for (size_t i = 0; i < n; i++) {
-        c ^= p[i];
-        for (int k = 0; k < 8; k++)
-            c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-    }
-    return c ^ 0xFFFFFFFFu;
-}
-
 static void png_chunk(bytes *b, const char *kind, const unsigned char *data, size_t n)
 {
     put_be32(b, (uint32_t)n);
@@ -112,7 +97,7 @@ static void png_chunk(bytes *b, const char *kind, const unsigned char *data, siz
     put(b, kind, 4);
     if (n)
         put(b, data, n);
-    put_be32(b, crc32_png(b->p + at, n + 4));
+    put_be32(b, tu_crc32_png(b->p + at, n + 4));
 }
 
 /* colour type by channels: 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA; depth 8 or 16 (samples big-endian). */
@@ -468,17 +453,6 @@ static void test_same_bytes(void **state)
     free(p0.p), free(p1.p), free(e0.p), free(e1.p), free(p2.p), free(e2.p);
 }
 
-static size_t entries(void)
-{
-    DIR *d = opendir(root);
-    size_t n = 0;
-    for (struct dirent *e; d && (e = readdir(d));)
-        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
-    if (d)
-        closedir(d);
-    return n;
-}
-
 /* Writing follows rto_file_write: a regular file replaced, a link followed, a directory or FIFO refused and left as
  * it was, no temporary left; a format that does not hold the pixel type refused before anything is written. */
 static void test_write_rules(void **state)
@@ -520,7 +494,7 @@ static void test_write_rules(void **state)
     bad.width = 1u << 20;
     bad.height = 1u << 9;
     assert_int_equal(rto_image_write(path, &bad, &msg), RTO_ERR_UNSUPPORTED); /* 2^29 pixels */
-    assert_int_equal(entries(), 4); /* x.png, l.png, d.png, f.png: nothing else, no temporary */
+    assert_int_equal(tu_dir_entries(root), 4); /* x.png, l.png, d.png, f.png: nothing else, no temporary */
     assert_int_equal(lstat(dir, &st), 0);
     assert_true(S_ISDIR(st.st_mode));
     rto_image_free(&a);
@@ -582,7 +556,7 @@ static void test_read_refusals(void **state)
     uint32_t n = (uint32_t)b.p[idat] << 24 | (uint32_t)b.p[idat + 1] << 16 | (uint32_t)b.p[idat + 2] << 8 |
                  b.p[idat + 3];
     b.p[idat + 8 + 2] ^= 0xFF;
-    uint32_t crc = crc32_png(b.p + idat + 4, (size_t)n + 4);
+    uint32_t crc = tu_crc32_png(b.p + idat + 4, (size_t)n + 4);
     unsigned char be[4] = {(unsigned char)(crc >> 24), (unsigned char)(crc >> 16), (unsigned char)(crc >> 8),
                            (unsigned char)crc};
     memcpy(b.p + idat + 8 + n, be, 4);
@@ -623,7 +597,7 @@ static void test_absurd_sizes(void **state)
     /* IHDR width and height (bytes 16..23) rewritten to 2^15 x 2^14 = 2^29 pixels, CRC recomputed */
     const unsigned char wh[8] = {0, 0, 0x80, 0, 0, 0, 0x40, 0};
     memcpy(b.p + 16, wh, 8);
-    uint32_t crc = crc32_png(b.p + 12, 17);
+    uint32_t crc = tu_crc32_png(b.p + 12, 17);
     unsigned char be[4] = {(unsigned char)(crc >> 24), (unsigned char)(crc >> 16), (unsigned char)(crc >> 8),
                            (unsigned char)crc};
     memcpy(b.p + 29, be, 4);

@@ -1293,17 +1293,6 @@ static void test_gltf1_refused(void **state)
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Textures: PNG written here (stored deflate blocks), decoded pixels known by construction                         */
 
-static uint32_t crc32_png(const unsigned char *p, size_t n)
-{
-    uint32_t c = 0xFFFFFFFFu;
-    for (size_t i = 0; i < n; i++) {
-        c ^= p[i];
-        for (int k = 0; k < 8; k++)
-            c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-    }
-    return c ^ 0xFFFFFFFFu;
-}
-
 static void put_be32(unsigned char *p, uint32_t v)
 {
     p[0] = (unsigned char)(v >> 24), p[1] = (unsigned char)(v >> 16), p[2] = (unsigned char)(v >> 8),
@@ -1332,7 +1321,7 @@ static void chunk(bytes *b, const char *type, const unsigned char *data, size_t 
     size_t start = b->n;
     put(b, type, 4);
     put(b, data, n);
-    put_be32(crc, crc32_png(b->p + start, n + 4));
+    put_be32(crc, tu_crc32_png(b->p + start, n + 4));
     put(b, crc, 4);
 }
 
