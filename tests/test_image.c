@@ -280,6 +280,19 @@ static rto_image make_f32(uint32_t w, uint32_t h, uint32_t c)
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 
+/* Writes a hand-made file to path (freeing its bytes), reads it with rto_image_read and checks its header. */
+static void read_back(const char *path, bytes b, uint32_t w, uint32_t h, uint32_t c, rto_pixel_type t, rto_image *im)
+{
+    save(path, b.p, b.n);
+    free(b.p);
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_image_read(path, im, &msg), RTO_OK);
+    assert_int_equal(im->width, w);
+    assert_int_equal(im->height, h);
+    assert_int_equal(im->channels, c);
+    assert_int_equal(im->type, t);
+}
+
 /* Hand-made PNGs: every channel count, 8 and 16 bits, read back value for value. */
 static void test_reads_hand_made_png(void **state)
 {
@@ -292,16 +305,8 @@ static void test_reads_hand_made_png(void **state)
             uint16_t s[7 * 5 * 4];
             for (uint32_t i = 0; i < w * h * c; i++)
                 s[i] = (uint16_t)(depth == 8 ? (i * 53 + c) % 256 : (i * 40503u + c) % 65536);
-            bytes b = hand_png(w, h, c, depth, s);
-            save(path, b.p, b.n);
-            free(b.p);
             rto_image im;
-            rto_msg msg = {{0}};
-            assert_int_equal(rto_image_read(path, &im, &msg), RTO_OK);
-            assert_int_equal(im.width, w);
-            assert_int_equal(im.height, h);
-            assert_int_equal(im.channels, c);
-            assert_int_equal(im.type, depth == 8 ? RTO_PIXEL_U8 : RTO_PIXEL_F32);
+            read_back(path, hand_png(w, h, c, depth, s), w, h, c, depth == 8 ? RTO_PIXEL_U8 : RTO_PIXEL_F32, &im);
             for (uint32_t i = 0; i < w * h * c; i++) {
                 if (depth == 8)
                     assert_int_equal(((unsigned char *)im.pixels)[i], s[i]);
@@ -326,16 +331,8 @@ static void test_reads_hand_made_exr(void **state)
         for (uint32_t i = 0; i < w * h * c; i++)
             px[i] = (float)i * 0.125f - 1.5f + (float)c;
         px[1] = INFINITY;
-        bytes b = hand_exr(w, h, c, px, c == 3 ? 10 : 0);
-        save(path, b.p, b.n);
-        free(b.p);
         rto_image im;
-        rto_msg msg = {{0}};
-        assert_int_equal(rto_image_read(path, &im, &msg), RTO_OK);
-        assert_int_equal(im.width, w);
-        assert_int_equal(im.height, h);
-        assert_int_equal(im.channels, c);
-        assert_int_equal(im.type, RTO_PIXEL_F32);
+        read_back(path, hand_exr(w, h, c, px, c == 3 ? 10 : 0), w, h, c, RTO_PIXEL_F32, &im);
         assert_memory_equal(im.pixels, px, (size_t)w * h * c * 4);
         rto_image_free(&im);
     }
