@@ -401,6 +401,25 @@ rto_status rto_bundle_set_real(rto_bundle *b, const char *section, const char *k
     return set_value(b, section, key, b ? rto_json_real(value) : NULL);
 }
 
+/* Ends a file's manifest entry e with its sha256 and lists it; bad: building e failed already. */
+static rto_status list_file(rto_bundle *b, const char *name, json_t *e, const char *hex, int bad, rto_msg *why)
+{
+    bad |= json_object_set_new(e, "sha256", json_string(hex));
+    bad |= json_array_append_new(b->files, e);
+    if (bad)
+        return rto_fail(why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list %s in manifest.json (out of memory, or a name "
+                        "that is not UTF-8)", b->name, name);
+    return RTO_OK;
+}
+
+/* The status of adding a file: its message to the caller, and the bundle's first error kept for commit. */
+static rto_status file_added(rto_bundle *b, const char *name, rto_status s, rto_msg *why, rto_msg *msg)
+{
+    if (s && msg)
+        *msg = *why;
+    return keep_error(b, s, why, "file ", "", name);
+}
+
 rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role, const char *layout,
                               const rto_npy_desc *desc, const void *data, rto_msg *msg)
 {
@@ -426,15 +445,9 @@ rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role,
         bad |= json_object_set_new(e, "dtype", json_string(descr));
         bad |= json_object_set_new(e, "shape", shape);
         bad |= json_object_set_new(e, "layout", layout ? json_string(layout) : json_null());
-        bad |= json_object_set_new(e, "sha256", json_string(hex));
-        bad |= json_array_append_new(b->files, e);
-        if (bad)
-            s = rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list %s in manifest.json (out of memory, or a name "
-                         "that is not UTF-8)", b->name, name);
+        s = list_file(b, name, e, hex, bad, &why);
     }
-    if (s && msg)
-        *msg = why;
-    return keep_error(b, s, &why, "file ", "", name);
+    return file_added(b, name, s, &why, msg);
 }
 
 rto_status rto__bundle_add_image(rto_bundle *b, const char *name, const char *role, const rto_image *image,
@@ -461,15 +474,9 @@ rto_status rto__bundle_add_image(rto_bundle *b, const char *name, const char *ro
         bad |= json_object_set_new(info, "channels", json_integer((json_int_t)image->channels));
         bad |= json_object_set_new(info, "type", json_string(image->type == RTO_PIXEL_U8 ? "u8" : "f32"));
         bad |= json_object_set_new(e, "image", info);
-        bad |= json_object_set_new(e, "sha256", json_string(hex));
-        bad |= json_array_append_new(b->files, e);
-        if (bad)
-            s = rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list %s in manifest.json (out of memory, or a name "
-                         "that is not UTF-8)", b->name, name);
+        s = list_file(b, name, e, hex, bad, &why);
     }
-    if (s && msg)
-        *msg = why;
-    return keep_error(b, s, &why, "file ", "", name);
+    return file_added(b, name, s, &why, msg);
 }
 
 rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case_id, rto_msg *msg)
