@@ -251,18 +251,6 @@ static void bench_tlas(const char *spec)
     rto_scene_destroy(s);
 }
 
-static void print_load(const char *when)
-{
-    FILE *f = fopen("/proc/loadavg", "r");
-    char line[128] = "?";
-    if (f) {
-        if (!fgets(line, sizeof line, f))
-            snprintf(line, sizeof line, "?\n");
-        fclose(f);
-    }
-    printf("load average %s: %s", when, line);
-}
-
 int main(int argc, char **argv)
 {
     cpu_set_t set;

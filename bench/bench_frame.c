@@ -420,18 +420,6 @@ static double first_touch_ms_per_gib(void)
     return t * 1e3 * 4.0;
 }
 
-static void print_load(const char *when)
-{
-    FILE *f = fopen("/proc/loadavg", "r");
-    char line[128] = "?\n";
-    if (f) {
-        if (!fgets(line, sizeof line, f))
-            snprintf(line, sizeof line, "?\n");
-        fclose(f);
-    }
-    printf("load average %s: %s", when, line);
-}
-
 static uint32_t arg_u32(const char *text, unsigned long lo, unsigned long hi)
 {
     char *end;

@@ -203,18 +203,6 @@ static void bench_stress(void)
     }
 }
 
-static void print_load(const char *when)
-{
-    FILE *f = fopen("/proc/loadavg", "r");
-    char line[128] = "?\n";
-    if (f) {
-        if (!fgets(line, sizeof line, f))
-            snprintf(line, sizeof line, "?\n");
-        fclose(f);
-    }
-    printf("load average %s: %s", when, line);
-}
-
 static uint32_t arg_u32(const char *text)
 {
     char *end;

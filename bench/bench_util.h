@@ -1,7 +1,8 @@
-/* Timing helpers shared by the benchmarks: a monotonic clock and the median of RUNS samples. */
+/* Timing helpers shared by the benchmarks: a monotonic clock, the median of RUNS samples and the machine's load. */
 #ifndef RTO_BENCH_UTIL_H
 #define RTO_BENCH_UTIL_H
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
 
@@ -25,6 +26,19 @@ static inline double median(double *t)
 {
     qsort(t, RUNS, sizeof *t, cmp_double);
     return t[RUNS / 2];
+}
+
+/* The load average around a run: figures taken on a busy machine are marked as such by it. */
+static inline void print_load(const char *when)
+{
+    FILE *f = fopen("/proc/loadavg", "r");
+    char line[128] = "?\n";
+    if (f) {
+        if (!fgets(line, sizeof line, f))
+            snprintf(line, sizeof line, "?\n");
+        fclose(f);
+    }
+    printf("load average %s: %s", when, line);
 }
 
 #endif
