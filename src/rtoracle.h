@@ -1378,8 +1378,9 @@ typedef struct rto_frame_env {
 typedef struct rto_frame_api {
     uint32_t abi_version; /* RTO_PROGRAM_ABI_VERSION */
     /* raygen only: emits a ray for the invocation's pixel (ray->pixel and payloadSlot are set by the frame; the
-     * other fields are the program's). payload: env payload_size bytes, NULL for zeros. 1 if stored, 0 if dropped
-     * or refused. */
+     * other fields are the program's). payload: the program's payload_size bytes, NULL for zeros. Returns 1 when the
+     * emit is accepted (a drop at capacity is known only when the pass's emits are applied in order, and shows in
+     * the counters), 0 when it is refused (past the per-invocation budget) or called from the wrong callback. */
     int (*emit_primary_ray)(rto_frame_ctx *ctx, const rto_wf_ray *ray, const void *payload);
     /* closest_hit / miss only: emits a ray into the next queue, for the pixel of the ray being shaded. */
     int (*emit_ray)(rto_frame_ctx *ctx, const rto_wf_ray *ray, const void *payload);
@@ -1549,9 +1550,9 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
 void rto_frame_destroy(rto_frame *frame);
 /**
  * Adds a frame's files (rto_bundle_file: camera, emit counts, indirect args, frame counters, the kept per-bounce
- * buffers, accum, image, not-comparable mask) and manifest sections ("frame", "program", "params", "counters",
- * and "timings" when with_timings) to a bundle begun with kind "frame". The caller adds the scene's build and geometry
- * files (mesh scenes) and commits.
+ * buffers, accum, image, not-comparable mask) and manifest sections ("frame", "program", "parameters", "camera",
+ * "counters", and "timings" when with_timings) to a bundle begun with kind "frame". The caller adds the scene's
+ * build and geometry files (mesh scenes) and commits.
  */
 rto_status rto_frame_write_bundle(const rto_frame *frame, int with_timings, rto_bundle *bundle, rto_msg *msg);
 

@@ -66,8 +66,8 @@ void rto__texture_sample(const rto_scene *scene, int32_t texture, const float uv
     const float fx = x - x0, fy = y - y0;
     const uint32_t ix0 = wrap_index(x0, t->width), iy0 = wrap_index(y0, t->height);
     const uint32_t ix1 = (ix0 + 1) % t->width, iy1 = (iy0 + 1) % t->height;
-    const uint8_t *p00 = t->rgba + 4 * ((size_t)iy0 * t->width + ix0), *p10 = t->rgba + 4 * ((size_t)iy0 * t->width + ix1);
-    const uint8_t *p01 = t->rgba + 4 * ((size_t)iy1 * t->width + ix0), *p11 = t->rgba + 4 * ((size_t)iy1 * t->width + ix1);
+    const uint8_t *row0 = t->rgba + 4 * (size_t)iy0 * t->width, *row1 = t->rgba + 4 * (size_t)iy1 * t->width;
+    const uint8_t *p00 = row0 + 4 * ix0, *p10 = row0 + 4 * ix1, *p01 = row1 + 4 * ix0, *p11 = row1 + 4 * ix1;
     for (int c = 0; c < 4; c++) {
         float a, b, cc, d;
         if (c < 3) {
