@@ -76,6 +76,9 @@ void cli_cleanup_on_signals(void);
 
 /** Parses exactly n comma-separated finite numbers (|v| <= 3e38). */
 bool cli_parse_floats(const char *text, float *out, size_t n);
+/** A camera given as 10 numbers EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY (degrees), named "command line"; false if spec is
+ * not that. */
+bool cli_camera_numbers(const char *spec, rto_camera *cam);
 /** The camera --camera names (scene, auto, an index, or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY; NULL = scene) into *cam,
  * the automatic framing resolved for an image of the given aspect. false after one line on a bad value. */
 bool cli_pick_camera(const char *cmd, const char *spec, const rto_scene *sc, float aspect, rto_camera *cam);

@@ -3,8 +3,6 @@
  * directory holding any subset of the bundle's file names (docs/frame.md "The GPU dump layout"). */
 #include "cli.h"
 
-#include <errno.h>
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -28,32 +26,20 @@ static const char check_frame_epilog[] =
     "agrees, 1 a fault was found, 2 bad usage or input (a bundle whose files disagree with its manifest, an\n"
     "unreadable or mistyped dump file, a dump holding nothing to compare).\n";
 
-/* --image-fail-percent: a plain decimal number in [0, 100]. */
-static bool parse_percent(const char *text, double *out)
-{
-    if (!text || !*text || strspn(text, "0123456789.") != strlen(text))
-        return false;
-    char *end = NULL;
-    errno = 0;
-    const double v = strtod(text, &end);
-    if (errno || !end || *end || !(v >= 0.0 && v <= 100.0))
-        return false;
-    *out = v;
-    return true;
-}
-
 int cmd_check_frame(int argc, char **argv)
 {
-    const char *expected = NULL, *gpu = NULL, *artifact_dir = NULL, *percent = NULL;
+    const char *expected = NULL, *gpu = NULL, *artifact_dir = NULL;
     bool json = false, no_artifacts = false;
+    rto_frame_check_desc d;
+    memset(&d, 0, sizeof d);
     const opt_spec opts[] = {
         OPT_PATH("expected", 0, &expected, "OUTDIR", "the frame bundle (rtoracle render)"),
         OPT_PATH("gpu", 0, &gpu, "GPUDIR", "the directory of the GPU's dump"),
         OPT_FLAG("json", &json, "print the report as JSON"),
         OPT_FLAG("no-artifacts", &no_artifacts, "write no report or diff images"),
         OPT_PATH("artifacts", 0, &artifact_dir, "DIR", "write the report and diff images there (default: GPUDIR)"),
-        OPT_STRING("image-fail-percent", &percent, "P",
-                   "% of the compared pixels that may differ by more than +-1 (default 0.1)"),
+        OPT_REAL("image-fail-percent", &d.image_fail_percent, 100, "P",
+                 "% of the compared pixels that may differ by more than +-1", "0.1"),
         OPT_END,
     };
     const opt_command cmd = {"check-frame", check_frame_usage, check_frame_epilog, opts, 0, 0, NULL};
@@ -64,15 +50,9 @@ int cmd_check_frame(int argc, char **argv)
     static const char *const required[] = {"expected", "gpu", NULL};
     if ((parsed = opts_require(&cmd, &args, required)))
         return parsed;
-    rto_frame_check_desc d;
-    memset(&d, 0, sizeof d);
     d.expected_dir = expected;
     d.gpu_dir = gpu;
-    if (percent) {
-        if (!parse_percent(percent, &d.image_fail_percent))
-            return cli_fail("check-frame", "--image-fail-percent %s: expected a number from 0 to 100", percent);
-        d.image_fail_percent_set = 1;
-    }
+    d.image_fail_percent_set = opts_given(&cmd, &args, "image-fail-percent");
     d.artifact_dir = no_artifacts ? NULL : artifact_dir ? artifact_dir : gpu;
 
     rto_report r;

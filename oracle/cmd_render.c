@@ -212,14 +212,8 @@ int cmd_render(int argc, char **argv)
     } else {
         cam = rto_camera_default();
         snprintf(cam.name, sizeof cam.name, "stage2 default");
-        float v[10];
-        if (camera_arg && cli_parse_floats(camera_arg, v, 10)) {
-            cam.position = (rto_vec3){v[0], v[1], v[2]};
-            cam.target = (rto_vec3){v[3], v[4], v[5]};
-            cam.up = (rto_vec3){v[6], v[7], v[8]};
-            cam.fov_y = (float)((double)v[9] * 3.14159265358979323846 / 180.0);
-            snprintf(cam.name, sizeof cam.name, "command line");
-        } else if (camera_arg && strcmp(camera_arg, "scene") && strcmp(camera_arg, "auto")) {
+        if (camera_arg && strcmp(camera_arg, "scene") && strcmp(camera_arg, "auto") &&
+            !cli_camera_numbers(camera_arg, &cam)) {
             rto_plugin_unload(plugin);
             return cli_fail("render", "--camera %s: stage2 takes scene (its default camera) or 10 numbers", camera_arg);
         }
