@@ -1,63 +1,196 @@
-// The GPU sort matrix: for every distribution x size, rtoracle writes the keys, the GPU sorts them, rtoracle
-// check-sort validates the dump; a table of case -> pass/fail with the oracle's diagnosis, exit 1 on any failure.
-//   node gpu/run.js [--rtoracle PATH] [--dists a,b] [--sizes 1,2,3] [--repeat K] [--json FILE] [--keep DIR]
-import {execFileSync, spawnSync} from 'node:child_process';
+// The GPU runner: every case of the chosen families runs its kernels on a WebGPU device, dumps the buffers to .npy and
+// validates them with rtoracle's check-* commands. Prints a table (case -> pass/fail with the oracle's diagnosis),
+// writes it as JSON and a static HTML page, and exits 1 on any failure (2 on bad usage).
+// Usage: gpu/run --help
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import {readNpy, writeNpy} from './lib/npy.js';
 import {openDevice} from './lib/device.js';
-import {bitonicSort} from './lib/sort.js';
+import {setKernelDir} from './lib/gpu.js';
+import {DEFAULT_RTORACLE} from './lib/oracle.js';
+import {writeHtml} from './lib/report.js';
+import {Timer} from './lib/timing.js';
 
-const here = path.dirname(new URL(import.meta.url).pathname);
-const opt = {rtoracle: path.join(here, '..', 'build', 'oracle', 'rtoracle'), repeat: 1,
-  dists: 'uniform,one-bucket,clustered,clustered-far,line,two-clusters,random,entropy-15,few-unique,sentinel-heavy',
-  sizes: '1,2,3,255,256,257,4095,4096,4097', json: null, keep: null};
-const argv = process.argv.slice(2);
-for (let i = 0; i < argv.length; i++) {
-  const name = argv[i].replace(/^--/, '');
-  if (!(name in opt) || i + 1 >= argv.length) {
-    console.error(`run.js: unknown option or missing value: ${argv[i]}`);
+const FAMILIES = ['bitonic', 'bitonic-wg', 'radix', 'build', 'trace', 'frame'];
+
+const HELP = `usage: gpu/run [--families LIST] [--subset ci|full] [--dists LIST] [--sizes LIST] [--scenes LIST]
+               [--repeat K] [--timestamps] [--shrink] [--racy-scatter] [--drop-barrier PASS]
+               [--kernels DIR] [--rtoracle PATH] [--out DIR] [--json FILE] [--html FILE]
+
+Runs the WGSL kernels under gpu/kernels on a WebGPU device (Dawn: Vulkan when a GPU is there, else Mesa llvmpipe
+through OpenGL in compatibility mode; RTO_GPU_BACKEND=vulkan|opengl forces one), dumps every buffer as .npy and
+validates each dump with rtoracle check-sort / check-bvh / check-hits / check-frame.
+
+Families (default: all):
+  bitonic      the canonical network, one dispatch per (k, j) pass; every pass dumped and checked
+  bitonic-wg   one workgroup, barriers between passes, up to 16384 keys; every pass dumped and checked
+  radix        LSD radix, 4-bit digits, per-tile histograms, prefix and stable scatter; every pass checked
+  build        Morton keys, sort and the TLAS sweep tree of instances:DIST:N scenes (check-sort, check-bvh)
+  trace        ordered traversal over TLAS and BLAS, 96-byte hit records (check-hits)
+  frame        the wavefront chain with dispatchWorkgroupsIndirect: triangle and sun-shadow (check-frame)
+
+options:
+  --families LIST     comma-separated families to run
+  --subset S          ci: sorts up to 4097 keys, one build, one traced frame per program (default full)
+  --dists LIST        sort / build distributions (default: every distribution of DESIGN.md §3)
+  --sizes LIST        sort sizes, or instance counts of builds (default 1,2,3,255,256,257,4095,4096,4097,16384,65535)
+  --scenes LIST       trace / frame scenes (default: the family's own list)
+  --repeat K          run every case K times and report pass x/K (a race fails intermittently)
+  --timestamps        per-kernel GPU time through timestamp-query (where the device has it)
+  --shrink            on a failing sort or build case, bisect the size and report the smallest failing case
+  --racy-scatter      radix: an unsynchronised scatter (the fault the oracle must diagnose)
+  --drop-barrier P    bitonic-wg: leave out the barrier after pass P (0-based), a planted race
+  --kernels DIR       .wgsl files there replace the bundled kernels of the same name
+  --rtoracle PATH     the rtoracle binary (default build/oracle/rtoracle)
+  --out DIR           keep every case's inputs and dumps in DIR/<case> (default: a temporary directory, removed)
+  --json FILE         write the results as JSON
+  --html FILE         write the results as a static HTML page (images are copied next to it)
+  -h, --help          print this help and exit
+
+Exit status: 0 every case passes, 1 a case fails, 2 bad usage or setup.`;
+
+function usage(msg) {
+  console.error(`gpu/run: ${msg} (gpu/run --help)`);
+  process.exit(2);
+}
+
+function parseArgs(argv) {
+  const o = {families: FAMILIES, subset: 'full', dists: null, sizes: null, scenes: null, repeat: 1,
+    timestamps: false, shrink: false, racyScatter: false, dropBarrier: null, kernels: null,
+    rtoracle: DEFAULT_RTORACLE, out: null, json: null, html: null, passDumpLimit: 65536};
+  const flags = {'--timestamps': 'timestamps', '--shrink': 'shrink', '--racy-scatter': 'racyScatter'};
+  const list = (v) => v.split(',').filter((s) => s.length);
+  const count = (name, v, lo, hi) => {
+    if (!/^\d+$/.test(v) || Number(v) < lo || Number(v) > hi) usage(`${name}: '${v}' is not an integer ${lo} .. ${hi}`);
+    return Number(v);
+  };
+  for (let i = 0; i < argv.length; i++) {
+    const a = argv[i];
+    if (a === '-h' || a === '--help') {
+      console.log(HELP);
+      process.exit(0);
+    }
+    if (flags[a]) {
+      o[flags[a]] = true;
+      continue;
+    }
+    if (i + 1 >= argv.length) usage(`unknown option or missing value: ${a}`);
+    const v = argv[++i];
+    switch (a) {
+      case '--families':
+        o.families = list(v);
+        for (const f of o.families) if (!FAMILIES.includes(f)) usage(`--families: unknown family '${f}'`);
+        break;
+      case '--subset':
+        if (v !== 'ci' && v !== 'full') usage(`--subset: '${v}' is neither ci nor full`);
+        o.subset = v;
+        break;
+      case '--dists': o.dists = list(v); break;
+      case '--sizes': o.sizes = list(v).map((s) => count('--sizes', s, 1, 1 << 24)); break;
+      case '--scenes': o.scenes = list(v); break;
+      case '--repeat': o.repeat = count('--repeat', v, 1, 1000); break;
+      case '--drop-barrier': o.dropBarrier = count('--drop-barrier', v, 0, 1000); break;
+      case '--kernels': o.kernels = v; break;
+      case '--rtoracle': o.rtoracle = v; break;
+      case '--out': o.out = v; break;
+      case '--json': o.json = v; break;
+      case '--html': o.html = v; break;
+      default: usage(`unknown option: ${a}`);
+    }
+  }
+  if (!fs.existsSync(o.rtoracle)) usage(`no rtoracle binary at ${o.rtoracle} (build it, or pass --rtoracle PATH)`);
+  if (o.kernels && !fs.statSync(o.kernels, {throwIfNoEntry: false})?.isDirectory())
+    usage(`--kernels: ${o.kernels} is not a directory`);
+  return o;
+}
+
+/** Runs one case once in its own directory; an exception is a failure whose diagnosis is the error's first line. */
+async function runOnce(ctx, mod, c, dir) {
+  fs.rmSync(dir, {recursive: true, force: true});
+  fs.mkdirSync(dir, {recursive: true});
+  try {
+    const r = await mod.run({...ctx, dir}, c);
+    await ctx.timer.collect();
+    return r;
+  } catch (e) {
+    return {pass: false, check: 'harness', diagnosis: `harness: ${String(e.message || e).split('\n')[0]}`};
+  }
+}
+
+/** --shrink: bisect the size between 0 (assumed passing) and a failing size; the smallest failing case found. */
+async function shrink(ctx, mod, c, caseDir) {
+  let lo = 0, hi = c.size, smallest = null;
+  while (hi - lo > 1) {
+    const mid = Math.floor((lo + hi) / 2);
+    const m = mod.resize(c, mid);
+    if (!m) break;
+    const r = await runOnce(ctx, mod, m, caseDir(m));
+    if (r.pass) lo = mid;
+    else {
+      hi = mid;
+      smallest = {id: m.id, size: mid, diagnosis: r.diagnosis};
+    }
+  }
+  return smallest || {id: c.id, size: c.size, note: 'no smaller size fails'};
+}
+
+async function main() {
+  const opts = parseArgs(process.argv.slice(2));
+  if (opts.kernels) setKernelDir(path.resolve(opts.kernels));
+  const root = opts.out ? path.resolve(opts.out) : fs.mkdtempSync(path.join(os.tmpdir(), 'rto-gpu-'));
+  fs.mkdirSync(root, {recursive: true});
+  let dev;
+  try {
+    dev = await openDevice();
+  } catch (e) {
+    console.error(`gpu/run: ${e.message}`);
     process.exit(2);
   }
-  opt[name] = argv[++i];
-}
-const repeat = Number(opt.repeat);
-const dir = opt.keep || fs.mkdtempSync(path.join(os.tmpdir(), 'rto-gpu-'));
-fs.mkdirSync(dir, {recursive: true});
-const {device, backend, gpu} = await openDevice();
-globalThis.rtoGpu = gpu; // the Dawn instance must outlive every object made from it
+  globalThis.rtoGpu = dev.gpu; // the Dawn instance must outlive every object made from it
+  const timer = new Timer(dev.device, opts.timestamps);
+  const ctx = {device: dev.device, backend: dev.backend, rtoracle: opts.rtoracle, opts, timer};
+  const info = dev.adapter.info || {};
+  const adapter = [info.vendor, info.architecture, info.device, info.description].filter(Boolean).join(' ');
+  console.log(`device: ${dev.backend}${adapter ? ` (${adapter})` : ''}${opts.timestamps
+    ? timer.on ? ', timestamps on' : ', no timestamp-query: no GPU times' : ''}`);
 
-const results = [];
-let failed = 0;
-for (const dist of opt.dists.split(',')) {
-  for (const size of opt.sizes.split(',').map(Number)) {
-    const id = `bitonic-u32-${dist}-${size}`;
-    const keysPath = path.join(dir, `${id}.keys.npy`), dumpPath = path.join(dir, `${id}.gpu.npy`);
-    execFileSync(opt.rtoracle, ['keys', '--dist', dist, '--n', String(size), '-o', keysPath]);
-    const keys = readNpy(keysPath).data;
-    let passes = 0, diagnosis = '';
-    for (let r = 0; r < repeat; r++) {
-      writeNpy(dumpPath, await bitonicSort(device, keys));
-      const check = spawnSync(opt.rtoracle, ['check-sort', '--input', keysPath, '--gpu', dumpPath, '--json',
-        '--no-artifacts'], {encoding: 'utf8'});
-      if (check.status === 0) passes++;
-      else if (!diagnosis) {
-        try {
-          const rep = JSON.parse(check.stdout);
-          diagnosis = rep.message || rep.fault;
-        } catch {
-          diagnosis = (check.stderr || check.stdout).trim().split('\n')[0];
-        }
+  const results = [];
+  const started = Date.now();
+  for (const family of opts.families) {
+    const mod = await import(`./cases/${family}.js`);
+    for (const c of mod.list(opts)) {
+      const caseDir = (x) => path.join(root, x.id.replace(/[^A-Za-z0-9._-]+/g, '_'));
+      let passes = 0, first = null, last = null;
+      const t0 = Date.now();
+      for (let r = 0; r < opts.repeat; r++) {
+        last = await runOnce(ctx, mod, c, caseDir(c));
+        if (last.pass) passes++;
+        else if (!first) first = last;
       }
+      const shown = first || last;
+      const row = {case: c.id, family, params: c, pass: passes === opts.repeat, passes, repeat: opts.repeat,
+        check: shown.check, fault: shown.fault || null, diagnosis: shown.diagnosis || '',
+        gpu_ms: timer.take(), wall_s: (Date.now() - t0) / 1000, dir: caseDir(c), images: shown.images || null};
+      if (!row.pass && opts.shrink && mod.resize && c.size > 1) row.shrunk = await shrink(ctx, mod, c, caseDir);
+      results.push(row);
+      const times = Object.entries(row.gpu_ms).map(([k, v]) => `${k} ${(v.ms / opts.repeat).toFixed(3)} ms`).join(', ');
+      console.log(`${row.case.padEnd(44)} ${row.pass ? 'pass' : 'FAIL'} ${passes}/${opts.repeat}` +
+        (row.diagnosis ? `  ${row.check}: ${row.diagnosis}` : '') + (times ? `  [${times}]` : '') +
+        (row.shrunk ? `\n${''.padEnd(44)} smallest failing: ${row.shrunk.id}${row.shrunk.diagnosis
+          ? `: ${row.shrunk.diagnosis}` : ` (${row.shrunk.note})`}` : ''));
     }
-    const ok = passes === repeat;
-    if (!ok) failed++;
-    results.push({case: id, dist, size, passes, repeat, ok, diagnosis});
-    console.log(`${id.padEnd(40)} ${ok ? 'pass' : 'FAIL'} ${passes}/${repeat}${diagnosis ? '  ' + diagnosis : ''}`);
   }
+  const failed = results.filter((r) => !r.pass).length;
+  const flaky = results.filter((r) => !r.pass && r.passes > 0).length;
+  console.log(`${results.length - failed}/${results.length} cases pass on ${dev.backend}` +
+    (flaky ? ` (${flaky} flaky: passed some of ${opts.repeat} runs)` : '') +
+    ` in ${((Date.now() - started) / 1000).toFixed(1)} s`);
+  const summary = {backend: dev.backend, adapter, repeat: opts.repeat, timestamps: timer.on, subset: opts.subset,
+    families: opts.families, cases: results.length, failed, flaky, results};
+  if (opts.json) fs.writeFileSync(opts.json, JSON.stringify(summary, null, 2) + '\n');
+  if (opts.html) writeHtml(opts.html, summary);
+  if (!opts.out) fs.rmSync(root, {recursive: true, force: true});
+  process.exitCode = failed ? 1 : 0;
 }
-console.log(`${results.length - failed}/${results.length} cases pass on ${backend}`);
-if (opt.json) fs.writeFileSync(opt.json, JSON.stringify({backend, results}, null, 2) + '\n');
-if (!opt.keep) fs.rmSync(dir, {recursive: true, force: true});
-process.exitCode = failed ? 1 : 0;
+
+await main();

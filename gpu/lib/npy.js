@@ -32,12 +32,14 @@ export function readNpy(path) {
   return {descr, shape, data: new T(copy.buffer)};
 }
 
-/** Writes a plain typed array as a .npy file with the given shape (default: 1-D). */
-export function writeNpy(path, data, shape = [data.length]) {
-  const descr = Object.keys(TYPES).find((k) => k !== '|u1' && TYPES[k] === data.constructor);
+/** Writes a .npy file: a plain typed array with the given shape (default: 1-D), or, with descr (a structured dtype's
+ * list text as readNpy returns it, e.g. "[('t', '<f4'), ('id', '<u4')]"), the raw bytes of the records. */
+export function writeNpy(path, data, shape = [data.length], descr = null) {
+  if (!descr) descr = Object.keys(TYPES).find((k) => k !== '|u1' && TYPES[k] === data.constructor);
   if (!descr) throw new Error(`writeNpy: unsupported array type ${data.constructor.name}`);
+  const descrText = descr.startsWith('[') ? descr : `'${descr}'`;
   const shapeText = shape.length === 1 ? `(${shape[0]},)` : `(${shape.join(', ')})`;
-  let header = `{'descr': '${descr}', 'fortran_order': False, 'shape': ${shapeText}, }`;
+  let header = `{'descr': ${descrText}, 'fortran_order': False, 'shape': ${shapeText}, }`;
   const pad = 64 - ((10 + header.length + 1) % 64);
   header += ' '.repeat(pad % 64) + '\n';
   const head = Buffer.alloc(10);

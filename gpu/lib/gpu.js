@@ -1,0 +1,95 @@
+// Small WebGPU helpers shared by every kernel family: WGSL modules with #include, buffers, read-back.
+import fs from 'node:fs';
+
+import path from 'node:path';
+
+const KERNELS = path.join(path.dirname(new URL(import.meta.url).pathname), '..', 'kernels');
+let overrides = process.env.RTO_GPU_KERNELS || null;
+
+/** A directory whose .wgsl files replace the bundled kernels of the same name (gpu/run --kernels DIR). */
+export function setKernelDir(dir) {
+  overrides = dir;
+}
+
+function kernelPath(name) {
+  if (overrides && fs.existsSync(path.join(overrides, name))) return path.join(overrides, name);
+  return path.join(KERNELS, name);
+}
+
+/** The WGSL text of kernels/FILE (or the override directory's) with every line `// #include "other.wgsl"` replaced by that file (once each), and
+ * `// #define NAME` lines prepended for every name in defines (a kernel tests them as `const NAME = true;`). */
+export function wgsl(file, defines = {}) {
+  const seen = new Set();
+  const expand = (name) => {
+    if (seen.has(name)) return '';
+    seen.add(name);
+    const text = fs.readFileSync(kernelPath(name), 'utf8');
+    return text.replace(/^\/\/ #include "([^"]+)"$/mg, (_, inc) => expand(inc));
+  };
+  const consts = Object.entries(defines).map(([k, v]) =>
+    `const ${k} = ${typeof v === 'boolean' ? v : typeof v === 'number' && Number.isInteger(v) ? `${v >>> 0}u` : v};\n`);
+  return consts.join('') + expand(file);
+}
+
+/** A compute pipeline for kernels/FILE (entry point `entry`, layout 'auto'); compile errors throw with the log. */
+export function pipeline(device, file, {entry = 'main', defines = {}} = {}) {
+  const module = device.createShaderModule({code: wgsl(file, defines), label: file});
+  return device.createComputePipeline({layout: 'auto', compute: {module, entryPoint: entry}, label: `${file}:${entry}`});
+}
+
+export const STORAGE = () => GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_SRC | GPUBufferUsage.COPY_DST;
+
+/** A storage buffer of at least `bytes` (rounded up to 16, at least 16), optionally filled from a typed array. */
+export function buffer(device, bytes, {data = null, usage = STORAGE(), label} = {}) {
+  const size = Math.max(16, Math.ceil(Math.max(bytes, data ? data.byteLength : 0) / 16) * 16);
+  const buf = device.createBuffer({size, usage, label});
+  if (data) device.queue.writeBuffer(buf, 0, data.buffer, data.byteOffset, data.byteLength);
+  return buf;
+}
+
+/** A bind group for group `group` of a pipeline from a list of buffers (binding i = buffers[i]) or
+ * {binding: buffer | {buffer, offset, size}} entries. */
+export function bind(device, pipe, group, buffers) {
+  const entries = Array.isArray(buffers) ? buffers.map((b, i) => [i, b]) : Object.entries(buffers);
+  return device.createBindGroup({layout: pipe.getBindGroupLayout(group), entries: entries.map(([i, b]) =>
+    ({binding: Number(i), resource: b.buffer ? b : {buffer: b}}))});
+}
+
+/** Submits enc (if given) and resolves when the queue is idle. Dawn's callbacks are not libuv handles, so an interval
+ * keeps Node's event loop alive meanwhile. */
+export async function settle(device, enc = null) {
+  if (enc) device.queue.submit([enc.finish()]);
+  const alive = setInterval(() => {}, 5);
+  try {
+    await device.queue.onSubmittedWorkDone();
+  } finally {
+    clearInterval(alive);
+  }
+}
+
+/** Copies the first `bytes` of each buffer out (finishing enc, or a fresh encoder): an array of ArrayBuffers. */
+export async function readBack(device, enc, bufs, bytes) {
+  const list = Array.isArray(bufs) ? bufs : [bufs];
+  const sizes = Array.isArray(bytes) ? bytes : list.map((b) => (bytes === undefined ? b.size : bytes));
+  enc = enc || device.createCommandEncoder();
+  const reads = list.map((b, i) => {
+    const size = Math.max(16, Math.ceil(sizes[i] / 4) * 4);
+    const r = device.createBuffer({size, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST});
+    if (sizes[i] > 0) enc.copyBufferToBuffer(b, 0, r, 0, Math.ceil(sizes[i] / 4) * 4);
+    return r;
+  });
+  device.queue.submit([enc.finish()]);
+  const alive = setInterval(() => {}, 5);
+  try {
+    await Promise.all(reads.map((r) => r.mapAsync(GPUMapMode.READ)));
+  } finally {
+    clearInterval(alive);
+  }
+  const out = reads.map((r, i) => {
+    const copy = r.getMappedRange().slice(0, sizes[i]);
+    r.unmap();
+    r.destroy();
+    return copy;
+  });
+  return Array.isArray(bufs) ? out : out[0];
+}

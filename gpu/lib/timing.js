@@ -1,0 +1,62 @@
+// Per-kernel GPU time through timestamp-query: every compute pass a kernel family begins through a Timer gets
+// timestampWrites when the device has the feature; collect() sums nanoseconds per label.
+const SLOTS = 4096; // queries per set: two per pass
+
+export class Timer {
+  /** enabled: whether to measure (--timestamps); a device without 'timestamp-query' measures nothing. */
+  constructor(device, enabled) {
+    this.device = device;
+    this.on = Boolean(enabled) && device.features.has('timestamp-query');
+    this.sets = [];
+    this.labels = [];
+    this.totals = new Map(); // label -> {ns, passes}
+  }
+
+  /** enc.beginComputePass(), with timestamp writes attributed to `label` while measuring. */
+  pass(enc, label) {
+    if (!this.on) return enc.beginComputePass({label});
+    const slot = this.labels.length % (SLOTS / 2);
+    if (slot === 0) this.sets.push({set: this.device.createQuerySet({type: 'timestamp', count: SLOTS}), labels: []});
+    const cur = this.sets[this.sets.length - 1];
+    cur.labels.push(label);
+    this.labels.push(label);
+    return enc.beginComputePass({label, timestampWrites: {querySet: cur.set, beginningOfPassWriteIndex: 2 * slot,
+      endOfPassWriteIndex: 2 * slot + 1}});
+  }
+
+  /** Resolves every pending query (after the passes' work was submitted) into the per-label totals. */
+  async collect() {
+    if (!this.on || !this.sets.length) return;
+    const {readBack} = await import('./gpu.js');
+    const enc = this.device.createCommandEncoder();
+    const bufs = this.sets.map(({set, labels}) => {
+      const b = this.device.createBuffer({size: 16 * labels.length,
+        usage: GPUBufferUsage.QUERY_RESOLVE | GPUBufferUsage.COPY_SRC});
+      enc.resolveQuerySet(set, 0, 2 * labels.length, b, 0);
+      return b;
+    });
+    const outs = await readBack(this.device, enc, bufs, bufs.map((b) => b.size));
+    this.sets.forEach(({set, labels}, s) => {
+      const t = new BigUint64Array(outs[s]);
+      labels.forEach((label, i) => {
+        const ns = t[2 * i + 1] > t[2 * i] ? Number(t[2 * i + 1] - t[2 * i]) : 0;
+        const cur = this.totals.get(label) || {ns: 0, passes: 0};
+        cur.ns += ns;
+        cur.passes++;
+        this.totals.set(label, cur);
+      });
+      set.destroy();
+      bufs[s].destroy();
+    });
+    this.sets = [];
+    this.labels = [];
+  }
+
+  /** {label: {ms, passes}} of everything collected so far, and resets. */
+  take() {
+    const out = {};
+    for (const [label, {ns, passes}] of this.totals) out[label] = {ms: ns / 1e6, passes};
+    this.totals = new Map();
+    return out;
+  }
+}
