@@ -24,30 +24,39 @@ export function padKeys(keys) {
   return out;
 }
 
-/** Sorts keys on the GPU with one dispatch per pass: {sorted: all n_padded slots, as a harness dumps its buffer,
- * passes: with dumpPasses, a Uint32Array (passes x n_padded) of the buffer after every pass}. timer (lib/timing.js)
- * measures the passes as 'bitonic_pass'. */
-export async function bitonicSort(device, keys, {dumpPasses = false, timer = null} = {}) {
-  const slots = padKeys(keys);
-  const n = slots.length;
+/** Records the network over the n (a power of two) u32 slots of buf into enc, one compute pass per (k, j), GPU-resident
+ * (for callers that keep their keys on the device, such as a BVH build). With dump (a buffer of passes x n words) the
+ * buffer is copied there after every pass. timer (lib/timing.js) measures the passes as 'bitonic_pass'. Returns the
+ * uniform buffer of pass parameters, which the caller destroys after submitting. */
+export function encodeBitonic(device, enc, buf, n, {timer = null, dump = null} = {}) {
   const pipe = pipeline(device, 'bitonic_pass.wgsl');
-  const buf = buffer(device, slots.byteLength, {data: slots});
   const passes = bitonicPasses(n);
   const params = buffer(device, 256 * Math.max(1, passes.length),
     {usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST});
   const words = new Uint32Array(64 * Math.max(1, passes.length));
   passes.forEach(([k, j], p) => words.set([k, j, n, 0], 64 * p));
   device.queue.writeBuffer(params, 0, words);
-  const dump = dumpPasses ? buffer(device, Math.max(1, passes.length) * slots.byteLength) : null;
-  const enc = device.createCommandEncoder();
   passes.forEach((_, p) => {
     const pass = timer ? timer.pass(enc, 'bitonic_pass') : enc.beginComputePass();
     pass.setPipeline(pipe);
     pass.setBindGroup(0, bind(device, pipe, 0, [buf, {buffer: params, offset: 256 * p, size: 16}]));
     pass.dispatchWorkgroups(Math.ceil(n / 64));
     pass.end();
-    if (dump) enc.copyBufferToBuffer(buf, 0, dump, p * slots.byteLength, slots.byteLength);
+    if (dump) enc.copyBufferToBuffer(buf, 0, dump, p * 4 * n, 4 * n);
   });
+  return params;
+}
+
+/** Sorts keys on the GPU with one dispatch per pass: {sorted: all n_padded slots, as a harness dumps its buffer,
+ * passes: with dumpPasses, a Uint32Array (passes x n_padded) of the buffer after every pass, passTable: [k, j]}. */
+export async function bitonicSort(device, keys, {dumpPasses = false, timer = null} = {}) {
+  const slots = padKeys(keys);
+  const n = slots.length;
+  const passes = bitonicPasses(n);
+  const buf = buffer(device, slots.byteLength, {data: slots});
+  const dump = dumpPasses ? buffer(device, Math.max(1, passes.length) * slots.byteLength) : null;
+  const enc = device.createCommandEncoder();
+  const params = encodeBitonic(device, enc, buf, n, {timer, dump});
   const [out, all] = await readBack(device, enc, dump ? [buf, dump] : [buf],
     dump ? [slots.byteLength, passes.length * slots.byteLength] : [slots.byteLength]);
   buf.destroy();
