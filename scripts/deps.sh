@@ -9,6 +9,7 @@ RTO_DEBS=(
     libopenimageio-dev libpng-dev                  # glTF textures (decoded in the librto_image.so module)
     libembree-dev                                  # benchmarks: Embree on the same geometry
     assimp-testmodels                              # glTF 2.0 test files, broken ones included (tests only)
+    libegl1 libgles2 libegl-mesa0 libgl1-mesa-dri  # gpu/: Dawn's OpenGL backend on Mesa llvmpipe (no GPU needed)
 )
 
 rto_install_deps() {
@@ -16,6 +17,10 @@ rto_install_deps() {
     for p in "${RTO_DEBS[@]}"; do
         dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
     done
+    # gpu/ runs on Node.js (Debian 12 ships 18; a newer one already installed is kept).
+    if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+        missing+=(nodejs npm)
+    fi
     [ ${#missing[@]} -eq 0 ] && return 0
     local sudo=""
     if [ "$(id -u)" != 0 ]; then
@@ -41,4 +46,15 @@ rto_build() {
     fi
     ninja -C "$dir" >"$dir.ninja.log" 2>&1 || { cat "$dir.ninja.log" >&2; return 1; }
     rm -f "$dir.ninja.log"
+}
+
+# gpu/'s npm dependencies, pinned by gpu/package-lock.json: installed once (npm ci), kept while the lock is unchanged.
+rto_install_gpu_deps() {
+    local stamp=gpu/node_modules/.rto-lock.sha256 want
+    want=$(sha256sum gpu/package-lock.json | cut -d' ' -f1)
+    [ -f gpu/node_modules/webgpu/package.json ] && [ "$(cat "$stamp" 2>/dev/null)" = "$want" ] && return 0
+    echo "rtoracle: installing gpu/'s npm packages (npm ci)" >&2
+    (cd gpu && npm ci --no-audit --no-fund --loglevel=error >/tmp/rtoracle-npm.log 2>&1) ||
+        { echo "rtoracle: npm ci failed, see /tmp/rtoracle-npm.log" >&2; tail -20 /tmp/rtoracle-npm.log >&2; return 1; }
+    echo "$want" >"$stamp"
 }

@@ -5,6 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/deps.sh
 rto_install_deps
+rto_install_gpu_deps
 rto_build build --werror
 out=out/goldens
 mkdir -p "$out"

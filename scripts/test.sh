@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite: unit and command-line tests on an optimised build, again under AddressSanitizer +
 # UndefinedBehaviorSanitizer, and a determinism check that builds at -O0 (sanitized), -O2 and -O3 write
-# byte-identical bundles (traces also with 1 and 2 threads), and that `meson install` gives a library a user's program builds against via pkg-config.
+# byte-identical bundles (traces also with 1 and 2 threads), the WebGPU backend's subset on llvmpipe (gpu/), and that `meson install` gives a library a user's program builds against via pkg-config.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/deps.sh
@@ -10,6 +10,10 @@ rto_install_deps
 echo "== build (debugoptimized, -Werror)"
 rto_build build --werror
 meson test -C build --print-errorlogs --num-processes 2
+
+echo "== gpu: the WebGPU kernels on Dawn (Mesa llvmpipe without a GPU), every dump checked by rtoracle"
+rto_install_gpu_deps
+bash tests/gpu.sh build/oracle/rtoracle build/gpu
 
 echo "== build-asan (address + undefined sanitizers)"
 rto_build build-asan --werror --buildtype=debug -Db_sanitize=address,undefined -Db_lundef=false \
