@@ -16,6 +16,7 @@ const FAMILIES = ['bitonic', 'bitonic-wg', 'radix', 'build', 'trace', 'frame'];
 const HELP = `usage: gpu/run [--families LIST] [--subset ci|full] [--dists LIST] [--sizes LIST] [--scenes LIST]
                [--repeat K] [--timestamps] [--shrink] [--racy-scatter] [--drop-barrier PASS]
                [--kernels DIR] [--rtoracle PATH] [--out DIR] [--json FILE] [--html FILE]
+               [--prepare-only | --dump-only | --check-only]
 
 Runs the WGSL kernels under gpu/kernels on a WebGPU device (Dawn: Vulkan when a GPU is there, else Mesa llvmpipe
 through OpenGL in compatibility mode; RTO_GPU_BACKEND=vulkan|opengl forces one), dumps every buffer as .npy and
@@ -45,6 +46,10 @@ options:
   --out DIR           keep every case's inputs and dumps in DIR/<case> (default: a temporary directory, removed)
   --json FILE         write the results as JSON
   --html FILE         write the results as a static HTML page (images are copied next to it)
+  --prepare-only      only write every case's oracle inputs and expected bundles into --out DIR
+  --dump-only         only run the kernels and write their dumps into --out DIR (inputs made if missing); repeats
+                      whose dumps equal the first run's are recorded, not kept
+  --check-only        only validate the dumps an earlier --dump-only left in --out DIR (on a machine with rtoracle)
   -h, --help          print this help and exit
 
 Exit status: 0 every case passes, 1 a case fails, 2 bad usage or setup.`;
@@ -58,7 +63,8 @@ function parseArgs(argv) {
   const o = {families: FAMILIES, subset: 'full', dists: null, sizes: null, scenes: null, repeat: 1,
     timestamps: false, shrink: false, racyScatter: false, dropBarrier: null, kernels: null,
     rtoracle: DEFAULT_RTORACLE, out: null, json: null, html: null, passDumpLimit: 65536};
-  const flags = {'--timestamps': 'timestamps', '--shrink': 'shrink', '--racy-scatter': 'racyScatter'};
+  const flags = {'--timestamps': 'timestamps', '--shrink': 'shrink', '--racy-scatter': 'racyScatter',
+    '--prepare-only': 'prepareOnly', '--dump-only': 'dumpOnly', '--check-only': 'checkOnly'};
   const list = (v) => v.split(',').filter((s) => s.length);
   const count = (name, v, lo, hi) => {
     if (!/^\d+$/.test(v) || Number(v) < lo || Number(v) > hi) usage(`${name}: '${v}' is not an integer ${lo} .. ${hi}`);
@@ -98,23 +104,107 @@ function parseArgs(argv) {
       default: usage(`unknown option: ${a}`);
     }
   }
-  if (!fs.existsSync(o.rtoracle)) usage(`no rtoracle binary at ${o.rtoracle} (build it, or pass --rtoracle PATH)`);
+  const modes = [o.prepareOnly, o.dumpOnly, o.checkOnly].filter(Boolean).length;
+  if (modes > 1) usage('--prepare-only, --dump-only and --check-only exclude each other');
+  if (modes && !o.out) usage('--prepare-only, --dump-only and --check-only need --out DIR');
+  if (o.checkOnly && !fs.existsSync(o.out)) usage(`--check-only: no directory ${o.out}`);
+  if (!o.dumpOnly && !fs.existsSync(o.rtoracle)) usage(`no rtoracle binary at ${o.rtoracle} (build it, or pass --rtoracle PATH)`);
   if (o.kernels && !fs.statSync(o.kernels, {throwIfNoEntry: false})?.isDirectory())
     usage(`--kernels: ${o.kernels} is not a directory`);
   return o;
 }
 
-/** Runs one case once in its own directory; an exception is a failure whose diagnosis is the error's first line. */
-async function runOnce(ctx, mod, c, dir) {
-  fs.rmSync(dir, {recursive: true, force: true});
-  fs.mkdirSync(dir, {recursive: true});
+/** fn's result, or a failure whose diagnosis is the error's first line (a harness fault, not the oracle's). */
+async function attempt(fn) {
   try {
-    const r = await mod.run({...ctx, dir}, c);
-    await ctx.timer.collect();
-    return r;
+    return await fn();
   } catch (e) {
     return {pass: false, check: 'harness', diagnosis: `harness: ${String(e.message || e).split('\n')[0]}`};
   }
+}
+
+function filesOf(dir) {
+  return fs.readdirSync(dir, {recursive: true}).filter((f) => fs.statSync(path.join(dir, f)).isFile()).sort();
+}
+
+function sameDumps(a, b) {
+  const fa = filesOf(a), fb = filesOf(b);
+  return fa.length === fb.length && fa.every((f, i) => f === fb[i] &&
+    fs.readFileSync(path.join(a, f)).equals(fs.readFileSync(path.join(b, f))));
+}
+
+/** Runs a case `repeat` times in dir through the phases the mode asks for: prepare (the oracle's inputs, kept while
+ * the case's parameters are unchanged), dump (the kernels; a repeat whose dumps equal the first run's is recorded in
+ * repeats.json and removed) and validate (the oracle's checks, once per distinct dump). Returns {passes, first,
+ * last, gpu_ms, prepared}. A family with only run(ctx, c) supports the full mode alone. */
+async function runCase(ctx, mod, c, dir, repeat) {
+  const {opts, timer} = ctx;
+  const split = Boolean(mod.dump);
+  if (!split && (opts.prepareOnly || opts.dumpOnly || opts.checkOnly))
+    return {passes: 0, first: {pass: false, check: 'harness', diagnosis: `harness: family ${mod.family} runs only in full`}};
+  const stamp = path.join(dir, 'case.json');
+  const params = JSON.stringify(c);
+  if (opts.checkOnly) {
+    if (!fs.existsSync(stamp) || fs.readFileSync(stamp, 'utf8') !== params)
+      return {passes: 0, first: {pass: false, check: 'harness', diagnosis: `harness: ${dir} holds no dump of this case`}};
+  } else if (!split || !fs.existsSync(stamp) || fs.readFileSync(stamp, 'utf8') !== params) {
+    fs.rmSync(dir, {recursive: true, force: true});
+    fs.mkdirSync(dir, {recursive: true});
+    if (split) {
+      const r = await attempt(() => mod.prepare({...ctx, dir}, c));
+      if (r && r.pass === false) return {passes: 0, first: r};
+    }
+    fs.writeFileSync(stamp, params);
+  }
+  if (opts.prepareOnly) return {prepared: true};
+  if (!split) {
+    const r = await attempt(() => mod.run({...ctx, dir, dumpDir: dir}, c));
+    await timer.collect();
+    return {passes: r.pass ? 1 : 0, first: r.pass ? null : r, last: r, gpu_ms: timer.take()};
+  }
+  const record = path.join(dir, 'repeats.json');
+  let same = [], gpuMs = {};
+  if (opts.checkOnly) {
+    ({same = [], gpu_ms: gpuMs = {}} = JSON.parse(fs.readFileSync(record, 'utf8')));
+  } else {
+    for (let r = 0; r < repeat; r++) {
+      const dumpDir = path.join(dir, r ? `gpu-${r}` : 'gpu');
+      fs.rmSync(dumpDir, {recursive: true, force: true});
+      fs.mkdirSync(dumpDir, {recursive: true});
+      const err = await attempt(async () => {
+        await mod.dump({...ctx, dir, dumpDir}, c);
+        await timer.collect();
+      });
+      if (err && err.pass === false) {
+        fs.writeFileSync(path.join(dumpDir, 'harness-error.txt'), err.diagnosis + '\n');
+        same.push(r);
+        continue;
+      }
+      const twin = same.findIndex((s, i) => s === i && sameDumps(dumpDir, path.join(dir, i ? `gpu-${i}` : 'gpu')));
+      if (r && twin >= 0) {
+        fs.rmSync(dumpDir, {recursive: true, force: true});
+        same.push(twin);
+      } else same.push(r);
+    }
+    gpuMs = timer.take();
+    fs.writeFileSync(record, JSON.stringify({repeat, same, gpu_ms: gpuMs}, null, 1) + '\n');
+    if (opts.dumpOnly) return {dumped: true, gpu_ms: gpuMs, distinct: new Set(same).size};
+  }
+  const verdicts = new Map();
+  let passes = 0, first = null, last = null;
+  for (const s of same) {
+    if (!verdicts.has(s)) {
+      const dumpDir = path.join(dir, s ? `gpu-${s}` : 'gpu');
+      const err = path.join(dumpDir, 'harness-error.txt');
+      verdicts.set(s, fs.existsSync(err)
+        ? {pass: false, check: 'harness', diagnosis: fs.readFileSync(err, 'utf8').trim()}
+        : await attempt(() => mod.validate({...ctx, dir, dumpDir}, c)));
+    }
+    last = verdicts.get(s);
+    if (last.pass) passes++;
+    else if (!first) first = last;
+  }
+  return {passes, runs: same.length, first, last, gpu_ms: gpuMs, distinct: verdicts.size};
 }
 
 /** --shrink: bisect the size between 0 (assumed passing) and a failing size; the smallest failing case found. */
@@ -124,11 +214,11 @@ async function shrink(ctx, mod, c, caseDir) {
     const mid = Math.floor((lo + hi) / 2);
     const m = mod.resize(c, mid);
     if (!m) break;
-    const r = await runOnce(ctx, mod, m, caseDir(m));
-    if (r.pass) lo = mid;
+    const r = await runCase(ctx, mod, m, caseDir(m), 1);
+    if (r.passes === 1) lo = mid;
     else {
       hi = mid;
-      smallest = {id: m.id, size: mid, diagnosis: r.diagnosis};
+      smallest = {id: m.id, size: mid, diagnosis: (r.first || {}).diagnosis};
     }
   }
   return smallest || {id: c.id, size: c.size, note: 'no smaller size fails'};
@@ -139,19 +229,26 @@ async function main() {
   if (opts.kernels) setKernelDir(path.resolve(opts.kernels));
   const root = opts.out ? path.resolve(opts.out) : fs.mkdtempSync(path.join(os.tmpdir(), 'rto-gpu-'));
   fs.mkdirSync(root, {recursive: true});
-  let dev;
-  try {
-    dev = await openDevice();
-  } catch (e) {
-    console.error(`gpu/run: ${e.message}`);
-    process.exit(2);
+  // --check-only and --prepare-only need no GPU; --check-only reports the device that made the dumps.
+  let dev = {device: null, backend: 'none', gpu: null, adapter: null};
+  const deviceFile = path.join(root, 'device.json');
+  if (!opts.checkOnly && !opts.prepareOnly) {
+    try {
+      dev = await openDevice();
+    } catch (e) {
+      console.error(`gpu/run: ${e.message}`);
+      process.exit(2);
+    }
   }
   globalThis.rtoGpu = dev.gpu; // the Dawn instance must outlive every object made from it
+  const info = (dev.adapter && dev.adapter.info) || {};
+  let adapter = [info.vendor, info.architecture, info.device, info.description].filter(Boolean).join(' ');
+  let backend = dev.backend;
+  if (opts.dumpOnly) fs.writeFileSync(deviceFile, JSON.stringify({backend, adapter}) + '\n');
+  if (opts.checkOnly && fs.existsSync(deviceFile)) ({backend, adapter} = JSON.parse(fs.readFileSync(deviceFile, 'utf8')));
   const timer = new Timer(dev.device, opts.timestamps);
-  const ctx = {device: dev.device, backend: dev.backend, rtoracle: opts.rtoracle, opts, timer};
-  const info = dev.adapter.info || {};
-  const adapter = [info.vendor, info.architecture, info.device, info.description].filter(Boolean).join(' ');
-  console.log(`device: ${dev.backend}${adapter ? ` (${adapter})` : ''}${opts.timestamps
+  const ctx = {device: dev.device, backend, rtoracle: opts.rtoracle, opts, timer};
+  console.log(`device: ${backend}${adapter ? ` (${adapter})` : ''}${opts.timestamps && dev.device
     ? timer.on ? ', timestamps on' : ', no timestamp-query: no GPU times' : ''}`);
 
   const results = [];
@@ -160,21 +257,22 @@ async function main() {
     const mod = await import(`./cases/${family}.js`);
     for (const c of mod.list(opts)) {
       const caseDir = (x) => path.join(root, x.id.replace(/[^A-Za-z0-9._-]+/g, '_'));
-      let passes = 0, first = null, last = null;
       const t0 = Date.now();
-      for (let r = 0; r < opts.repeat; r++) {
-        last = await runOnce(ctx, mod, c, caseDir(c));
-        if (last.pass) passes++;
-        else if (!first) first = last;
+      const r = await runCase(ctx, mod, c, caseDir(c), opts.repeat);
+      if (r.prepared || r.dumped) {
+        console.log(`${c.id.padEnd(44)} ${r.prepared ? 'prepared' : `dumped ${opts.repeat} run(s), ${r.distinct} ` +
+          'distinct'}`);
+        continue;
       }
-      const shown = first || last;
-      const row = {case: c.id, family, params: c, pass: passes === opts.repeat, passes, repeat: opts.repeat,
-        check: shown.check, fault: shown.fault || null, diagnosis: shown.diagnosis || '',
-        gpu_ms: timer.take(), wall_s: (Date.now() - t0) / 1000, dir: caseDir(c), images: shown.images || null};
+      const shown = r.first || r.last || {};
+      const runs = r.runs || opts.repeat; // --check-only: as many as were dumped
+      const row = {case: c.id, family, params: c, pass: r.passes === runs, passes: r.passes, repeat: runs, distinct_dumps: r.distinct || null, check: shown.check || null, fault: shown.fault || null,
+        diagnosis: shown.diagnosis || '', gpu_ms: r.gpu_ms || {}, wall_s: (Date.now() - t0) / 1000, dir: caseDir(c),
+        images: shown.images || null};
       if (!row.pass && opts.shrink && mod.resize && c.size > 1) row.shrunk = await shrink(ctx, mod, c, caseDir);
       results.push(row);
-      const times = Object.entries(row.gpu_ms).map(([k, v]) => `${k} ${(v.ms / opts.repeat).toFixed(3)} ms`).join(', ');
-      console.log(`${row.case.padEnd(44)} ${row.pass ? 'pass' : 'FAIL'} ${passes}/${opts.repeat}` +
+      const times = Object.entries(row.gpu_ms).map(([k, v]) => `${k} ${(v.ms / runs).toFixed(3)} ms`).join(', ');
+      console.log(`${row.case.padEnd(44)} ${row.pass ? 'pass' : 'FAIL'} ${r.passes}/${runs}` +
         (row.diagnosis ? `  ${row.check}: ${row.diagnosis}` : '') + (times ? `  [${times}]` : '') +
         (row.shrunk ? `\n${''.padEnd(44)} smallest failing: ${row.shrunk.id}${row.shrunk.diagnosis
           ? `: ${row.shrunk.diagnosis}` : ` (${row.shrunk.note})`}` : ''));
@@ -182,10 +280,14 @@ async function main() {
   }
   const failed = results.filter((r) => !r.pass).length;
   const flaky = results.filter((r) => !r.pass && r.passes > 0).length;
-  console.log(`${results.length - failed}/${results.length} cases pass on ${dev.backend}` +
+  if (opts.prepareOnly || opts.dumpOnly) {
+    console.log(`${opts.prepareOnly ? 'inputs' : 'dumps'} in ${root}`);
+    return;
+  }
+  console.log(`${results.length - failed}/${results.length} cases pass on ${backend}` +
     (flaky ? ` (${flaky} flaky: passed some of ${opts.repeat} runs)` : '') +
     ` in ${((Date.now() - started) / 1000).toFixed(1)} s`);
-  const summary = {backend: dev.backend, adapter, repeat: opts.repeat, timestamps: timer.on, subset: opts.subset,
+  const summary = {backend, adapter, repeat: opts.repeat, timestamps: timer.on, subset: opts.subset,
     families: opts.families, cases: results.length, failed, flaky, results};
   if (opts.json) fs.writeFileSync(opts.json, JSON.stringify(summary, null, 2) + '\n');
   if (opts.html) writeHtml(opts.html, summary);

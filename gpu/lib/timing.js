@@ -6,7 +6,7 @@ export class Timer {
   /** enabled: whether to measure (--timestamps); a device without 'timestamp-query' measures nothing. */
   constructor(device, enabled) {
     this.device = device;
-    this.on = Boolean(enabled) && device.features.has('timestamp-query');
+    this.on = Boolean(enabled) && Boolean(device) && device.features.has('timestamp-query');
     this.sets = [];
     this.labels = [];
     this.totals = new Map(); // label -> {ns, passes}
