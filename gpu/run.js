@@ -165,7 +165,9 @@ async function runCase(ctx, mod, c, dir, repeat) {
   const record = path.join(dir, 'repeats.json');
   let same = [], gpuMs = {};
   if (opts.checkOnly) {
-    ({same = [], gpu_ms: gpuMs = {}} = JSON.parse(fs.readFileSync(record, 'utf8')));
+    // Dumps another harness wrote into DIR/<case>/gpu/ after --prepare-only come without a record: one run.
+    if (fs.existsSync(record)) ({same = [], gpu_ms: gpuMs = {}} = JSON.parse(fs.readFileSync(record, 'utf8')));
+    else same = [0];
   } else {
     for (let r = 0; r < repeat; r++) {
       const dumpDir = path.join(dir, r ? `gpu-${r}` : 'gpu');
@@ -230,7 +232,7 @@ async function main() {
   const root = opts.out ? path.resolve(opts.out) : fs.mkdtempSync(path.join(os.tmpdir(), 'rto-gpu-'));
   fs.mkdirSync(root, {recursive: true});
   // --check-only and --prepare-only need no GPU; --check-only reports the device that made the dumps.
-  let dev = {device: null, backend: 'none', gpu: null, adapter: null};
+  let dev = {device: null, backend: opts.checkOnly ? 'an external harness' : 'none', gpu: null, adapter: null};
   const deviceFile = path.join(root, 'device.json');
   if (!opts.checkOnly && !opts.prepareOnly) {
     try {

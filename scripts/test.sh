@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite: unit and command-line tests on an optimised build, again under AddressSanitizer +
-# UndefinedBehaviorSanitizer, and a determinism check that builds at -O0 (sanitized), -O2 and -O3 write
-# byte-identical bundles (traces also with 1 and 2 threads), the WebGPU backend's subset on llvmpipe (gpu/), and that `meson install` gives a library a user's program builds against via pkg-config.
+# UndefinedBehaviorSanitizer, the WebGPU backend's subset on llvmpipe (gpu/), a determinism check that builds at
+# -O0 (sanitized), -O2 and -O3 write byte-identical bundles (traces also with 1 and 2 threads), and that
+# `meson install` gives a library a user's program builds against via pkg-config.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/deps.sh
