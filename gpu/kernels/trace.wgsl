@@ -69,6 +69,11 @@ fn trace_slab(bmin: vec3<f32>, bmax: vec3<f32>, o: vec3<f32>, inv: vec3<f32>, tM
   return SlabHit(tNear <= tFar, tNear);
 }
 
+// x, unchanged, through an operation the shader compiler cannot see through. Compilers may rewrite inexact float
+// expressions (Mesa turns `a*c + b*c` into `(a + b)*c`, so llvmpipe's u + v is not the sum of the rounded u and v);
+// a bitwise OR with a word the compiler cannot know (always 0) pins x down as the rounded value it is.
+fn trace_keep(x: f32) -> f32 { return bitcast<f32>(bitcast<u32>(x) | scene[SCENE_ZERO]); }
+
 // §6 dot and cross, written out (no dot()/cross(): their evaluation order is the implementation's).
 fn trace_dot(a: vec3<f32>, b: vec3<f32>) -> f32 { return (a.x * b.x + a.y * b.y) + a.z * b.z; }
 fn trace_cross(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
@@ -90,7 +95,8 @@ fn trace_triangle(tri: Triangle, o: vec3<f32>, d: vec3<f32>, tMin: f32, bestT: f
     h.u = trace_dot(s, p) * inv;
     h.v = trace_dot(d, q) * inv;
     h.t = trace_dot(e2, q) * inv;
-    h.ok = h.u >= 0.0 && h.v >= 0.0 && h.u + h.v <= 1.0 && tMin <= h.t && h.t < bestT;
+    // u and v share the factor inv: without trace_keep the sum is factored as (dot + dot) * inv.
+    h.ok = h.u >= 0.0 && h.v >= 0.0 && trace_keep(h.u) + trace_keep(h.v) <= 1.0 && tMin <= h.t && h.t < bestT;
   }
   return h;
 }

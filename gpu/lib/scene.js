@@ -13,7 +13,7 @@ export const MESH_WORDS = 8;
 export const INSTANCE_WORDS = 32;
 export const TLAS_KIND = {sweep: 0, karras: 1};
 const H = {version: 0, instances: 1, meshes: 2, tlasKind: 3, tlasNodes: 4, tlasFirstLeaf: 5, tlasKeys: 6,
-  instancesAt: 7, tlasNodesAt: 8, tlasKeysAt: 9, meshTableAt: 10, tlasDepth: 11, blasDepth: 12};
+  instancesAt: 7, tlasNodesAt: 8, tlasKeysAt: 9, meshTableAt: 10, tlasDepth: 11, blasDepth: 12, zero: 15};
 const M = {triangles: 0, vertices: 1, blasNodes: 2, blasNodesAt: 3, orderAt: 4, positionsAt: 5, indicesAt: 6};
 
 /** The words of a listed array, or none for a file the bundle does not hold (an empty mesh may lack its BLAS). */
@@ -73,6 +73,7 @@ export function packScene(bundle) {
     if (indices.length && !bundle.has(`blas_${m}_order.npy`)) throw new Error(`${bundle.dir}: mesh ${m} has no BLAS`);
   }
   header[H.blasDepth] = blasDepth;
+  header[H.zero] = 0; // trace.wgsl's optimisation barrier reads it: it must stay 0
   const words = new Uint32Array(at);
   words.set(header, 0);
   words.set(table, HEADER_WORDS);
