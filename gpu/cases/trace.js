@@ -6,7 +6,7 @@ import {spawnSync} from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
-import {writeNpy} from '../lib/npy.js';
+import {readNpy, writeNpy} from '../lib/npy.js';
 import {check, rtoracle} from '../lib/oracle.js';
 import {uploadScene} from '../lib/scene.js';
 import {COUNTER_WORDS, HIT_WORDS, TRACE_STATUS, traceRays, WFRAY_WORDS} from '../lib/trace.js';
@@ -104,22 +104,70 @@ function editRefused(words) {
   return out;
 }
 
-/** The bundle of a case (a committed golden, a generated ray set, or its flag-edited ray file traced again). */
-function makeBundle(ctx, c) {
-  if (c.golden) return new Bundle(c.golden);
+/** The bundle of a case: a committed golden, or the one prepare() wrote. */
+function bundleOf(ctx, c) {
+  return new Bundle(c.golden || path.join(ctx.dir, 'bundle'));
+}
+
+/** The oracle's side: a generated ray set's bundle, or its flag-edited ray file traced again; for the 'refused' case
+ * also the edited rays and the oracle's refusal of them (oracle_refusal.txt). */
+export function prepare(ctx, c) {
+  if (c.golden) return;
   const out = path.join(ctx.dir, 'bundle');
   const base = [scenePath(c.scene), '--tlas', c.tlas, '--threads', '1'];
-  if (!c.edit || c.edit === 'refused') {
+  if (c.edit === 'flags') {
+    const gen = path.join(ctx.dir, 'generated');
+    rtoracle(ctx.rtoracle, ['trace', ...base, ...rayArgs(c), '-o', gen]);
+    const g = new Bundle(gen);
+    const raysFile = path.join(ctx.dir, 'rays_flags.npy');
+    writeNpy(raysFile, editFlags(g.words('rays.npy')), [g.manifest.trace.count], g.files.get('rays.npy').dtype);
+    rtoracle(ctx.rtoracle, ['trace', ...base, '--rays', raysFile, '-o', out]);
+  } else {
     rtoracle(ctx.rtoracle, ['trace', ...base, ...rayArgs(c), '-o', out]);
-    return new Bundle(out);
   }
-  const gen = path.join(ctx.dir, 'generated');
-  rtoracle(ctx.rtoracle, ['trace', ...base, ...rayArgs(c), '-o', gen]);
-  const g = new Bundle(gen);
-  const raysFile = path.join(ctx.dir, 'rays_flags.npy');
-  writeNpy(raysFile, editFlags(g.words('rays.npy')), [g.manifest.trace.count], g.files.get('rays.npy').dtype);
-  rtoracle(ctx.rtoracle, ['trace', ...base, '--rays', raysFile, '-o', out]);
-  return new Bundle(out);
+  if (c.edit !== 'refused') return;
+  const b = new Bundle(out);
+  const file = path.join(ctx.dir, 'rays_refused.npy');
+  writeNpy(file, editRefused(b.words('rays.npy')), [b.manifest.trace.count], b.files.get('rays.npy').dtype);
+  let oracleSays = '';
+  try {
+    rtoracle(ctx.rtoracle, ['trace', scenePath(c.scene), '--rays', file, '-o', path.join(ctx.dir, 'refused')]);
+  } catch (e) {
+    oracleSays = e.message;
+  }
+  fs.writeFileSync(path.join(ctx.dir, 'oracle_refusal.txt'), oracleSays + '\n');
+}
+
+/** The GPU's side: the case's rays traced over the packed scene; hits.npy, counters.npy, trace_status.npy. */
+export async function dump(ctx, c) {
+  const bundle = bundleOf(ctx, c);
+  const rays = c.edit === 'refused' ? wordsOf(path.join(ctx.dir, 'rays_refused.npy')) : bundle.words('rays.npy');
+  const n = rays.length / WFRAY_WORDS;
+  const scene = uploadScene(ctx.device, bundle);
+  try {
+    const out = await traceRays(ctx.device, scene, rays, {timer: ctx.timer});
+    if (out.hits.length !== n * HIT_WORDS) throw new Error(`read back ${out.hits.length} hit words for ${n} rays`);
+    writeNpy(path.join(ctx.dumpDir, 'hits.npy'), out.hits, [n], bundle.files.get('hits.npy').dtype);
+    writeNpy(path.join(ctx.dumpDir, 'counters.npy'), out.counters, [n], bundle.files.get('counters.npy').dtype);
+    writeNpy(path.join(ctx.dumpDir, 'trace_status.npy'), out.status, [n]);
+  } finally {
+    scene.buffer.destroy();
+  }
+}
+
+export function validate(ctx, c) {
+  const bundle = bundleOf(ctx, c);
+  const out = {hits: wordsOf(path.join(ctx.dumpDir, 'hits.npy')),
+    counters: wordsOf(path.join(ctx.dumpDir, 'counters.npy')), status: readNpy(path.join(ctx.dumpDir,
+      'trace_status.npy')).data};
+  return c.edit === 'refused' ? validateRefused(ctx, bundle, out) : validateTrace(ctx, bundle, out);
+}
+
+/** The words of a .npy file's records. */
+function wordsOf(file) {
+  const d = readNpy(file).data;
+  const b = new Uint8Array(d.buffer, d.byteOffset, d.byteLength).slice();
+  return new Uint32Array(b.buffer);
 }
 
 /** The first ray whose counters differ from the bundle's, named with its field; null when all agree. */
@@ -137,22 +185,13 @@ function compareCounters(expected, actual) {
 /** The 'refused' case: the bundle's rays with REFUSED's edits. The oracle refuses the whole batch, naming the first
  * bad ray; the GPU must flag exactly the edited rays REFUSED with the miss record of their tMax and zero counters,
  * and trace every other ray as the bundle did. */
-async function runRefused(ctx, c, bundle, scene) {
-  const rays = editRefused(bundle.words('rays.npy'));
-  const n = rays.length / WFRAY_WORDS;
-  const file = path.join(ctx.dir, 'rays_refused.npy');
-  writeNpy(file, rays, [n], bundle.files.get('rays.npy').dtype);
-  let oracleSays = null;
-  try {
-    rtoracle(ctx.rtoracle, ['trace', scenePath(c.scene), '--rays', file, '-o', path.join(ctx.dir, 'refused')]);
-  } catch (e) {
-    oracleSays = e.message;
-  }
+function validateRefused(ctx, bundle, out) {
+  const oracleSays = fs.readFileSync(path.join(ctx.dir, 'oracle_refusal.txt'), 'utf8').trim();
   const first = Math.min(...REFUSED.map(([r]) => r));
-  if (!oracleSays || !oracleSays.includes(`ray ${first} `))
+  if (!oracleSays.includes(`ray ${first} `))
     return {pass: false, check: 'refused', diagnosis: `the oracle did not refuse ray ${first}: ${oracleSays}`};
-  const out = await traceRays(ctx.device, scene, rays, {timer: ctx.timer});
-  writeNpy(path.join(ctx.dir, 'trace_status.npy'), out.status, [n]);
+  const rays = wordsOf(path.join(ctx.dir, 'rays_refused.npy'));
+  const n = rays.length / WFRAY_WORDS;
   const expHits = bundle.words('hits.npy'), expCnt = bundle.words('counters.npy');
   const bad = new Set(REFUSED.map(([r]) => r));
   for (let i = 0; i < n; i++) {
@@ -192,26 +231,8 @@ function statusFault(status) {
   return `ray ${i}: trace status ${what} (${status.filter((s) => s !== 0).length} rays flagged)`;
 }
 
-export async function run(ctx, c) {
-  const bundle = makeBundle(ctx, c);
-  const scene = uploadScene(ctx.device, bundle);
-  try {
-    return c.edit === 'refused' ? await runRefused(ctx, c, bundle, scene) : await runTrace(ctx, bundle, scene);
-  } finally {
-    scene.buffer.destroy();
-  }
-}
-
-async function runTrace(ctx, bundle, scene) {
-  const rays = bundle.words('rays.npy');
-  const n = rays.length / WFRAY_WORDS;
-  const out = await traceRays(ctx.device, scene, rays, {timer: ctx.timer});
-  const hitsPath = path.join(ctx.dir, 'hits.npy');
-  writeNpy(hitsPath, out.hits, [n], bundle.files.get('hits.npy').dtype);
-  writeNpy(path.join(ctx.dir, 'counters.npy'), out.counters, [n], bundle.files.get('counters.npy').dtype);
-  writeNpy(path.join(ctx.dir, 'trace_status.npy'), out.status, [n]);
-  if (out.hits.length !== n * HIT_WORDS) throw new Error(`read back ${out.hits.length} hit words for ${n} rays`);
-
+function validateTrace(ctx, bundle, out) {
+  const hitsPath = path.join(ctx.dumpDir, 'hits.npy');
   const status = statusFault(out.status);
   if (status) return {pass: false, check: 'trace-status', diagnosis: status};
   const hits = {...check(ctx.rtoracle, 'check-hits', ['--expected', bundle.dir, '--gpu', hitsPath, '--no-artifacts']),
