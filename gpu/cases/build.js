@@ -49,15 +49,36 @@ export function resize(c, n) {
   return c.dist ? instancesCase(c.dist, n) : null;
 }
 
-/** The morton15 of a key as (qx, qy, qz), for diagnoses. */
+/** The morton15 of a key as [qx, qy, qz]. */
 function cells(key) {
   const q = [0, 0, 0];
   for (let b = 0; b < 15; b++) if ((key >>> (16 + b)) & 1) q[2 - (b % 3)] |= 1 << Math.floor(b / 3);
-  return `(${q.join(', ')})`;
+  return q;
 }
 
 const hex = (k) => `0x${k.toString(16).padStart(8, '0')}`;
-const describe = (k) => (k === SENTINEL ? 'no key (sentinel)' : `${hex(k)} q = ${cells(k)}`);
+const describe = (k) => (k === SENTINEL ? 'no key (sentinel)' : `${hex(k)} q = (${cells(k).join(', ')})`);
+const f32 = Math.fround; // binary64 then one rounding: exact binary32 for +, -, *, / of binary32 operands
+const ulp = (x) => 2 ** (Math.floor(Math.log2(Math.abs(x) || 2 ** -126)) - 23);
+
+/** For a key that differs by one cell on an axis: the oracle's own t = ((c - lo) / (hi - lo)) * 32 (from
+ * instance_aabbs.npy, in binary32) on that axis, and how many ulps it lies from the cell boundary between the two
+ * cells. A few ulps means a rounding difference (a fused multiply-add in the world box, an approximate division),
+ * not a logic fault. */
+function boundary(boxes, keyed, i, got, want) {
+  const c = (j, a) => f32(f32(boxes[6 * j + a] + boxes[6 * j + 3 + a]) * 0.5);
+  const notes = [];
+  const qg = cells(got), qw = cells(want);
+  for (let a = 0; a < 3; a++) {
+    if (Math.abs(qg[a] - qw[a]) !== 1) continue;
+    let lo = Infinity, hi = -Infinity;
+    for (const j of keyed) lo = Math.min(lo, c(j, a)), hi = Math.max(hi, c(j, a));
+    const t = f32(f32(f32(c(i, a) - lo) / f32(hi - lo)) * 32);
+    const edge = Math.max(qg[a], qw[a]);
+    notes.push(`${'xyz'[a]}: the oracle's t = ${t} is ${Math.abs(t - edge) / ulp(edge)} ulp from the cell edge ${edge}`);
+  }
+  return notes.length ? ` (${notes.join('; ')})` : '';
+}
 
 /** The 'keys' check: the GPU's key of every instance against tlas_keys.npy, which holds one key per keyed
  * instance (a non-empty world box in instance_aabbs.npy, §5) in instance order; the GPU dumps the sentinel for the
@@ -65,18 +86,17 @@ const describe = (k) => (k === SENTINEL ? 'no key (sentinel)' : `${hex(k)} q = $
 function checkKeys(bundle, gpu) {
   const expected = bundle.npy('tlas_keys.npy').data;
   const boxes = new Float32Array(bundle.words('instance_aabbs.npy').buffer); // Aabb: min xyz, max xyz
-  let e = 0;
-  for (let i = 0; i < gpu.length; i++) {
-    const b = boxes.subarray(6 * i, 6 * i + 6);
-    const keyed = !(b[0] > b[3] || b[1] > b[4] || b[2] > b[5]);
-    const want = keyed ? expected[e++] : SENTINEL;
-    if (gpu[i] !== want) {
-      return {pass: false, check: 'keys', fault: 'key',
-        diagnosis: `instance ${i}: GPU key ${describe(gpu[i])}, expected ${describe(want)}`};
-    }
-  }
-  if (e !== expected.length) throw new Error(`tlas_keys.npy: ${expected.length} keys for ${e} keyed instances`);
-  return {pass: true, check: 'keys', diagnosis: ''};
+  const keyed = [...Array(gpu.length).keys()].filter((i) =>
+    !(boxes[6 * i] > boxes[6 * i + 3] || boxes[6 * i + 1] > boxes[6 * i + 4] || boxes[6 * i + 2] > boxes[6 * i + 5]));
+  if (keyed.length !== expected.length)
+    throw new Error(`tlas_keys.npy: ${expected.length} keys for ${keyed.length} keyed instances`);
+  const want = new Uint32Array(gpu.length).fill(SENTINEL);
+  keyed.forEach((i, e) => (want[i] = expected[e]));
+  const i = gpu.findIndex((k, j) => k !== want[j]);
+  if (i < 0) return {pass: true, check: 'keys', diagnosis: ''};
+  const near = gpu[i] !== SENTINEL && want[i] !== SENTINEL ? boundary(boxes, keyed, i, gpu[i], want[i]) : '';
+  return {pass: false, check: 'keys', fault: 'key',
+    diagnosis: `instance ${i}: GPU key ${describe(gpu[i])}, expected ${describe(want[i])}${near}`};
 }
 
 export async function run(ctx, c) {

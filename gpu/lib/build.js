@@ -36,6 +36,16 @@ export function buildInputs(bundle) {
   return {instances, count: instances.length / 32, meshes, blas, meshTriangles};
 }
 
+/** device.popErrorScope(), keeping Node's event loop alive meanwhile as settle() does. */
+async function popErrorScope(device) {
+  const alive = setInterval(() => {}, 5);
+  try {
+    return await device.popErrorScope();
+  } finally {
+    clearInterval(alive);
+  }
+}
+
 /** One 16-byte parameter record per dispatch, 256 bytes apart (the uniform offset alignment). */
 function paramBuffer(device, records) {
   const words = new Uint32Array(64 * records.length);
@@ -46,6 +56,7 @@ function paramBuffer(device, records) {
 const slice = (buf, i) => ({buffer: buf, offset: 256 * i, size: 16});
 
 function dispatch(device, enc, timer, label, pipe, entries, threads) {
+  if (!threads) return; // no instances: nothing to run (the buffers' single records are never read)
   const pass = timer ? timer.pass(enc, label) : enc.beginComputePass({label});
   pass.setPipeline(pipe);
   pass.setBindGroup(0, bind(device, pipe, 0, entries));
@@ -69,11 +80,11 @@ export async function buildTlas(device, input, {timer = null} = {}) {
   const nodeCount = 2 * leaves - 1;
   const depth = Math.log2(leaves);
 
-  const bufs = {
-    instances: buffer(device, input.instances.byteLength, {data: input.instances}),
+  const bufs = { // at least one record each: a binding holds a whole struct even when there are no instances
+    instances: buffer(device, 128 * Math.max(1, n), {data: input.instances}),
     meshes: buffer(device, input.meshes.byteLength, {data: input.meshes}),
     blas: buffer(device, input.blas.byteLength, {data: input.blas}),
-    boxes: buffer(device, 32 * n),
+    boxes: buffer(device, 32 * Math.max(1, n)),
     bounds: buffer(device, 32),
     keys: buffer(device, 4 * slots),
     keysDump: buffer(device, 4 * n),
@@ -82,6 +93,7 @@ export async function buildTlas(device, input, {timer = null} = {}) {
   const levels = [...Array(depth).keys()].reverse().map((d) => [(1 << d) - 1, 1 << d]);
   const params = paramBuffer(device, [[n, slots, 0, 0], [leaves - 1, leaves, 0, 0], ...levels.map(([f, c]) => [f, c, 0, 0])]);
 
+  device.pushErrorScope('validation'); // a bad binding would otherwise leave the dumps silently unwritten
   const enc = device.createCommandEncoder();
   const morton = (entry) => pipeline(device, 'morton.wgsl', {entry});
   dispatch(device, enc, timer, 'instance_boxes', morton('instance_boxes'),
@@ -101,6 +113,8 @@ export async function buildTlas(device, input, {timer = null} = {}) {
 
   const [keys, sorted, nodes] = await readBack(device, enc, [bufs.keysDump, bufs.keys, bufs.nodes],
     [4 * n, 4 * nPadded, 32 * nodeCount]);
+  const error = await popErrorScope(device);
   for (const b of [...Object.values(bufs), params, sortParams]) b.destroy();
+  if (error) throw new Error(`WebGPU validation: ${error.message.split('\n')[0]}`);
   return {keys: new Uint32Array(keys), sorted: new Uint32Array(sorted), nodes: new Uint32Array(nodes), nPadded, keyed};
 }
