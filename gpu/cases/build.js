@@ -59,7 +59,7 @@ function cells(key) {
 const hex = (k) => `0x${k.toString(16).padStart(8, '0')}`;
 const describe = (k) => (k === SENTINEL ? 'no key (sentinel)' : `${hex(k)} q = (${cells(k).join(', ')})`);
 const f32 = Math.fround; // binary64 then one rounding: exact binary32 for +, -, *, / of binary32 operands
-const ulp = (x) => 2 ** (Math.floor(Math.log2(Math.abs(x) || 2 ** -126)) - 23);
+const ulp = (x) => 2 ** (Math.floor(Math.log2(x)) - 23); // of a binary32 x >= 1
 
 /** For a key that differs by one cell on an axis: the oracle's own t = ((c - lo) / (hi - lo)) * 32 (from
  * instance_aabbs.npy, in binary32) on that axis, and how many ulps it lies from the cell boundary between the two
@@ -75,7 +75,8 @@ function boundary(boxes, keyed, i, got, want) {
     for (const j of keyed) lo = Math.min(lo, c(j, a)), hi = Math.max(hi, c(j, a));
     const t = f32(f32(f32(c(i, a) - lo) / f32(hi - lo)) * 32);
     const edge = Math.max(qg[a], qw[a]);
-    notes.push(`${'xyz'[a]}: the oracle's t = ${t} is ${Math.abs(t - edge) / ulp(edge)} ulp from the cell edge ${edge}`);
+    const away = Math.abs(t - edge) / ulp(edge);
+    notes.push(`${'xyz'[a]}: the oracle's t = ${t} is ${away} ulp from the cell edge ${edge}`);
   }
   return notes.length ? ` (${notes.join('; ')})` : '';
 }
@@ -107,7 +108,8 @@ export async function run(ctx, c) {
   const dump = (name) => path.join(ctx.dir, name);
   writeNpy(dump('gpu_keys.npy'), out.keys);
   writeNpy(dump('gpu_sorted_keys.npy'), out.sorted);
-  writeNpy(dump('gpu_tlas_nodes.npy'), out.nodes, [out.nodes.length / 8], bundle.files.get('tlas_nodes.npy').dtype);
+  const nodeType = bundle.files.get('tlas_nodes.npy').dtype; // TlasNode records, as the bundle writes them
+  writeNpy(dump('gpu_tlas_nodes.npy'), out.nodes, [out.nodes.length / 8], nodeType);
 
   const keys = checkKeys(bundle, out.keys);
   if (!keys.pass) return keys;

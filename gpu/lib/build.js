@@ -88,10 +88,11 @@ export async function buildTlas(device, input, {timer = null} = {}) {
     bounds: buffer(device, 32),
     keys: buffer(device, 4 * slots),
     keysDump: buffer(device, 4 * n),
-    nodes: buffer(device, 32 * nodeCount),
+    nodes: buffer(device, 4 * NODE_WORDS * nodeCount),
   };
   const levels = [...Array(depth).keys()].reverse().map((d) => [(1 << d) - 1, 1 << d]);
-  const params = paramBuffer(device, [[n, slots, 0, 0], [leaves - 1, leaves, 0, 0], ...levels.map(([f, c]) => [f, c, 0, 0])]);
+  const params = paramBuffer(device, [[n, slots, 0, 0], [leaves - 1, leaves, 0, 0], ...levels.map(([f, c]) =>
+    [f, c, 0, 0])]);
 
   device.pushErrorScope('validation'); // a bad binding would otherwise leave the dumps silently unwritten
   const enc = device.createCommandEncoder();
@@ -99,7 +100,7 @@ export async function buildTlas(device, input, {timer = null} = {}) {
   dispatch(device, enc, timer, 'instance_boxes', morton('instance_boxes'),
     {0: slice(params, 0), 1: bufs.instances, 2: bufs.meshes, 3: bufs.blas, 4: bufs.boxes}, n);
   dispatch(device, enc, timer, 'centroid_bounds', morton('centroid_bounds'),
-    {0: slice(params, 0), 4: bufs.boxes, 5: bufs.bounds}, WG);
+    {0: slice(params, 0), 4: bufs.boxes, 5: bufs.bounds}, WG); // one workgroup reduces them all
   dispatch(device, enc, timer, 'morton', morton('morton_keys'),
     {0: slice(params, 0), 4: bufs.boxes, 5: bufs.bounds, 6: bufs.keys}, slots);
   if (n) enc.copyBufferToBuffer(bufs.keys, 0, bufs.keysDump, 0, 4 * n); // the keys in instance order, before sorting
@@ -112,7 +113,7 @@ export async function buildTlas(device, input, {timer = null} = {}) {
     {0: slice(params, 2 + i), 1: bufs.nodes}, count));
 
   const [keys, sorted, nodes] = await readBack(device, enc, [bufs.keysDump, bufs.keys, bufs.nodes],
-    [4 * n, 4 * nPadded, 32 * nodeCount]);
+    [4 * n, 4 * nPadded, 4 * NODE_WORDS * nodeCount]);
   const error = await popErrorScope(device);
   for (const b of [...Object.values(bufs), params, sortParams]) b.destroy();
   if (error) throw new Error(`WebGPU validation: ${error.message.split('\n')[0]}`);
