@@ -6,12 +6,13 @@
 import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
 import {buildInputs, buildTlas, MAX_INSTANCES} from '../lib/build.js';
-import {writeNpy} from '../lib/npy.js';
-import {check, rtoracle} from '../lib/oracle.js';
+import {readNpy, writeNpy} from '../lib/npy.js';
+import {check, rtoracle, scenePath} from '../lib/oracle.js';
 import {SORT_SIZES} from '../lib/matrix.js';
 import {SENTINEL} from '../lib/sort.js';
 
 export const family = 'build';
+
 
 /** The centroid distributions: the only ones an instances:DIST:N scene takes (the raw key ones are sort-only). */
 export const BUILD_DISTS = ['uniform', 'one-bucket', 'clustered', 'clustered-far', 'line', 'two-clusters'];
@@ -100,22 +101,31 @@ function checkKeys(bundle, gpu) {
     diagnosis: `instance ${i}: GPU key ${describe(gpu[i])}, expected ${describe(want[i])}${near}`};
 }
 
-export async function run(ctx, c) {
-  const dir = path.join(ctx.dir, 'bundle');
-  rtoracle(ctx.rtoracle, ['build', c.scene, '-o', dir]);
-  const bundle = new Bundle(dir);
-  const out = await buildTlas(ctx.device, buildInputs(bundle), {timer: ctx.timer});
-  const dump = (name) => path.join(ctx.dir, name);
-  writeNpy(dump('gpu_keys.npy'), out.keys);
-  writeNpy(dump('gpu_sorted_keys.npy'), out.sorted);
-  const nodeType = bundle.files.get('tlas_nodes.npy').dtype; // TlasNode records, as the bundle writes them
-  writeNpy(dump('gpu_tlas_nodes.npy'), out.nodes, [out.nodes.length / 8], nodeType);
+/** The oracle's build bundle of the scene. */
+export function prepare(ctx, c) {
+  rtoracle(ctx.rtoracle, ['build', scenePath(c.scene), '-o', path.join(ctx.dir, 'bundle')]);
+}
 
-  const keys = checkKeys(bundle, out.keys);
+/** The GPU's keys (instance order), sorted keys (n_padded) and sweep tree. */
+export async function dump(ctx) {
+  const bundle = new Bundle(path.join(ctx.dir, 'bundle'));
+  const out = await buildTlas(ctx.device, buildInputs(bundle), {timer: ctx.timer});
+  const file = (name) => path.join(ctx.dumpDir, name);
+  writeNpy(file('gpu_keys.npy'), out.keys);
+  writeNpy(file('gpu_sorted_keys.npy'), out.sorted);
+  const nodeType = bundle.files.get('tlas_nodes.npy').dtype; // TlasNode records, as the bundle writes them
+  writeNpy(file('gpu_tlas_nodes.npy'), out.nodes, [out.nodes.length / 8], nodeType);
+}
+
+export function validate(ctx) {
+  const dir = path.join(ctx.dir, 'bundle');
+  const bundle = new Bundle(dir);
+  const file = (name) => path.join(ctx.dumpDir, name);
+  const keys = checkKeys(bundle, readNpy(file('gpu_keys.npy')).data);
   if (!keys.pass) return keys;
   const sort = check(ctx.rtoracle, 'check-sort', ['--input', path.join(dir, 'tlas_keys.npy'),
-    '--gpu', dump('gpu_sorted_keys.npy'), '--no-artifacts']);
+    '--gpu', file('gpu_sorted_keys.npy'), '--no-artifacts']);
   if (!sort.pass) return {...sort, check: 'check-sort'};
-  return {...check(ctx.rtoracle, 'check-bvh', ['--expected', dir, '--gpu', dump('gpu_tlas_nodes.npy'),
+  return {...check(ctx.rtoracle, 'check-bvh', ['--expected', dir, '--gpu', file('gpu_tlas_nodes.npy'),
     '--no-artifacts']), check: 'check-bvh'};
 }

@@ -7,15 +7,13 @@ import fs from 'node:fs';
 import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
 import {readNpy, writeNpy} from '../lib/npy.js';
-import {check, rtoracle} from '../lib/oracle.js';
+import {check, REPO, rtoracle, scenePath} from '../lib/oracle.js';
 import {uploadScene} from '../lib/scene.js';
 import {COUNTER_WORDS, HIT_WORDS, TRACE_STATUS, traceRays, WFRAY_WORDS} from '../lib/trace.js';
 
 export const family = 'trace';
 
 const CORNELL = 'fixtures/CornellBox-nvpro-glTF/cornellBox.gltf';
-const REPO = path.join(path.dirname(new URL(import.meta.url).pathname), '..', '..');
-
 // scene, ray set, size (pixels WxH for camera sets, a count otherwise), optional TLAS layout and ray-file edits.
 const FULL = [
   ['triangle', 'primary', '64x64'],
@@ -74,12 +72,6 @@ function rayArgs(c) {
   return ['--rays', c.rays, '--count', String(c.size)];
 }
 
-/** A scene file as given (absolute, or relative to the working directory), else relative to the repository root
- * (the family's own fixtures); a procedural name as it is. */
-function scenePath(scene) {
-  if (!/[/.]/.test(scene) || path.isAbsolute(scene) || fs.existsSync(scene)) return scene;
-  return path.join(REPO, scene);
-}
 
 // The 'flags' edit: the same rays with every §6 flag and cull mask in turn (ray i takes FLAGS[i % 7] and
 // MASKS[(i / 7) % 5]; 7 and 5 are coprime, so every pair occurs), traced by the oracle from the edited ray file.

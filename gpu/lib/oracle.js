@@ -1,9 +1,18 @@
 // Running rtoracle from a harness: generating inputs and bundles, and validating dumps with its check-* commands.
 import {spawnSync} from 'node:child_process';
+import fs from 'node:fs';
 import path from 'node:path';
 
 const here = path.dirname(new URL(import.meta.url).pathname);
-export const DEFAULT_RTORACLE = path.join(here, '..', '..', 'build', 'oracle', 'rtoracle');
+export const REPO = path.join(here, '..', '..');
+export const DEFAULT_RTORACLE = path.join(REPO, 'build', 'oracle', 'rtoracle');
+
+/** A scene file as given (absolute, or relative to the working directory), else relative to the repository root
+ * (its fixtures); a procedural scene name as it is. */
+export function scenePath(scene) {
+  if (!/[/.]/.test(scene) || path.isAbsolute(scene) || fs.existsSync(scene)) return scene;
+  return path.join(REPO, scene);
+}
 
 /** Runs `rtoracle ARGS...` and throws with its message unless it exits 0 (for commands that write inputs). */
 export function rtoracle(bin, args) {
