@@ -108,18 +108,21 @@ function parseArgs(argv) {
   if (modes > 1) usage('--prepare-only, --dump-only and --check-only exclude each other');
   if (modes && !o.out) usage('--prepare-only, --dump-only and --check-only need --out DIR');
   if (o.checkOnly && !fs.existsSync(o.out)) usage(`--check-only: no directory ${o.out}`);
-  if (!o.dumpOnly && !fs.existsSync(o.rtoracle)) usage(`no rtoracle binary at ${o.rtoracle} (build it, or pass --rtoracle PATH)`);
+  if (!o.dumpOnly && !fs.existsSync(o.rtoracle))
+    usage(`no rtoracle binary at ${o.rtoracle} (build it, or pass --rtoracle PATH)`);
   if (o.kernels && !fs.statSync(o.kernels, {throwIfNoEntry: false})?.isDirectory())
     usage(`--kernels: ${o.kernels} is not a directory`);
   return o;
 }
+
+const harnessFault = (diagnosis) => ({pass: false, check: 'harness', diagnosis});
 
 /** fn's result, or a failure whose diagnosis is the error's first line (a harness fault, not the oracle's). */
 async function attempt(fn) {
   try {
     return await fn();
   } catch (e) {
-    return {pass: false, check: 'harness', diagnosis: `harness: ${String(e.message || e).split('\n')[0]}`};
+    return harnessFault(String(e.message || e).split('\n')[0]);
   }
 }
 
@@ -141,12 +144,12 @@ async function runCase(ctx, mod, c, dir, repeat) {
   const {opts, timer} = ctx;
   const split = Boolean(mod.dump);
   if (!split && (opts.prepareOnly || opts.dumpOnly || opts.checkOnly))
-    return {passes: 0, first: {pass: false, check: 'harness', diagnosis: `harness: family ${mod.family} runs only in full`}};
+    return {passes: 0, first: harnessFault(`family ${mod.family} runs only in the full mode`)};
   const stamp = path.join(dir, 'case.json');
   const params = JSON.stringify(c);
   if (opts.checkOnly) {
     if (!fs.existsSync(stamp) || fs.readFileSync(stamp, 'utf8') !== params)
-      return {passes: 0, first: {pass: false, check: 'harness', diagnosis: `harness: ${dir} holds no dump of this case`}};
+      return {passes: 0, first: harnessFault(`${dir} holds no dump of this case`)};
   } else if (!split || !fs.existsSync(stamp) || fs.readFileSync(stamp, 'utf8') !== params) {
     fs.rmSync(dir, {recursive: true, force: true});
     fs.mkdirSync(dir, {recursive: true});
@@ -199,7 +202,7 @@ async function runCase(ctx, mod, c, dir, repeat) {
       const dumpDir = path.join(dir, s ? `gpu-${s}` : 'gpu');
       const err = path.join(dumpDir, 'harness-error.txt');
       verdicts.set(s, fs.existsSync(err)
-        ? {pass: false, check: 'harness', diagnosis: fs.readFileSync(err, 'utf8').trim()}
+        ? harnessFault(fs.readFileSync(err, 'utf8').trim())
         : await attempt(() => mod.validate({...ctx, dir, dumpDir}, c)));
     }
     last = verdicts.get(s);
@@ -247,7 +250,8 @@ async function main() {
   let adapter = [info.vendor, info.architecture, info.device, info.description].filter(Boolean).join(' ');
   let backend = dev.backend;
   if (opts.dumpOnly) fs.writeFileSync(deviceFile, JSON.stringify({backend, adapter}) + '\n');
-  if (opts.checkOnly && fs.existsSync(deviceFile)) ({backend, adapter} = JSON.parse(fs.readFileSync(deviceFile, 'utf8')));
+  if (opts.checkOnly && fs.existsSync(deviceFile))
+    ({backend, adapter} = JSON.parse(fs.readFileSync(deviceFile, 'utf8')));
   const timer = new Timer(dev.device, opts.timestamps);
   const ctx = {device: dev.device, backend, rtoracle: opts.rtoracle, opts, timer};
   console.log(`device: ${backend}${adapter ? ` (${adapter})` : ''}${opts.timestamps && dev.device
@@ -268,7 +272,8 @@ async function main() {
       }
       const shown = r.first || r.last || {};
       const runs = r.runs || opts.repeat; // --check-only: as many as were dumped
-      const row = {case: c.id, family, params: c, pass: r.passes === runs, passes: r.passes, repeat: runs, distinct_dumps: r.distinct || null, check: shown.check || null, fault: shown.fault || null,
+      const row = {case: c.id, family, params: c, pass: r.passes === runs, passes: r.passes, repeat: runs,
+        distinct_dumps: r.distinct || null, check: shown.check || null, fault: shown.fault || null,
         diagnosis: shown.diagnosis || '', gpu_ms: r.gpu_ms || {}, wall_s: (Date.now() - t0) / 1000, dir: caseDir(c),
         images: shown.images || null};
       if (!row.pass && opts.shrink && mod.resize && c.size > 1) row.shrunk = await shrink(ctx, mod, c, caseDir);

@@ -1,5 +1,6 @@
-// A WebGPU device through Dawn (npm `webgpu`): Vulkan when a GPU is there, else Mesa's llvmpipe through Dawn's OpenGL
-// backend in compatibility mode (needs Debian libegl1 libgles2 libegl-mesa0 libgl1-mesa-dri and EGL_PLATFORM=surfaceless).
+// A WebGPU device through Dawn (npm `webgpu`): Vulkan when a GPU is there, else Mesa's llvmpipe through Dawn's
+// OpenGL backend in compatibility mode (needs Debian libegl1 libgles2 libegl-mesa0 libgl1-mesa-dri and
+// EGL_PLATFORM=surfaceless).
 import {create, globals} from 'webgpu';
 
 Object.assign(globalThis, globals);

@@ -16,7 +16,8 @@ function kernelPath(name) {
   return path.join(KERNELS, name);
 }
 
-/** The WGSL text of kernels/FILE (or the override directory's) with every line `// #include "other.wgsl"` replaced by that file (once each), and
+/** The WGSL text of kernels/FILE (or the override directory's) with every line `// #include "other.wgsl"` replaced
+ * by that file (once each), and
  * `// #define NAME` lines prepended for every name in defines (a kernel tests them as `const NAME = true;`). */
 export function wgsl(file, defines = {}) {
   const seen = new Set();
@@ -34,7 +35,8 @@ export function wgsl(file, defines = {}) {
 /** A compute pipeline for kernels/FILE (entry point `entry`, layout 'auto'); compile errors throw with the log. */
 export function pipeline(device, file, {entry = 'main', defines = {}} = {}) {
   const module = device.createShaderModule({code: wgsl(file, defines), label: file});
-  return device.createComputePipeline({layout: 'auto', compute: {module, entryPoint: entry}, label: `${file}:${entry}`});
+  return device.createComputePipeline({layout: 'auto', compute: {module, entryPoint: entry},
+    label: `${file}:${entry}`});
 }
 
 export const STORAGE = () => GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_SRC | GPUBufferUsage.COPY_DST;
