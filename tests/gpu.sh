@@ -1,12 +1,53 @@
 #!/usr/bin/env bash
 # The WebGPU backend's test: gpu/run's ci subset (every sort kernel over the matrix up to 4097 keys, one TLAS build,
 # one traced frame of triangle and of sun-shadow at 64x64 on rtstress:4) must pass, and each planted fault must be
-# reported by the oracle exactly where it starts.
+# reported by the oracle as the fault it is, where it starts.
 #   bash tests/gpu.sh RTORACLE OUTDIR
 set -euo pipefail
 rto=$1
 out=$2
 rm -rf "$out"
 mkdir -p "$out"
+run() { gpu/run --rtoracle "$rto" "$@"; }
+
 gpu/run --rtoracle "$rto" --subset ci --json "$out/ci.json" --html "$out/ci.html"
 echo "gpu: the ci subset passes ($out/ci.html)"
+
+# expect_fault NAME CHECK FAULT DIAGNOSIS-REGEX [gpu/run arguments...]: the run fails (status 1) with exactly one
+# failing case, whose first failing check, fault class and diagnosis are the expected ones.
+expect_fault() {
+    local name=$1 check=$2 fault=$3 diag=$4 status=0
+    shift 4
+    run "$@" --json "$out/$name.json" >"$out/$name.log" 2>&1 || status=$?
+    [ "$status" = 1 ] || { cat "$out/$name.log" >&2; echo "FAIL: $name: gpu/run exited $status, not 1" >&2; exit 1; }
+    node -e '
+        const [file, check, fault, diag] = process.argv.slice(1);
+        const bad = require(file).results.filter((r) => !r.pass);
+        const r = bad[0] || {};
+        if (bad.length !== 1 || r.check !== check || r.fault !== fault || !new RegExp(diag).test(r.diagnosis)) {
+          console.error(`expected one failing case with ${check} / ${fault} / ${diag}; got ${bad.length}: ` +
+            `${r.check} / ${r.fault} / ${r.diagnosis}`);
+          process.exit(1);
+        }' "$(realpath "$out/$name.json")" "$check" "$fault" "$diag" || { echo "FAIL: $name" >&2; exit 1; }
+    echo "gpu: $name: $(node -e 'const r = require(process.argv[1]).results.find((x) => !x.pass);
+        console.log(`${r.case}: ${r.check}: ${r.diagnosis}`)' "$(realpath "$out/$name.json")")"
+}
+
+# A user's own kernel through --kernels: a bitonic pass with its comparison turned round orders every pair the wrong
+# way from the first pass on.
+mkdir -p "$out/kernels"
+sed 's/(ascending \&\& a > b) || (!ascending \&\& a < b)/(ascending \&\& a < b) || (!ascending \&\& a > b)/' \
+    gpu/kernels/bitonic_pass.wgsl >"$out/kernels/bitonic_pass.wgsl"
+! cmp -s gpu/kernels/bitonic_pass.wgsl "$out/kernels/bitonic_pass.wgsl" || { echo "FAIL: the planted kernel" >&2; exit 1; }
+expect_fault kernels-override check-sort order 'first diverge at pass 0 \(k=2, j=1\)' \
+    --families bitonic --dists random --sizes 4096 --kernels "$out/kernels"
+
+# Bad usage: one line, status 2.
+for args in "--repeat 0" "--families nope" "--subset most" "--kernels /nonexistent" "--check-only"; do
+    status=0
+    # shellcheck disable=SC2086
+    run $args >"$out/usage.log" 2>&1 || status=$?
+    [ "$status" = 2 ] && [ "$(wc -l <"$out/usage.log")" = 1 ] ||
+        { cat "$out/usage.log" >&2; echo "FAIL: gpu/run $args: status $status, not one line and 2" >&2; exit 1; }
+done
+echo "gpu: bad usage gets one line and status 2"

@@ -17,8 +17,8 @@ function kernelPath(name) {
 }
 
 /** The WGSL text of kernels/FILE (or the override directory's) with every line `// #include "other.wgsl"` replaced
- * by that file (once each), and
- * `// #define NAME` lines prepended for every name in defines (a kernel tests them as `const NAME = true;`). */
+ * by that file (once each), after a `const NAME = value;` line for every entry of defines (booleans as they are,
+ * integers as u32, other values as written), which a kernel tests like any constant. */
 export function wgsl(file, defines = {}) {
   const seen = new Set();
   const expand = (name) => {
