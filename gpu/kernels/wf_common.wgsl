@@ -15,8 +15,8 @@ struct Frame {
   params: array<vec4<f32>, 4>,
 }
 
-// What one pass (stage) works on: the queue it reads (PREP, TRACE, SHADE d), the queue it fills (GENERATE: 0, SHADE d: d + 1)
-// and the FrameCounters row its hits, misses, shaded, accumulates and conflicts go to (GENERATE: 0, SHADE d: d).
+// What one pass works on: the queue it reads (PREP, TRACE, SHADE d: d), the queue it fills (GENERATE: 0, SHADE d:
+// d + 1) and the FrameCounters row of its hits, misses, shaded, accumulates and conflicts (GENERATE: 0, SHADE d: d).
 struct Stage { queueIn: u32, queueOut: u32, row: u32, pad: u32 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -36,11 +36,13 @@ alias Payload = array<u32, PAYLOAD_MAX_WORDS>;
 // The state buffer (u32 words, atomics; cleared before GENERATE):
 //   STATE_EMIT + 0/1     the ping-pong emit counters: queue d appends on STATE_EMIT + d % 2
 //   STATE_QUEUE_LEN      n of the queue the last PREP prepared (bounds TRACE and SHADE)
+//   STATE_TRACE_FAULTS   rays trace_ray refused or could not finish (its status): none in a frame the oracle rendered
 //   STATE_COUNTERS       FrameCounters, 10 words per queue d = 0 .. MAX_DEPTH (the rows of frame_counters.npy)
 //   STATE_OWNER          W H words: the last invocation (item + 1) that accumulated into each pixel in this pass
 //   STATE_OWNER + W H    W H words: 1 once the pixel had a conflict (two invocations of one pass accumulating)
 const STATE_EMIT = 0u;
 const STATE_QUEUE_LEN = 2u;
+const STATE_TRACE_FAULTS = 3u;
 const STATE_COUNTERS = 4u;
 const COUNTER_WORDS = 10u;
 const STATE_OWNER = STATE_COUNTERS + COUNTER_WORDS * (MAX_DEPTH + 1u);

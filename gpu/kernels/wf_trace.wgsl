@@ -1,6 +1,7 @@
 // TRACE d (DESIGN.md §6, §7): one invocation per ray of queue d (dispatched indirectly from PREP d's arguments)
 // traces it with the shared ordered traversal (trace.wgsl, the scene in group 1) and writes its hit record at the
-// ray's index. No program code runs here.
+// ray's index. No program code runs here. A ray trace_ray refuses or cannot finish (its status) is counted: the
+// harness fails the frame on any.
 // #include "wf_common.wgsl"
 // #include "trace.wgsl"
 
@@ -15,5 +16,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     return;
   }
   atomicAdd(&state[wf_counter(stage.queueIn, C_TRACED)], 1u);
-  hits[i] = trace_ray(rays[i]).hit;
+  let traced = trace_ray(rays[i]);
+  hits[i] = traced.hit;
+  if (traced.status != 0u) {
+    atomicAdd(&state[STATE_TRACE_FAULTS], 1u);
+  }
 }

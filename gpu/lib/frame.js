@@ -33,6 +33,9 @@ const RAY_BYTES = 64;
 const HIT_BYTES = 96;
 const RAY_WORDS = RAY_BYTES / 4;
 const PAYLOAD_SLOT_WORD = 13; // WfRay.payloadSlot
+// The state buffer of wf_common.wgsl (words).
+const STATE_TRACE_FAULTS = 3;
+const STATE_COUNTERS = 4;
 const COUNTER_WORDS = 10; // FrameCounters
 const QUEUED = 1; // FrameCounters.queued
 const UNIFORM_ALIGN = 256;
@@ -88,18 +91,22 @@ export async function renderFrame(device, bundle, {timer = null} = {}) {
   const pixels = f.width * f.height;
   const pw = f.payloadWords;
   const defines = {MAX_DEPTH: D, PAYLOAD_WORDS: pw, PROGRAM: f.programId};
+  const scene = uploadScene(device, bundle);
   // Validation errors (a binding a kernel lacks, a buffer too small) would otherwise only print: make them throw.
   device.pushErrorScope('validation');
   const pipe = {};
-  for (const k of ['generate', 'prep', 'trace', 'shade', 'resolve']) pipe[k] = pipeline(device, `wf_${k}.wgsl`, {defines});
+  for (const k of ['generate', 'prep', 'trace', 'shade', 'resolve'])
+    pipe[k] = pipeline(device, `wf_${k}.wgsl`, {defines});
 
-  const ownerWord = 4 + COUNTER_WORDS * (D + 1); // STATE_OWNER of wf_common.wgsl
+  const ownerWord = STATE_COUNTERS + COUNTER_WORDS * (D + 1); // STATE_OWNER
   const frameU = buffer(device, 256, {data: frameUniform(f), usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST});
-  // Stage slots: d = 0 .. D for PREP / TRACE / SHADE d (reads queue d, fills d + 1, counters row d); D + 1 for GENERATE.
+  // Stage slots: d = 0 .. D for PREP / TRACE / SHADE d (reads queue d, fills d + 1, counters row d); D + 1 for
+  // GENERATE (fills queue 0, counters row 0).
   const stages = new Uint32Array((UNIFORM_ALIGN / 4) * (D + 2));
   for (let d = 0; d <= D; d++) stages.set([d, d + 1, d, 0], (UNIFORM_ALIGN / 4) * d);
   stages.set([0, 0, 0, 0], (UNIFORM_ALIGN / 4) * (D + 1));
-  const stageU = buffer(device, stages.byteLength, {data: stages, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST});
+  const stageU = buffer(device, stages.byteLength,
+    {data: stages, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST});
   const stage = (k) => ({buffer: stageU, offset: UNIFORM_ALIGN * k, size: 16});
 
   const state = buffer(device, 4 * (ownerWord + 2 * pixels), {label: 'state'});
@@ -110,7 +117,6 @@ export async function renderFrame(device, bundle, {timer = null} = {}) {
   const rays = [0, 1].map((i) => buffer(device, RAY_BYTES * f.capacity, {label: `rays${'AB'[i]}`}));
   const payloads = [0, 1].map((i) => buffer(device, 4 * pw * f.capacity, {label: `payloads${'AB'[i]}`}));
   const hits = buffer(device, HIT_BYTES * f.capacity, {label: 'hits'});
-  const scene = uploadScene(device, bundle);
   // Queue d's buffers are overwritten two bounces later (ping-pong): each is copied out once SHADE d has read it.
   const dumps = Array.from({length: D + 1}, (_, d) => ({
     rays: buffer(device, RAY_BYTES * f.capacity),
@@ -151,10 +157,12 @@ export async function renderFrame(device, bundle, {timer = null} = {}) {
     [state, indirect, accum, image, ...dumpBufs]);
   const invalid = await device.popErrorScope();
   if (invalid) throw new Error(`WebGPU validation: ${invalid.message.split('\n')[0]}`);
-  for (const b of [frameU, stageU, state, indirect, accum, image, ...rays, ...payloads, hits, scene.buffer, ...dumpBufs])
-    b.destroy();
+  [frameU, stageU, state, indirect, accum, image, ...rays, ...payloads, hits, scene.buffer, ...dumpBufs]
+    .forEach((b) => b.destroy());
 
-  const counters = new Uint32Array(stateW, 16, COUNTER_WORDS * (D + 1));
+  const faults = new Uint32Array(stateW, 0, 4)[STATE_TRACE_FAULTS];
+  if (faults) throw new Error(`TRACE: ${faults} ray(s) refused or past the traversal stack (trace.wgsl's status)`);
+  const counters = new Uint32Array(stateW, 4 * STATE_COUNTERS, COUNTER_WORDS * (D + 1));
   const bounces = dumps.map((q, d) => {
     const n = counters[COUNTER_WORDS * d + QUEUED]; // the GPU's own queue length (PREP d's n)
     const raysB = dumpB.shift(), payB = dumpB.shift(), hitsB = q.hits ? dumpB.shift() : null;

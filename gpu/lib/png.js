@@ -33,7 +33,8 @@ function chunk(type, data) {
 
 /** The PNG file bytes of a width x height RGBA8 image (rgba: width * height * 4 bytes, row 0 at the top). */
 export function encodePng(width, height, rgba) {
-  if (rgba.length !== width * height * 4) throw new Error(`encodePng: ${rgba.length} bytes for ${width}x${height} RGBA`);
+  if (rgba.length !== width * height * 4)
+    throw new Error(`encodePng: ${rgba.length} bytes for a ${width}x${height} RGBA image`);
   const ihdr = Buffer.alloc(13);
   ihdr.writeUInt32BE(width, 0);
   ihdr.writeUInt32BE(height, 4);
