@@ -6,6 +6,8 @@ export const WFRAY_WORDS = 16;
 export const HIT_WORDS = 24;
 export const COUNTER_WORDS = 4;
 export const TRACE_STATUS = {refused: 1, stackOverflow: 2};
+/** trace.wgsl's TRACE_STACK_SIZE: entries of the one stack the TLAS and the BLAS in hand share. */
+export const TRACE_STACK_SIZE = 112;
 const WORKGROUP = 64;
 const MAX_GROUPS_X = 65535;
 
@@ -13,6 +15,10 @@ const MAX_GROUPS_X = 65535;
  * HIT_WORDS, COUNTER_WORDS and 1 word per ray. */
 export async function traceRays(device, scene, rays, {timer = null} = {}) {
   const n = rays.length / WFRAY_WORDS;
+  // A tree of depth D keeps at most D + 1 entries; the kernel flags an overflow anyway, this names the cause first.
+  if (scene.tlasDepth + scene.blasDepth + 2 > TRACE_STACK_SIZE)
+    throw new Error(`TLAS depth ${scene.tlasDepth} + BLAS depth ${scene.blasDepth} exceed the trace stack ` +
+      `(${TRACE_STACK_SIZE} entries)`);
   const pipe = pipeline(device, 'trace_rays.wgsl');
   const rayBuf = buffer(device, rays.byteLength, {data: rays, label: 'rays'});
   const hitBuf = buffer(device, n * HIT_WORDS * 4, {label: 'hits'});
