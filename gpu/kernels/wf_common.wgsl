@@ -6,7 +6,10 @@
 // The frame's constants (one uniform block for every pass).
 struct Frame {
   width: u32, height: u32, capacity: u32, maxDepth: u32,
-  rayOffset: f32, pad0: u32, pad1: u32, pad2: u32,
+  rayOffset: f32,
+  // 1, -1 and 0, the w and z of the camera's homogeneous vectors: read from here, not written as literals, so that
+  // a shader compiler cannot see them and rewrite the sums they take part in (Mesa reassociates x + y * -1.0).
+  one: f32, minusOne: f32, zero: f32,
   // CameraUniforms (camera.npy): column-major, column c = inverseProjection[c].
   inverseProjection: mat4x4<f32>,
   inverseView: mat4x4<f32>,

@@ -5,7 +5,8 @@
 
 // The primary ray of pixel (x, y) from CameraUniforms, in binary32 term by term as the oracle's rto_camera_ray:
 // pixel centres at +0.5, NDC y flipped, matrix x vector summed column by column left to right (the w terms too: the
-// 0 w of a direction turns -0 into +0), then normalize(v) = v / length(v).
+// 0 w of a direction turns -0 into +0), then normalize(v) = v / length(v). The constants of (ndc, -1, 1) and
+// (eye, -1, 0) come from the uniform (wf_common.wgsl says why).
 fn camera_ray(x: u32, y: u32) -> WfRay {
   let px = f32(x) + 0.5;
   let py = f32(y) + 0.5;
@@ -13,10 +14,8 @@ fn camera_ray(x: u32, y: u32) -> WfRay {
   let ny = 1.0 - (py / f32(frame.height)) * 2.0;
   let ip = frame.inverseProjection;
   let iv = frame.inverseView;
-  let one = 1.0f;
-  let zero = 0.0f;
-  let eye = ((ip[0].xy * nx + ip[1].xy * ny) + ip[2].xy * -1.0) + ip[3].xy * one;
-  let world = ((iv[0].xyz * eye.x + iv[1].xyz * eye.y) + iv[2].xyz * -1.0) + iv[3].xyz * zero;
+  let eye = ((ip[0].xy * nx + ip[1].xy * ny) + ip[2].xy * frame.minusOne) + ip[3].xy * frame.one;
+  let world = ((iv[0].xyz * eye.x + iv[1].xyz * eye.y) + iv[2].xyz * frame.minusOne) + iv[3].xyz * frame.zero;
   var r: WfRay;
   r.origin = frame.position;
   r.tMin = 0.0;

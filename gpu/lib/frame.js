@@ -76,7 +76,7 @@ function frameUniform(f) {
   const u = new Uint32Array(60);
   const fl = new Float32Array(u.buffer);
   u.set([f.width, f.height, f.capacity, f.maxDepth], 0);
-  fl[4] = f.rayOffset;
+  fl.set([f.rayOffset, 1, -1, 0], 4); // rayOffset, one, minusOne, zero
   fl.set(f.camera.subarray(0, 35), 8); // both matrices and the position, then pad3
   fl.set(f.params, 44);
   return u;
