@@ -21,22 +21,26 @@ const FULL = [
   ['triangle', 'primary', '64x64'],
   ['triangle', 'primary', '64x64', 'karras'],
   ['triangle', 'primary', '8x8', 'sweep', 'refused'],
-  ['rtstress:4', 'primary', '64x64'],
-  ['rtstress:4', 'shadow', '64x64'],
-  ['rtstress:4', 'random', 4096],
-  ['rtstress:4', 'primary', '64x64', 'karras'],
-  ['sphere:3', 'grazing', 4096],
-  ['sphere:3', 'axis', 4096],
-  ['instances:clustered:257', 'random', 4096],
-  ['instances:clustered:257', 'random', 4096, 'karras'],
-  [CORNELL, 'primary', '48x36'],
-  [CORNELL, 'random', 2048],
-  ['random:3', 'random', 4096],
-  ['random:3', 'grazing', 4096],
-  ['random:3', 'random', 4096, 'sweep', 'flags'],
-  ['random:7', 'random', 4096, 'karras', 'flags'],
+  ['rtstress:4', 'primary', '128x96'],
+  ['rtstress:4', 'shadow', '128x96'],
+  ['rtstress:4', 'random', 16384],
+  ['rtstress:4', 'primary', '128x96', 'karras'],
+  ['rtstress:8', 'shadow', '128x96'],
+  ['sphere:3', 'grazing', 16384],
+  ['sphere:3', 'axis', 16384],
+  ['instances:clustered:257', 'random', 16384],
+  ['instances:clustered:257', 'random', 16384, 'karras'],
+  [CORNELL, 'primary', '96x72'],
+  [CORNELL, 'random', 16384],
+  [CORNELL, 'grazing', 16384, 'sweep', 'flags'],
+  ['random:3', 'random', 16384],
+  ['random:3', 'grazing', 16384],
+  ['random:3', 'random', 16384, 'sweep', 'flags'],
+  ['random:7', 'axis', 16384, 'karras', 'flags'],
 ];
 const CI = [['rtstress:4', 'primary', '64x64']];
+// The committed trace goldens (fixtures/golden), traced as they are: what a harness copied from here first meets.
+const GOLDEN = ['trace-Box', 'trace-rtstress-2', 'trace-rtstress-2-random'];
 
 const sceneName = (s) => (s.includes('/') ? path.basename(s) : s);
 
@@ -48,7 +52,9 @@ function makeCase(scene, rays, size, tlas = 'sweep', edit = null) {
 
 /** The family's cases; --scenes replaces the scenes (each traced with primary 64x64 and random 4096 rays). */
 export function list(opts) {
-  if (!opts.scenes) return (opts.subset === 'ci' ? CI : FULL).map((c) => makeCase(...c));
+  if (!opts.scenes && opts.subset === 'ci') return CI.map((c) => makeCase(...c));
+  if (!opts.scenes) return FULL.map((c) => makeCase(...c)).concat(GOLDEN.map((g) => ({family, id: `trace/golden/${g}`,
+    golden: path.join(REPO, 'fixtures', 'golden', g)})));
   for (const s of opts.scenes) {
     const r = spawnSync(opts.rtoracle, ['info', scenePath(s)], {encoding: 'utf8'});
     if (r.status !== 0) {
@@ -98,8 +104,9 @@ function editRefused(words) {
   return out;
 }
 
-/** The bundle of a case (a generated ray set, or its flag-edited ray file traced again). */
+/** The bundle of a case (a committed golden, a generated ray set, or its flag-edited ray file traced again). */
 function makeBundle(ctx, c) {
+  if (c.golden) return new Bundle(c.golden);
   const out = path.join(ctx.dir, 'bundle');
   const base = [scenePath(c.scene), '--tlas', c.tlas, '--threads', '1'];
   if (!c.edit || c.edit === 'refused') {

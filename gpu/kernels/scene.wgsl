@@ -74,6 +74,7 @@ const SCENE_TLAS_KEYS = 9u;          // offset of the sorted TLAS keys (karras; 
 const SCENE_MESH_TABLE = 10u;        // offset of mesh 0's table entry
 const SCENE_TLAS_DEPTH = 11u;        // the TLAS depth (root = 0)
 const SCENE_BLAS_DEPTH = 12u;        // the deepest BLAS's depth
+const SCENE_HAS_GEOMETRY = 13u;      // 1 when positions and indices are there (a build bundle has none)
 const SCENE_ZERO = 15u;              // always 0: a value the shader compiler cannot know (trace.wgsl's trace_keep)
 const TLAS_KIND_SWEEP = 0u;
 const TLAS_KIND_KARRAS = 1u;

@@ -1,5 +1,6 @@
 // TRACE: ordered traversal of one ray over the packed scene, DESIGN.md §6 (src/trace/intersect.c and traverse.c are
-// the reference; every expression below is theirs, in their order, so llvmpipe gives the oracle's bits).
+// the reference; every expression below is theirs, in their order, and trace_keep stops the compiler from regrouping
+// them, so llvmpipe gives the oracle's bits).
 //
 // Interface (include this file; it includes scene.wgsl, which binds the scene as @group(1) @binding(0)):
 //   fn trace_ray(r: WfRay) -> TraceResult
@@ -16,7 +17,7 @@
 // below a Karras BLAS (unique u64 keys, depth <= 64) fits in 33 + 65 entries.
 // #include "scene.wgsl"
 
-const TRACE_STACK_SIZE = 112u;
+const TRACE_STACK_SIZE = 112u;      // lib/trace.js's TRACE_STACK_SIZE mirrors it
 const TRACE_STATUS_REFUSED = 1u;
 const TRACE_STATUS_STACK_OVERFLOW = 2u;
 
@@ -57,7 +58,7 @@ fn trace_inv_dir(d: vec3<f32>) -> vec3<f32> {
   return vec3<f32>(trace_inv_component(d.x), trace_inv_component(d.y), trace_inv_component(d.z));
 }
 
-// §6 slab test: the entry t when the box is hit, else -1 with hit false.
+// §6 slab test: whether the box is hit, and its entry t (tNear).
 struct SlabHit { hit: bool, t: f32 }
 fn trace_slab(bmin: vec3<f32>, bmax: vec3<f32>, o: vec3<f32>, inv: vec3<f32>, tMin: f32, bestT: f32) -> SlabHit {
   let t0 = vec3<f32>((bmin.x - o.x) * inv.x, (bmin.y - o.y) * inv.y, (bmin.z - o.z) * inv.z);

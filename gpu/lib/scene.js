@@ -13,7 +13,8 @@ export const MESH_WORDS = 8;
 export const INSTANCE_WORDS = 32;
 export const TLAS_KIND = {sweep: 0, karras: 1};
 const H = {version: 0, instances: 1, meshes: 2, tlasKind: 3, tlasNodes: 4, tlasFirstLeaf: 5, tlasKeys: 6,
-  instancesAt: 7, tlasNodesAt: 8, tlasKeysAt: 9, meshTableAt: 10, tlasDepth: 11, blasDepth: 12, zero: 15};
+  instancesAt: 7, tlasNodesAt: 8, tlasKeysAt: 9, meshTableAt: 10, tlasDepth: 11, blasDepth: 12, geometry: 13,
+  zero: 15};
 const M = {triangles: 0, vertices: 1, blasNodes: 2, blasNodesAt: 3, orderAt: 4, positionsAt: 5, indicesAt: 6};
 
 /** The words of a listed array, or none for a file the bundle does not hold (an empty mesh may lack its BLAS). */
@@ -21,8 +22,9 @@ function wordsOf(bundle, name) {
   return bundle.has(name) ? bundle.words(name) : new Uint32Array(0);
 }
 
-/** The scene of a bundle (kind build, trace or frame with mesh geometry) packed as scene.wgsl reads it:
- * {words: Uint32Array, instances, meshes, tlasKind, tlasDepth, blasDepth}. */
+/** The scene of a bundle (kind build, trace or frame of a mesh scene) packed as scene.wgsl reads it:
+ * {words: Uint32Array, instances, meshes, tlasKind, tlasDepth, blasDepth, geometry}. A build bundle carries no
+ * positions or indices (geometry false): its trees can be walked, its triangles not intersected. */
 export function packScene(bundle) {
   const man = bundle.manifest;
   const meshes = man.counts?.meshes;
@@ -57,28 +59,32 @@ export function packScene(bundle) {
   header[H.meshTableAt] = HEADER_WORDS;
   header[H.tlasDepth] = man.tlas?.depth ?? 0;
   let blasDepth = 0;
+  const geometry = meshes > 0 && bundle.has('mesh_0_indices.npy');
   for (let m = 0; m < meshes; m++) {
     const e = m * MESH_WORDS;
     const positions = wordsOf(bundle, `mesh_${m}_positions.npy`);
     const indices = wordsOf(bundle, `mesh_${m}_indices.npy`);
     const nodes = wordsOf(bundle, `blas_${m}_nodes.npy`);
-    table[e + M.triangles] = indices.length / 3;
+    const order = wordsOf(bundle, `blas_${m}_order.npy`);
+    if (geometry && order.length !== indices.length / 3)
+      throw new Error(`${bundle.dir}: mesh ${m} has ${indices.length / 3} triangles, its BLAS ${order.length} leaves`);
+    table[e + M.triangles] = order.length;
     table[e + M.vertices] = positions.length / 3;
     table[e + M.blasNodes] = nodes.length / 16;
     table[e + M.blasNodesAt] = place(nodes);
-    table[e + M.orderAt] = place(wordsOf(bundle, `blas_${m}_order.npy`));
+    table[e + M.orderAt] = place(order);
     table[e + M.positionsAt] = place(positions);
     table[e + M.indicesAt] = place(indices);
     blasDepth = Math.max(blasDepth, man[`blas_${m}`]?.depth ?? 0);
-    if (indices.length && !bundle.has(`blas_${m}_order.npy`)) throw new Error(`${bundle.dir}: mesh ${m} has no BLAS`);
   }
   header[H.blasDepth] = blasDepth;
+  header[H.geometry] = geometry ? 1 : 0;
   header[H.zero] = 0; // trace.wgsl's optimisation barrier reads it: it must stay 0
   const words = new Uint32Array(at);
   words.set(header, 0);
   words.set(table, HEADER_WORDS);
   for (const [off, w] of parts) words.set(w, off);
-  return {words, instances: instanceCount, meshes, tlasKind, tlasDepth: header[H.tlasDepth], blasDepth};
+  return {words, instances: instanceCount, meshes, tlasKind, tlasDepth: header[H.tlasDepth], blasDepth, geometry};
 }
 
 /** packScene, uploaded: {buffer, words, ...counts}. Bind it as group 1 of a kernel that includes scene.wgsl. */

@@ -15,6 +15,7 @@ const MAX_GROUPS_X = 65535;
  * HIT_WORDS, COUNTER_WORDS and 1 word per ray. */
 export async function traceRays(device, scene, rays, {timer = null} = {}) {
   const n = rays.length / WFRAY_WORDS;
+  if (!scene.geometry) throw new Error('the scene has no triangles to trace (a build bundle carries no geometry)');
   // A tree of depth D keeps at most D + 1 entries; the kernel flags an overflow anyway, this names the cause first.
   if (scene.tlasDepth + scene.blasDepth + 2 > TRACE_STACK_SIZE)
     throw new Error(`TLAS depth ${scene.tlasDepth} + BLAS depth ${scene.blasDepth} exceed the trace stack ` +
