@@ -7,7 +7,7 @@ import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
 import {buildInputs, buildTlas, MAX_INSTANCES} from '../lib/build.js';
 import {readNpy, writeNpy} from '../lib/npy.js';
-import {check, rtoracle, scenePath} from '../lib/oracle.js';
+import {check, checkScenes, rtoracle, scenePath} from '../lib/oracle.js';
 import {SORT_SIZES} from '../lib/matrix.js';
 import {SENTINEL} from '../lib/sort.js';
 
@@ -29,6 +29,7 @@ const instancesCase = (dist, size) => ({family, id: `build/${dist}/${size}`, sce
 
 export function list(opts) {
   if (opts.scenes) {
+    checkScenes(opts.rtoracle, opts.scenes);
     return opts.scenes.map((scene) => {
       const m = scene.match(/^instances:([^:]+):(\d+)$/);
       // A file's case is named by its base name (build/Box.gltf), a procedural scene by itself (build/rtstress:4).

@@ -2,12 +2,11 @@
 // TLAS, BLAS, rays and the expected hits and counters); the GPU traces its rays over the packed scene (lib/scene.js,
 // kernels/trace_rays.wgsl) and dumps hits.npy, counters.npy and trace_status.npy; rtoracle check-hits validates the
 // hit records, and the counters must equal the bundle's exactly (the GPU runs the oracle's traversal order).
-import {spawnSync} from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
 import {readNpy, writeNpy} from '../lib/npy.js';
-import {check, REPO, rtoracle, scenePath} from '../lib/oracle.js';
+import {check, checkScenes, REPO, rtoracle, scenePath} from '../lib/oracle.js';
 import {uploadScene} from '../lib/scene.js';
 import {COUNTER_WORDS, HIT_WORDS, TRACE_STATUS, traceRays, WFRAY_WORDS} from '../lib/trace.js';
 
@@ -53,13 +52,7 @@ export function list(opts) {
   if (!opts.scenes && opts.subset === 'ci') return CI.map((c) => makeCase(...c));
   if (!opts.scenes) return FULL.map((c) => makeCase(...c)).concat(GOLDEN.map((g) => ({family, id: `trace/golden/${g}`,
     golden: path.join(REPO, 'fixtures', 'golden', g)})));
-  for (const s of opts.scenes) {
-    const r = spawnSync(opts.rtoracle, ['info', scenePath(s)], {encoding: 'utf8'});
-    if (r.status !== 0) {
-      console.error(`gpu/run: --scenes: ${(r.stderr || r.stdout || String(r.error)).trim().split('\n')[0]}`);
-      process.exit(2);
-    }
-  }
+  checkScenes(opts.rtoracle, opts.scenes);
   return opts.scenes.flatMap((s) => [makeCase(s, 'primary', '64x64'), makeCase(s, 'random', 4096)]);
 }
 

@@ -37,3 +37,14 @@ export function check(bin, command, args) {
     : (r.stderr || r.stdout).trim().split('\n')[0];
   return {pass: r.status === 0, status: r.status, diagnosis, fault: report ? report.fault || null : null, report};
 }
+
+/** --scenes: every scene named must load (rtoracle info), else one line and exit status 2 before any case runs. */
+export function checkScenes(bin, scenes) {
+  for (const s of scenes) {
+    const r = spawnSync(bin, ['info', scenePath(s)], {encoding: 'utf8'});
+    if (r.status !== 0) {
+      console.error(`gpu/run: --scenes: ${(r.stderr || r.stdout || String(r.error)).trim().split('\n')[0]}`);
+      process.exit(2);
+    }
+  }
+}
