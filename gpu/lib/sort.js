@@ -64,3 +64,31 @@ export async function bitonicSort(device, keys, {dumpPasses = false, timer = nul
   if (dump) dump.destroy();
   return {sorted: new Uint32Array(out), passes: all ? new Uint32Array(all) : null, passTable: passes};
 }
+
+/** The most keys one workgroup sorts in bitonic_wg.wgsl (the seeds' TLAS_BVH_N_PADDED). */
+export const WG_MAX_KEYS = 16384;
+
+/** Sorts keys (at most WG_MAX_KEYS) with the whole network in ONE workgroup, barriers between passes. Returns what
+ * bitonicSort returns. dropBarrier: leave out the barrier after that pass (a planted race), or null. */
+export async function bitonicSortWg(device, keys, {dumpPasses = false, timer = null, dropBarrier = null} = {}) {
+  const slots = padKeys(keys);
+  const n = slots.length;
+  if (n > WG_MAX_KEYS) throw new Error(`bitonic-wg sorts at most ${WG_MAX_KEYS} keys, not ${keys.length}`);
+  const passes = bitonicPasses(n);
+  const pipe = pipeline(device, 'bitonic_wg.wgsl', {defines: {DROP_BARRIER: dropBarrier ?? SENTINEL}});
+  const buf = buffer(device, slots.byteLength, {data: slots});
+  // Without dumping the kernel never touches `passes`, but the binding still needs a buffer.
+  const dump = buffer(device, dumpPasses ? passes.length * slots.byteLength : 16);
+  const params = buffer(device, 16, {data: new Uint32Array([n, dumpPasses ? 1 : 0, 0, 0]),
+    usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST});
+  const enc = device.createCommandEncoder();
+  const pass = timer ? timer.pass(enc, 'bitonic_wg') : enc.beginComputePass();
+  pass.setPipeline(pipe);
+  pass.setBindGroup(0, bind(device, pipe, 0, [buf, dump, params]));
+  pass.dispatchWorkgroups(1);
+  pass.end();
+  const [out, all] = await readBack(device, enc, dumpPasses ? [buf, dump] : [buf],
+    dumpPasses ? [slots.byteLength, passes.length * slots.byteLength] : [slots.byteLength]);
+  for (const b of [buf, dump, params]) b.destroy();
+  return {sorted: new Uint32Array(out), passes: all ? new Uint32Array(all) : null, passTable: passes};
+}
