@@ -22,9 +22,11 @@ var<workgroup> cursor: array<atomic<u32>, RADIX>; // RACY_SCATTER only
 /** Inclusive scan of counts along the invocations, every digit at once (Hillis-Steele: log2(WG) steps). */
 fn scan_counts(t: u32) {
   for (var off = 1u; off < WG; off <<= 1u) {
-    var add: array<u32, RADIX>;
-    for (var d = 0u; d < RADIX; d++) {
-      add[d] = select(0u, counts[d * WG + t - off], t >= off);
+    var add: array<u32, RADIX>; // zero-initialised
+    if (t >= off) {
+      for (var d = 0u; d < RADIX; d++) {
+        add[d] = counts[d * WG + t - off];
+      }
     }
     workgroupBarrier();
     for (var d = 0u; d < RADIX; d++) {

@@ -1,4 +1,5 @@
-// The bitonic sort on a device: one dispatch per (k, j) pass of the canonical network (DESIGN.md §4).
+// Sorts on a device (DESIGN.md §4): the canonical bitonic network with one dispatch per (k, j) pass or in one
+// workgroup with barriers between passes, and the LSD radix sort with every intermediate read back.
 import {buffer, bind, pipeline, readBack} from './gpu.js';
 
 export const SENTINEL = 0xFFFFFFFF;
