@@ -1,4 +1,5 @@
-// The bitonic sort on a device: one dispatch per (k, j) pass of the canonical network (DESIGN.md §4).
+// Sorts on a device (DESIGN.md §4): the canonical bitonic network with one dispatch per (k, j) pass or in one
+// workgroup with barriers between passes, and the LSD radix sort with every intermediate read back.
 import {buffer, bind, pipeline, readBack} from './gpu.js';
 
 export const SENTINEL = 0xFFFFFFFF;
@@ -63,4 +64,94 @@ export async function bitonicSort(device, keys, {dumpPasses = false, timer = nul
   params.destroy();
   if (dump) dump.destroy();
   return {sorted: new Uint32Array(out), passes: all ? new Uint32Array(all) : null, passTable: passes};
+}
+
+/** The most keys one workgroup sorts in bitonic_wg.wgsl (the seeds' TLAS_BVH_N_PADDED). */
+export const WG_MAX_KEYS = 16384;
+
+/** Sorts keys (at most WG_MAX_KEYS) with the whole network in ONE workgroup, barriers between passes. Returns what
+ * bitonicSort returns. dropBarrier: leave out the barrier after that pass (a planted race), or null. */
+export async function bitonicSortWg(device, keys, {dumpPasses = false, timer = null, dropBarrier = null} = {}) {
+  const slots = padKeys(keys);
+  const n = slots.length;
+  if (n > WG_MAX_KEYS) throw new Error(`bitonic-wg sorts at most ${WG_MAX_KEYS} keys, not ${keys.length}`);
+  const passes = bitonicPasses(n);
+  const pipe = pipeline(device, 'bitonic_wg.wgsl', {defines: {DROP_BARRIER: dropBarrier ?? SENTINEL}});
+  const buf = buffer(device, slots.byteLength, {data: slots});
+  // Without dumping the kernel never touches `passes`, but the binding still needs a buffer.
+  const dump = buffer(device, dumpPasses ? passes.length * slots.byteLength : 16);
+  const params = buffer(device, 16, {data: new Uint32Array([n, dumpPasses ? 1 : 0, 0, 0]),
+    usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST});
+  const enc = device.createCommandEncoder();
+  const pass = timer ? timer.pass(enc, 'bitonic_wg') : enc.beginComputePass();
+  pass.setPipeline(pipe);
+  pass.setBindGroup(0, bind(device, pipe, 0, [buf, dump, params]));
+  pass.dispatchWorkgroups(1);
+  pass.end();
+  const [out, all] = await readBack(device, enc, dumpPasses ? [buf, dump] : [buf],
+    dumpPasses ? [slots.byteLength, passes.length * slots.byteLength] : [slots.byteLength]);
+  for (const b of [buf, dump, params]) b.destroy();
+  return {sorted: new Uint32Array(out), passes: all ? new Uint32Array(all) : null, passTable: passes};
+}
+
+/** LSD radix parameters of the radix_*.wgsl kernels (DESIGN.md §4): 4-bit digits, so 8 passes over u32 keys, and a
+ * tile of 256 keys per workgroup (128 invocations x 2 keys): pass the same tile to the oracle (--tile). */
+export const RADIX_BITS = 4;
+export const RADIX_PASSES = 32 / RADIX_BITS;
+export const RADIX_TILE = 256;
+const RADIX = 1 << RADIX_BITS;
+
+/** Sorts keys (u32) by LSD radix with values = source indices, every intermediate kept on the device and read back:
+ * {keys, values: the n sorted keys and their source indices, passes, passValues: (RADIX_PASSES x n) keys and values
+ * after every pass's scatter, hist and base: (passes x tiles x 16) tile histograms and scatter bases, prefix:
+ * (passes x 16) digit prefixes, tiles}. racy: the unsynchronised scatter (radix_scatter.wgsl's RACY_SCATTER). */
+export async function radixSort(device, keys, {timer = null, racy = false} = {}) {
+  const n = keys.length;
+  const tiles = Math.ceil(n / RADIX_TILE);
+  const bytes = 4 * n;
+  const pipes = {
+    hist: pipeline(device, 'radix_hist.wgsl'),
+    prefix: pipeline(device, 'radix_prefix.wgsl'),
+    scatter: pipeline(device, 'radix_scatter.wgsl', {defines: {RACY_SCATTER: racy}}),
+  };
+  // Ping-pong key and value buffers: pass p reads side p % 2 and writes the other.
+  const keyBufs = [buffer(device, bytes, {data: keys}), buffer(device, bytes)];
+  const valBufs = [buffer(device, bytes, {data: Uint32Array.from({length: n}, (_, i) => i)}), buffer(device, bytes)];
+  const tableBytes = 4 * RADIX_PASSES * tiles * RADIX, prefixBytes = 4 * RADIX_PASSES * RADIX;
+  const hist = buffer(device, tableBytes);
+  const base = buffer(device, tableBytes);
+  const prefix = buffer(device, prefixBytes);
+  const dump = buffer(device, RADIX_PASSES * bytes);
+  const dumpValues = buffer(device, RADIX_PASSES * bytes);
+  const params = buffer(device, 256 * RADIX_PASSES, {usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST});
+  const words = new Uint32Array(64 * RADIX_PASSES);
+  for (let p = 0; p < RADIX_PASSES; p++) words.set([n, tiles, p * RADIX_BITS, p], 64 * p);
+  device.queue.writeBuffer(params, 0, words);
+
+  const enc = device.createCommandEncoder();
+  const stage = (label, pipe, bufs, groups) => {
+    const pass = timer ? timer.pass(enc, label) : enc.beginComputePass();
+    pass.setPipeline(pipe);
+    pass.setBindGroup(0, bind(device, pipe, 0, bufs));
+    pass.dispatchWorkgroups(groups);
+    pass.end();
+  };
+  for (let p = 0; p < RADIX_PASSES; p++) {
+    const uniform = {buffer: params, offset: 256 * p, size: 16};
+    const [kIn, kOut, vIn, vOut] = [keyBufs[p % 2], keyBufs[1 - p % 2], valBufs[p % 2], valBufs[1 - p % 2]];
+    stage('radix_hist', pipes.hist, [kIn, hist, uniform], tiles);
+    stage('radix_prefix', pipes.prefix, [hist, prefix, base, uniform], 1);
+    stage('radix_scatter', pipes.scatter, [kIn, vIn, kOut, vOut, base, uniform], tiles);
+    if (n) {
+      enc.copyBufferToBuffer(kOut, 0, dump, p * bytes, bytes);
+      enc.copyBufferToBuffer(vOut, 0, dumpValues, p * bytes, bytes);
+    }
+  }
+  // An even pass count leaves the result where it started.
+  const sides = [keyBufs[RADIX_PASSES % 2], valBufs[RADIX_PASSES % 2], dump, dumpValues, hist, prefix, base];
+  const out = await readBack(device, enc, sides, [bytes, bytes, RADIX_PASSES * bytes, RADIX_PASSES * bytes,
+    tableBytes, prefixBytes, tableBytes]);
+  for (const b of [...keyBufs, ...valBufs, hist, base, prefix, dump, dumpValues, params]) b.destroy();
+  const [k, v, passes, passValues, h, pre, b] = out.map((a) => new Uint32Array(a));
+  return {keys: k, values: v, passes, passValues, hist: h, prefix: pre, base: b, tiles};
 }
