@@ -42,6 +42,16 @@ sed 's/(ascending \&\& a > b) || (!ascending \&\& a < b)/(ascending \&\& a < b) 
 expect_fault kernels-override check-sort order 'first diverge at pass 0 \(k=2, j=1\)' \
     --families bitonic --dists random --sizes 4096 --kernels "$out/kernels"
 
+# --racy-scatter: tile invocations claim output slots with an atomicAdd on a per-digit cursor, in whatever order they
+# arrive, so equal digits leave input order from the first pass on (all-zero keys but one make it visible at once).
+expect_fault racy-scatter check-sort pass '^pass: radix pass 0 \(digit bits 0\.\.3\) is the first to diverge' \
+    --families radix --dists entropy-15 --sizes 256 --racy-scatter
+
+# --drop-barrier 10: pass 11 of the one-workgroup network may read slots pass 10 has not written yet (or pass 10 slots
+# pass 11 already rewrote): the first diverging checkpoint is pass 10 or 11, never earlier, never later.
+expect_fault drop-barrier check-sort pass '^pass: checkpoint pass 1[01] \(k=32, j=(16|8)\) is the first to diverge' \
+    --families bitonic-wg --dists sorted --sizes 4096 --drop-barrier 10
+
 # Bad usage: one line, status 2.
 for args in "--repeat 0" "--families nope" "--subset most" "--kernels /nonexistent" "--check-only"; do
     status=0

@@ -3,7 +3,6 @@
 // buffer after every pass, so check-sort names the first pass (k, j) and slot where a dropped barrier bites.
 import path from 'node:path';
 import {readNpy, writeNpy} from '../lib/npy.js';
-import {check, rtoracle} from '../lib/oracle.js';
 import {WG_MAX_KEYS, bitonicPasses, bitonicSortWg, padded} from '../lib/sort.js';
 import {sortDists, sortSizes} from '../lib/matrix.js';
 
@@ -33,17 +32,13 @@ export function resize(c, n) {
   return caseOf(c.dist, n, c.dropBarrier);
 }
 
-export async function run(ctx, c) {
-  const keysPath = path.join(ctx.dir, 'keys.npy');
-  rtoracle(ctx.rtoracle, ['keys', '--dist', c.dist, '--n', String(c.size), '-o', keysPath]);
-  const {sorted, passes, passTable} = await bitonicSortWg(ctx.device, readNpy(keysPath).data,
+// The input (keys.npy) and the checks (check-sort on sorted.npy and passes.npy) are the per-pass family's.
+export {prepare, validate} from './bitonic.js';
+
+/** The workgroup's buffer after the sort (sorted.npy) and after every pass (passes.npy). */
+export async function dump(ctx, c) {
+  const {sorted, passes, passTable} = await bitonicSortWg(ctx.device, readNpy(path.join(ctx.dir, 'keys.npy')).data,
     {dumpPasses: c.size <= ctx.opts.passDumpLimit, timer: ctx.timer, dropBarrier: c.dropBarrier});
-  const dump = path.join(ctx.dir, 'sorted.npy');
-  writeNpy(dump, sorted);
-  const args = ['--input', keysPath, '--gpu', dump, '--no-artifacts'];
-  if (passes) {
-    writeNpy(path.join(ctx.dir, 'passes.npy'), passes, [passTable.length, sorted.length]);
-    args.push('--gpu-passes', path.join(ctx.dir, 'passes.npy'));
-  }
-  return {...check(ctx.rtoracle, 'check-sort', args), check: 'check-sort'};
+  writeNpy(path.join(ctx.dumpDir, 'sorted.npy'), sorted);
+  if (passes) writeNpy(path.join(ctx.dumpDir, 'passes.npy'), passes, [passTable.length, sorted.length]);
 }

@@ -61,11 +61,18 @@ function stageResult(d, sorted) {
       `got ${d.got}${sorted.pass ? '' : ` (check-sort: ${sorted.diagnosis})`}`};
 }
 
-export async function run(ctx, c) {
-  const file = (name) => path.join(ctx.dir, name);
-  rtoracle(ctx.rtoracle, ['keys', '--dist', c.dist, '--n', String(c.size), '-o', file('keys.npy')]);
-  rtoracle(ctx.rtoracle, ['sort', file('keys.npy'), ...ORACLE_ARGS, '-o', file('oracle')]);
-  const gpu = await radixSort(ctx.device, readNpy(file('keys.npy')).data, {timer: ctx.timer, racy: c.racy});
+/** The input (keys.npy) and the oracle's radix bundle (oracle/) with every pass's tables. */
+export function prepare(ctx, c) {
+  const keys = path.join(ctx.dir, 'keys.npy');
+  rtoracle(ctx.rtoracle, ['keys', '--dist', c.dist, '--n', String(c.size), '-o', keys]);
+  rtoracle(ctx.rtoracle, ['sort', keys, ...ORACLE_ARGS, '-o', path.join(ctx.dir, 'oracle')]);
+}
+
+/** The GPU's sorted keys and source indices, every pass's keys and indices, histograms, prefix and tile bases. */
+export async function dump(ctx, c) {
+  const gpu = await radixSort(ctx.device, readNpy(path.join(ctx.dir, 'keys.npy')).data,
+    {timer: ctx.timer, racy: c.racy});
+  const file = (name) => path.join(ctx.dumpDir, name);
   const n = c.size, tiles = gpu.tiles;
   writeNpy(file('sorted.npy'), gpu.keys);
   writeNpy(file('values.npy'), gpu.values);
@@ -74,11 +81,17 @@ export async function run(ctx, c) {
   writeNpy(file('radix_hist.npy'), gpu.hist, [RADIX_PASSES, tiles, RADIX]);
   writeNpy(file('radix_prefix.npy'), gpu.prefix, [RADIX_PASSES, RADIX]);
   writeNpy(file('radix_base.npy'), gpu.base, [RADIX_PASSES, tiles, RADIX]);
+}
 
-  const sorted = {...check(ctx.rtoracle, 'check-sort', ['--input', file('keys.npy'), '--gpu', file('sorted.npy'),
-    '--gpu-values', file('values.npy'), '--stable', ...ORACLE_ARGS, '--gpu-passes', file('passes.npy'),
-    '--no-artifacts']), check: 'check-sort'};
-  const first = firstDifference(new Bundle(file('oracle')), gpu, tiles, n);
+export function validate(ctx, c) {
+  const file = (name) => path.join(ctx.dumpDir, name);
+  const hist = readNpy(file('radix_hist.npy'));
+  const gpu = {hist: hist.data, prefix: readNpy(file('radix_prefix.npy')).data,
+    base: readNpy(file('radix_base.npy')).data, passes: readNpy(file('passes.npy')).data, passValues: readNpy(file('pass_values.npy')).data};
+  const sorted = {...check(ctx.rtoracle, 'check-sort', ['--input', path.join(ctx.dir, 'keys.npy'),
+    '--gpu', file('sorted.npy'), '--gpu-values', file('values.npy'), '--stable', ...ORACLE_ARGS,
+    '--gpu-passes', file('passes.npy'), '--no-artifacts']), check: 'check-sort'};
+  const first = firstDifference(new Bundle(path.join(ctx.dir, 'oracle')), gpu, hist.shape[1], c.size);
   // check-sort names the first pass whose keys diverge; a stage that diverges before that is the cause.
   return first && first.name !== 'scatter' ? stageResult(first, sorted) : sorted;
 }
