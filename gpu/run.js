@@ -7,7 +7,7 @@ import os from 'node:os';
 import path from 'node:path';
 import {openDevice} from './lib/device.js';
 import {setKernelDir} from './lib/gpu.js';
-import {DEFAULT_RTORACLE} from './lib/oracle.js';
+import {DEFAULT_RTORACLE, usage} from './lib/oracle.js';
 import {writeHtml} from './lib/report.js';
 import {Timer} from './lib/timing.js';
 
@@ -53,11 +53,6 @@ options:
   -h, --help          print this help and exit
 
 Exit status: 0 every case passes, 1 a case fails, 2 bad usage or setup.`;
-
-function usage(msg) {
-  console.error(`gpu/run: ${msg} (gpu/run --help)`);
-  process.exit(2);
-}
 
 function parseArgs(argv) {
   const o = {families: FAMILIES, subset: 'full', dists: null, sizes: null, scenes: null, repeat: 1,

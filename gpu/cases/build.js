@@ -7,7 +7,7 @@ import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
 import {buildInputs, buildTlas, MAX_INSTANCES} from '../lib/build.js';
 import {readNpy, writeNpy} from '../lib/npy.js';
-import {check, checkScenes, rtoracle, scenePath} from '../lib/oracle.js';
+import {check, checkScenes, rtoracle, scenePath, usage} from '../lib/oracle.js';
 import {SORT_SIZES} from '../lib/matrix.js';
 import {SENTINEL} from '../lib/sort.js';
 
@@ -18,11 +18,6 @@ export const family = 'build';
 export const BUILD_DISTS = ['uniform', 'one-bucket', 'clustered', 'clustered-far', 'line', 'two-clusters'];
 /** ci: one build, the small object next to a tight cluster that broke the seeds' radix sort, just past 4096. */
 const CI_CASE = {dist: 'clustered', size: 4097};
-
-function usage(msg) {
-  console.error(`gpu/run: ${msg} (gpu/run --help)`);
-  process.exit(2);
-}
 
 const instancesCase = (dist, size) => ({family, id: `build/${dist}/${size}`, scene: `instances:${dist}:${size}`,
   dist, size});

@@ -5,7 +5,7 @@
 import fs from 'node:fs';
 import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
-import {readNpy, writeNpy} from '../lib/npy.js';
+import {npyWords, readNpy, writeNpy} from '../lib/npy.js';
 import {check, checkScenes, REPO, rtoracle, scenePath} from '../lib/oracle.js';
 import {uploadScene} from '../lib/scene.js';
 import {COUNTER_WORDS, HIT_WORDS, TRACE_STATUS, traceRays, WFRAY_WORDS} from '../lib/trace.js';
@@ -126,7 +126,7 @@ export function prepare(ctx, c) {
 /** The GPU's side: the case's rays traced over the packed scene; hits.npy, counters.npy, trace_status.npy. */
 export async function dump(ctx, c) {
   const bundle = bundleOf(ctx, c);
-  const rays = c.edit === 'refused' ? wordsOf(path.join(ctx.dir, 'rays_refused.npy')) : bundle.words('rays.npy');
+  const rays = c.edit === 'refused' ? npyWords(path.join(ctx.dir, 'rays_refused.npy')) : bundle.words('rays.npy');
   const n = rays.length / WFRAY_WORDS;
   const scene = uploadScene(ctx.device, bundle);
   try {
@@ -142,18 +142,12 @@ export async function dump(ctx, c) {
 
 export function validate(ctx, c) {
   const bundle = bundleOf(ctx, c);
-  const out = {hits: wordsOf(path.join(ctx.dumpDir, 'hits.npy')),
-    counters: wordsOf(path.join(ctx.dumpDir, 'counters.npy')), status: readNpy(path.join(ctx.dumpDir,
+  const out = {hits: npyWords(path.join(ctx.dumpDir, 'hits.npy')),
+    counters: npyWords(path.join(ctx.dumpDir, 'counters.npy')), status: readNpy(path.join(ctx.dumpDir,
       'trace_status.npy')).data};
   return c.edit === 'refused' ? validateRefused(ctx, bundle, out) : validateTrace(ctx, bundle, out);
 }
 
-/** The words of a .npy file's records. */
-function wordsOf(file) {
-  const d = readNpy(file).data;
-  const b = new Uint8Array(d.buffer, d.byteOffset, d.byteLength).slice();
-  return new Uint32Array(b.buffer);
-}
 
 /** The first ray whose counters differ from the bundle's, named with its field; null when all agree. */
 function compareCounters(expected, actual) {
@@ -175,7 +169,7 @@ function validateRefused(ctx, bundle, out) {
   const first = Math.min(...REFUSED.map(([r]) => r));
   if (!oracleSays.includes(`ray ${first} `))
     return {pass: false, check: 'refused', diagnosis: `the oracle did not refuse ray ${first}: ${oracleSays}`};
-  const rays = wordsOf(path.join(ctx.dir, 'rays_refused.npy'));
+  const rays = npyWords(path.join(ctx.dir, 'rays_refused.npy'));
   const n = rays.length / WFRAY_WORDS;
   const expHits = bundle.words('hits.npy'), expCnt = bundle.words('counters.npy');
   const bad = new Set(REFUSED.map(([r]) => r));

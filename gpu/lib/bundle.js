@@ -2,7 +2,7 @@
 // manifest's dtype and shape.
 import fs from 'node:fs';
 import path from 'node:path';
-import {readNpy} from './npy.js';
+import {readNpy, wordsOf} from './npy.js';
 
 export class Bundle {
   constructor(dir) {
@@ -28,8 +28,6 @@ export class Bundle {
 
   /** The raw little-endian bytes of a listed array (structured records included) as a Uint32Array of words. */
   words(name) {
-    const a = this.npy(name);
-    const b = new Uint8Array(a.data.buffer, a.data.byteOffset, a.data.byteLength).slice();
-    return new Uint32Array(b.buffer, 0, b.byteLength >> 2);
+    return wordsOf(this.npy(name).data);
   }
 }

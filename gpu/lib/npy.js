@@ -32,6 +32,17 @@ export function readNpy(path) {
   return {descr, shape, data: new T(copy.buffer)};
 }
 
+/** The little-endian words of a .npy file's data (plain or structured records) as a Uint32Array (a copy). */
+export function npyWords(path) {
+  return wordsOf(readNpy(path).data);
+}
+
+/** The bytes of a typed array's elements as words (a copy, so the words are aligned whatever the file's header). */
+export function wordsOf(data) {
+  const b = new Uint8Array(data.buffer, data.byteOffset, data.byteLength).slice();
+  return new Uint32Array(b.buffer, 0, b.byteLength >> 2);
+}
+
 /** Writes a .npy file: a plain typed array with the given shape (default: 1-D), or, with descr (a structured dtype's
  * list text as readNpy returns it, e.g. "[('t', '<f4'), ('id', '<u4')]"), the raw bytes of the records. */
 export function writeNpy(path, data, shape = [data.length], descr = null) {

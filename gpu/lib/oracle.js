@@ -14,6 +14,12 @@ export function scenePath(scene) {
   return path.join(REPO, scene);
 }
 
+/** Bad usage of gpu/run (its options, or a family's reading of them): one line on stderr, exit status 2. */
+export function usage(msg) {
+  console.error(`gpu/run: ${msg} (gpu/run --help)`);
+  process.exit(2);
+}
+
 /** Runs `rtoracle ARGS...` and throws with its message unless it exits 0 (for commands that write inputs). */
 export function rtoracle(bin, args) {
   const r = spawnSync(bin, args, {encoding: 'utf8', maxBuffer: 64 << 20});
