@@ -21,8 +21,11 @@ static const char check_hits_usage[] =
     "A miss must be the miss record: t = the ray's tMax, IDs 0xFFFFFFFF, bary and objToWorld 0.\n"
     "Ties: a record naming another primitive than the oracle's is accepted when that primitive,\n"
     "intersected again with the same ray, gives the oracle's t within tolerance; it is then compared with\n"
-    "that primitive's own values, and listed as a tie. TERMINATE_ON_FIRST_HIT rays: only hit / miss is\n"
-    "defined, so a hit must name a primitive the ray hits, at its t; nothing else is compared.\n";
+    "that primitive's own values, and listed as a tie. Grazing: a hit one side found and the other did\n"
+    "not is accepted when it lies within 1e-5 (relative) of an edge of its triangle, or on a ray within\n"
+    "1e-4 of parallel to its plane, and no triangle is hit solidly before the GPU's answer (a GPU's\n"
+    "division and fused multiply-adds decide edges differently); listed as grazing. TERMINATE_ON_FIRST_HIT\n"
+    "rays: only hit / miss is defined, so a hit must name a primitive the ray hits, at its t.\n";
 
 static const char check_hits_epilog[] =
     "Fault classes, in priority order: size, miss-flag, instance, prim, t, bary, custom-index, hit-group,\n"

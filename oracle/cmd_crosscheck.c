@@ -3,7 +3,7 @@
  * one summary row per ray class. An unexplained disagreement is a bug in one of the two tracers until shown
  * otherwise: exit status 1. */
 #include "cli.h"
-#include "crosscheck.h"
+#include "trace/crosscheck.h"
 #include "embree.h"
 
 #include <jansson.h>
@@ -144,7 +144,8 @@ static rto_status compare(run *r, const char *set, const rto_wf_ray *rays, size_
                 (st = emb_trace(r->robust, r->dev, ray, 1, 1, &robust, msg)))
                 return st;
         }
-        xc_input in = {r->scene, ray, &oh[i], &eh[i], have_closest ? &closest : NULL, r->robust_mode ? NULL : &robust};
+        xc_input in = {r->scene, ray, &oh[i], &eh[i], have_closest ? &closest : NULL, r->robust_mode ? NULL : &robust,
+                       NULL};
         xc_result res;
         xc_classify(&in, &res);
         w->count[res.cls]++;

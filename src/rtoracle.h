@@ -1239,12 +1239,14 @@ typedef struct rto_hits_check_desc {
  * Validates a GPU hit dump ray by ray (§9). A different instance or primitive is accepted only when the GPU's
  * claimed primitive, re-intersected with the same ray (rto_instance_triangle_hit), gives a t within the t tolerance
  * of the oracle's: a tie, counted in the facts ("ties") and listed in the rows, after which the record is compared
- * with that primitive's own record. For a TERMINATE_ON_FIRST_HIT ray only hit / miss is defined: a claimed hit must
- * re-intersect, at its t. A miss must be exactly the miss record of its ray; objToWorld's padding is not compared.
+ * with that primitive's own record. A disagreement on whether or which triangle is hit is accepted as grazing (facts
+ * "grazing", rows "grazing.*") when every hit one side found and the other did not lies on an edge of its triangle
+ * and no triangle is hit solidly before the GPU's answer (docs/trace.md). For a TERMINATE_ON_FIRST_HIT ray only hit /
+ * miss is defined: a claimed hit must re-intersect, at its t. A miss must be exactly the miss record of its ray; objToWorld's padding is not compared.
  * The primary fault is the highest-priority fault of the first wrong ray; faults_seen lists every class found.
  * Returns RTO_OK, RTO_ERR_MISMATCH (report: code an rto_hit_fault, location "ray", checks "size", "miss",
  * "primitive", "t", "bary", "instance-data"; facts "rays", "gpu_records", "hits", "misses", "first_hit_rays",
- * "ties", "wrong_rays"), or RTO_ERR_INVALID_ARGUMENT for unusable input: NULL arrays, an instance naming a missing
+ * "ties", "grazing", "wrong_rays"), or RTO_ERR_INVALID_ARGUMENT for unusable input: NULL arrays, an instance naming a missing
  * mesh, an index past its mesh's vertices, a ray rto_trace refuses, or an expected record that is neither the miss
  * record of its ray nor the hit record of the primitive it names (msg names it). docs/trace.md has the details.
  */
@@ -1602,7 +1604,7 @@ const char *rto_frame_artifact_name(uint32_t artifact);
  * dump layout"): per queue d its emit count and FrameCounters row, PREP's indirect args (exact), the queue as a
  * multiset keyed by (pixel, kind, payloadSlot) (integers exact, floats within the documented tolerance), the
  * payloads of matching rays, the hits of matching rays with rto_hits_check's rules; then accum (1e-4 relative +
- * 1e-6 absolute per channel) and the 8-bit image (±1 per channel, at most image_fail_percent % of the pixels over).
+ * 1e-6 absolute per channel; 1e-4 absolute for `triangle`, whose colours are barycentrics) and the 8-bit image (±1 per channel, at most image_fail_percent % of the pixels over).
  * Pixels the bundle marks not comparable (conflicts, drops) are left out of accum and image and counted; from the
  * first queue with drops on, queues are compared by their counts only. A file absent from the dump is "not
  * dumped", not a fault. The primary fault is the first divergence in pipeline order (report->code an

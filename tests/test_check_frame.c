@@ -1,7 +1,7 @@
 /* The frame validator (rto_frame_check): its names, its argument checks, and both sides of the accum tolerance of
- * DESIGN.md §9 (1e-4 |e| + 1e-6 per channel), with the boundary values computed here in binary64 from the rule as
+ * DESIGN.md §9 (1e-4 |e| + 1e-6 per channel; + 1e-4 for `triangle`), with the boundary values computed here in binary64 from the rule as
  * §9 states it: the largest float within the bound passes, the next one up fails and is reported at its pixel.
- * The frame is rendered in-process (sun-shadow on rtstress:2) and written as a bundle; the "GPU dump" holds only
+ * The frames are rendered in-process (sun-shadow and triangle on rtstress:2) and written as a bundle; the "GPU dump" holds only
  * accum.npy, so everything else is "not dumped". The command-line test (cli.check_frame) covers every stage. */
 #define _GNU_SOURCE
 #include "testutil.h"
@@ -56,10 +56,10 @@ static void test_arguments(void **state)
     assert_int_equal(rto_frame_check(&d, &r, NULL, &msg), RTO_ERR_IO); /* 0 % is allowed: the bundle is missing */
 }
 
-/* The accum bound of §9 at expected value e, and the largest float within it above e. */
-static float largest_within(float e)
+/* The accum bound of §9 at expected value e (absolute part abs), and the largest float within it above e. */
+static float largest_within(float e, double abs)
 {
-    const double bound = 1e-4 * fabs((double)e) + 1e-6;
+    const double bound = 1e-4 * fabs((double)e) + abs;
     float a = (float)((double)e + bound);
     while ((double)a - (double)e > bound)
         a = nextafterf(a, -INFINITY);
@@ -68,9 +68,10 @@ static float largest_within(float e)
     return a;
 }
 
-static void test_accum_boundary(void **state)
+/* Both sides of the accum bound of a frame of program, whose absolute part is abs: 1e-6, or for `triangle` (whose
+ * colours are barycentrics) the barycentric rule's 1e-4. */
+static void accum_boundary(const char *program, double abs)
 {
-    (void)state;
     char root[64];
     assert_int_equal(tu_tmpdir_make(root, sizeof root, "check_frame"), 0);
     char bundle[4200], gpu[4200], path[4300];
@@ -84,7 +85,7 @@ static void test_accum_boundary(void **state)
     assert_int_equal(rto_accel_build(scene, NULL, &accel, &msg), RTO_OK);
     rto_frame_desc fd;
     memset(&fd, 0, sizeof fd);
-    fd.program = rto_program_builtin("sun-shadow");
+    fd.program = rto_program_builtin(program);
     fd.accel = accel;
     fd.width = 16;
     fd.height = 12;
@@ -116,7 +117,7 @@ static void test_accum_boundary(void **state)
     rto_report r;
     uint32_t written = 99;
 
-    accum[4 * p + 1] = largest_within(e);
+    accum[4 * p + 1] = largest_within(e, abs);
     assert_true(accum[4 * p + 1] > e);
     assert_int_equal(rto_npy_write(path, &ad, accum, &msg), RTO_OK);
     assert_int_equal(rto_frame_check(&d, &r, &written, &msg), RTO_OK);
@@ -125,7 +126,7 @@ static void test_accum_boundary(void **state)
     assert_int_equal(rto_report_check_state(&r, "queues"), RTO_CHECK_NOT_RUN);
     assert_non_null(strstr(r.summary, "not dumped: emit_counts.npy"));
 
-    accum[4 * p + 1] = nextafterf(largest_within(e), INFINITY);
+    accum[4 * p + 1] = nextafterf(largest_within(e, abs), INFINITY);
     assert_int_equal(rto_npy_write(path, &ad, accum, &msg), RTO_OK);
     assert_int_equal(rto_frame_check(&d, &r, &written, &msg), RTO_ERR_MISMATCH);
     assert_int_equal(r.code, RTO_FRAME_ACCUM);
@@ -140,9 +141,9 @@ static void test_accum_boundary(void **state)
 
     /* the same below e */
     memcpy(accum, frame->accum, n * sizeof *accum);
-    const float below = (float)((double)e - (1e-4 * fabs((double)e) + 1e-6));
+    const float below = (float)((double)e - (1e-4 * fabs((double)e) + abs));
     accum[4 * p + 1] = nextafterf(below, -INFINITY);
-    assert_true((double)e - (double)accum[4 * p + 1] > 1e-4 * fabs((double)e) + 1e-6);
+    assert_true((double)e - (double)accum[4 * p + 1] > 1e-4 * fabs((double)e) + abs);
     assert_int_equal(rto_npy_write(path, &ad, accum, &msg), RTO_OK);
     assert_int_equal(rto_frame_check(&d, &r, NULL, &msg), RTO_ERR_MISMATCH);
     assert_int_equal(r.code, RTO_FRAME_ACCUM);
@@ -154,12 +155,25 @@ static void test_accum_boundary(void **state)
     assert_int_equal(tu_tmpdir_remove(root), 0);
 }
 
+static void test_accum_boundary(void **state)
+{
+    (void)state;
+    accum_boundary("sun-shadow", 1e-6);
+}
+
+static void test_accum_boundary_barycentric(void **state)
+{
+    (void)state;
+    accum_boundary("triangle", 1e-4);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_names),
         cmocka_unit_test(test_arguments),
         cmocka_unit_test(test_accum_boundary),
+        cmocka_unit_test(test_accum_boundary_barycentric),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

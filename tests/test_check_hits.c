@@ -605,15 +605,19 @@ static void test_tolerances(void **state)
 /* Two triangles of one Box face share its diagonal: a ray through the diagonal's midpoint, along the face normal,
  * computes exactly (the Box's coordinates are +-0.5 and its rotation exact), so it hits both at the same t. The GPU
  * answering with the neighbour is a tie: accepted, counted, listed, and then held to the neighbour's own bary. */
-static void test_tie_on_shared_edge(void **state)
+/* The first two triangles p and q of the Box's mesh sharing two vertex indices a and b (one face's diagonal), the
+ * diagonal's midpoint mid in world space, and a ray (o, d) along the face's inward normal that meets it there at
+ * t = 2. */
+typedef struct diagonal {
+    uint32_t p, q, a, b;
+    double wa[3], wb[3], mid[3], o[3], d[3];
+} diagonal;
+
+static diagonal face_diagonal(const rto_scene *s)
 {
-    (void)state;
-    fixture f;
-    fixture_alloc(&f, "Box/glTF/Box.gltf", 1);
-    const rto_scene *s = f.scene;
+    diagonal g;
+    memset(&g, 0, sizeof g);
     const rto_mesh *m = &s->meshes[s->instances[0].blas];
-    /* the first two triangles sharing two vertex indices: one face's diagonal */
-    uint32_t p = 0, q = 0, a = 0, b = 0;
     int found = 0;
     for (uint32_t x = 0; x < m->triangle_count && !found; x++)
         for (uint32_t y = x + 1; y < m->triangle_count && !found; y++) {
@@ -624,21 +628,21 @@ static void test_tie_on_shared_edge(void **state)
                     if (m->indices[3 * x + i] == m->indices[3 * y + j])
                         sv[shared++] = m->indices[3 * x + i];
             if (shared == 2) {
-                p = x, q = y, a = sv[0], b = sv[1];
+                g.p = x, g.q = y, g.a = sv[0], g.b = sv[1];
                 found = 1;
             }
         }
     assert_true(found);
     /* the diagonal's midpoint and the face normal, in world space */
-    double wa[3], wb[3], mid[3], w[3][3], e1[3], e2[3], nrm[3], o[3], d[3];
+    double *wa = g.wa, *wb = g.wb, w[3][3], e1[3], e2[3], nrm[3];
     for (int c = 0; c < 3; c++)
-        tu_world_vertex(s, 0, p, c, w[c]);
+        tu_world_vertex(s, 0, g.p, c, w[c]);
     for (int r = 0; r < 3; r++) {
         const rto_mat34 *M = &s->instances[0].obj_to_world;
-        const float *va = &m->positions[3 * a], *vb = &m->positions[3 * b];
+        const float *va = &m->positions[3 * g.a], *vb = &m->positions[3 * g.b];
         wa[r] = (double)M->m[r][0] * va[0] + (double)M->m[r][1] * va[1] + (double)M->m[r][2] * va[2] + M->m[r][3];
         wb[r] = (double)M->m[r][0] * vb[0] + (double)M->m[r][1] * vb[1] + (double)M->m[r][2] * vb[2] + M->m[r][3];
-        mid[r] = 0.5 * (wa[r] + wb[r]);
+        g.mid[r] = 0.5 * (wa[r] + wb[r]);
         e1[r] = w[1][r] - w[0][r];
         e2[r] = w[2][r] - w[0][r];
     }
@@ -646,11 +650,24 @@ static void test_tie_on_shared_edge(void **state)
     nrm[1] = e1[2] * e2[0] - e1[0] * e2[2];
     nrm[2] = e1[0] * e2[1] - e1[1] * e2[0];
     normalize(nrm);
-    const double side = nrm[0] * mid[0] + nrm[1] * mid[1] + nrm[2] * mid[2]; /* the Box is centred on the origin */
+    const double side = nrm[0] * g.mid[0] + nrm[1] * g.mid[1] + nrm[2] * g.mid[2]; /* the Box is centred on 0 */
     for (int r = 0; r < 3; r++) {
-        d[r] = side < 0 ? nrm[r] : -nrm[r];
-        o[r] = mid[r] - 2.0 * d[r];
+        g.d[r] = side < 0 ? nrm[r] : -nrm[r];
+        g.o[r] = g.mid[r] - 2.0 * g.d[r];
     }
+    return g;
+}
+
+static void test_tie_on_shared_edge(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_alloc(&f, "Box/glTF/Box.gltf", 1);
+    const rto_scene *s = f.scene;
+    const rto_mesh *m = &s->meshes[s->instances[0].blas];
+    const diagonal g = face_diagonal(s);
+    const uint32_t p = g.p, q = g.q, a = g.a, b = g.b;
+    const double *o = g.o, *d = g.d;
     f.rays[0] = ray_of(o, d, RTO_RAY_FLAG_OPAQUE, 0);
     fixture_trace(&f);
     rto_hit_record *e = f.expected;
@@ -689,6 +706,88 @@ static void test_tie_on_shared_edge(void **state)
     /* and a wrong t for the tied primitive is a t fault */
     f.gpu[0].t = 2.1f;
     expect_fault(&f, f.gpu, 1, RTO_HIT_T, 0, &r);
+    fixture_free(&f);
+}
+
+/* A GPU's division and fused multiply-adds decide a ray through an edge differently (§9's grazing rule). Rays along
+ * the inward normal of a Box face: 0 through the face's diagonal, 1 the same line from inside the Box (to find the
+ * far face), 2 through the inside of triangle p, 3 the same line from inside. The point on the diagonal is chosen
+ * so that the far face is met well inside one of its triangles (every barycentric of the oracle's hit >= 0.1), which
+ * makes the far hit solid. */
+static void test_grazing(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_alloc(&f, "Box/glTF/Box.gltf", 4);
+    const rto_scene *s = f.scene;
+    const diagonal g = face_diagonal(s);
+    const rto_mesh *m = &s->meshes[s->instances[0].blas];
+    /* a point inside triangle p: a quarter of the way from the midpoint to p's third vertex */
+    uint32_t third = 0;
+    for (int c = 0; c < 3; c++)
+        if (m->indices[3 * g.p + c] != g.a && m->indices[3 * g.p + c] != g.b)
+            third = (uint32_t)c;
+    double w[3], in[3], o[3];
+    tu_world_vertex(s, 0, g.p, (int)third, w);
+    for (int r = 0; r < 3; r++)
+        in[r] = g.mid[r] + 0.25 * (w[r] - g.mid[r]);
+    /* tilted towards p's third vertex (the far face's diagonal may lie right behind the near one's) */
+    double dir[3];
+    for (int r = 0; r < 3; r++)
+        dir[r] = g.d[r] + 0.3 * (w[r] - g.mid[r]);
+    const double fractions[] = {0.5, 0.3, 0.7, 0.2, 0.8};
+    double on[3];
+    int solid = 0;
+    for (size_t fi = 0; fi < sizeof fractions / sizeof fractions[0] && !solid; fi++) {
+        for (int r = 0; r < 3; r++)
+            on[r] = fractions[fi] * g.wa[r] + (1 - fractions[fi]) * g.wb[r];
+        const double *start[2] = {on, in};
+        for (int k = 0; k < 2; k++) {
+            for (int r = 0; r < 3; r++)
+                o[r] = start[k][r] - 2.0 * dir[r];
+            f.rays[2 * k] = ray_of(o, dir, RTO_RAY_FLAG_OPAQUE, (uint32_t)(2 * k));
+            for (int r = 0; r < 3; r++)
+                o[r] = start[k][r] + 0.5 * dir[r];
+            f.rays[2 * k + 1] = ray_of(o, dir, RTO_RAY_FLAG_OPAQUE, (uint32_t)(2 * k + 1));
+        }
+        fixture_trace(&f);
+        const double u = f.expected[1].bary[0], v = f.expected[1].bary[1];
+        solid = !f.expected[1].miss_flag && u >= 0.1 && v >= 0.1 && 1 - u - v >= 0.1;
+    }
+    assert_true(solid);
+    const rto_hit_record *e = f.expected;
+    for (int k = 0; k < 4; k++)
+        assert_int_equal(e[k].miss_flag, 0);
+    assert_true(fabs(e[0].t - 2.0) < 1e-5 && fabs(e[2].t - 2.0) < 1e-5);
+    memcpy(f.gpu, e, 4 * sizeof *f.gpu);
+    rto_report r;
+    expect_pass(&f, f.gpu, 0, &r);
+    assert_int_equal(fact(&r, "grazing"), 0);
+
+    /* ray 0 passes between the two triangles of the diagonal and hits the far face: grazing, listed and counted */
+    f.gpu[0] = e[1];
+    f.gpu[0].t = e[1].t + 2.5f;
+    expect_pass(&f, f.gpu, 0, &r);
+    assert_int_equal(fact(&r, "grazing"), 1);
+    assert_non_null(strstr(r.summary, "1 grazing ray(s) accepted"));
+    const rto_report_row *row = row_at(&r, 0, "grazing.primId");
+    assert_non_null(row);
+    assert_int_equal(row->expected.v.u, e[0].prim_id);
+    assert_int_equal(row->actual.v.u, e[1].prim_id);
+    /* ... and is then held to the far face's values: a wrong t there is a t fault */
+    f.gpu[0].t += 0.01f;
+    expect_fault(&f, f.gpu, 4, RTO_HIT_T, 0, &r);
+    /* a miss there is wrong: the far face is hit solidly behind the edge */
+    f.gpu[0] = rto_hit_record_miss(f.rays[0].t_max);
+    expect_fault(&f, f.gpu, 4, RTO_HIT_MISS_FLAG, 0, &r);
+    f.gpu[0] = e[0];
+    /* ray 2 meets triangle p far from its edges: passing it to the far face is a prim fault, a miss a miss-flag one */
+    f.gpu[2] = e[3];
+    f.gpu[2].t = e[3].t + 2.5f;
+    expect_fault(&f, f.gpu, 4, RTO_HIT_PRIM, 2, &r);
+    assert_int_equal(fact(&r, "grazing"), 0);
+    f.gpu[2] = rto_hit_record_miss(f.rays[2].t_max);
+    expect_fault(&f, f.gpu, 4, RTO_HIT_MISS_FLAG, 2, &r);
     fixture_free(&f);
 }
 
@@ -978,6 +1077,7 @@ int main(void)
         cmocka_unit_test(test_priority_and_faults_seen),
         cmocka_unit_test(test_tolerances),
         cmocka_unit_test(test_tie_on_shared_edge),
+        cmocka_unit_test(test_grazing),
         cmocka_unit_test(test_near_tie),
         cmocka_unit_test(test_first_hit_rays),
         cmocka_unit_test(test_generated_rays),

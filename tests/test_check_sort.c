@@ -426,6 +426,32 @@ static void test_corrupt_checkpoint_pass(void **state)
                     assert_int_equal(where_of(&r, "digit_bit"), p * 4);
                 }
                 assert_int_equal(strncmp(r.summary, "pass", 4), 0);
+                /* with the final output out of order too, order is the primary fault and the summary's tail still
+                 * names the pass, in the algorithm's own terms */
+                size_t a = 0;
+                while (a + 1 < n && tu_get(f, fx.gpu, a) == tu_get(f, fx.gpu, a + 1))
+                    a++;
+                if (a + 1 < n) {
+                    const uint64_t ka = tu_get(f, fx.gpu, a);
+                    tu_put(f, fx.gpu, a, tu_get(f, fx.gpu, a + 1));
+                    tu_put(f, fx.gpu, a + 1, ka);
+                    assert_int_equal(rto_sort_check(&d, &r, NULL), RTO_ERR_MISMATCH);
+                    assert_int_equal(r.code, RTO_FAULT_ORDER);
+                    char tail[96];
+                    if (algo) {
+                        snprintf(tail, sizeof tail, "first diverge at radix pass %u (digit bits %u..%u) slot %zu",
+                                 (unsigned)p, (unsigned)(4 * p), (unsigned)(4 * p + 3), s);
+                    } else {
+                        uint32_t k, j;
+                        rto_bitonic_pass_kj(p, &k, &j);
+                        snprintf(tail, sizeof tail, "first diverge at pass %u (k=%u, j=%u) slot %zu", (unsigned)p,
+                                 (unsigned)k, (unsigned)j, s);
+                    }
+                    if (!strstr(r.summary, tail))
+                        fail_msg("want \"%s\" in: %s", tail, r.summary);
+                    tu_put(f, fx.gpu, a + 1, tu_get(f, fx.gpu, a));
+                    tu_put(f, fx.gpu, a, ka);
+                }
                 /* a wrong number of passes is a size fault, not a crash */
                 d.gpu_pass_count = P - 1;
                 assert_int_equal(rto_sort_check(&d, &r, NULL), RTO_ERR_MISMATCH);

@@ -1,11 +1,11 @@
-/* The Embree side of the cross-check (oracle/embree.c) and the disagreement classes (oracle/crosscheck.c), on
+/* The Embree side of the cross-check (oracle/embree.c) and the disagreement classes (src/trace/crosscheck.c), on
  * hand-made scenes with closed-form answers: instance IDs mapped back, records filled like the oracle's, masks,
  * culling, TERMINATE_ON_FIRST_HIT, refusals, Embree errors through rto_msg with nothing printed, thread-count
  * independence; then each class on a hand-made case and both sides of its boundary; then Embree on fixture scenes
  * against a binary64 brute-force tracer written here (no oracle code), so the mirror is checked on its own. */
 #include "testutil.h"
 
-#include "crosscheck.h"
+#include "trace/crosscheck.h"
 #include "embree.h"
 
 #include <fcntl.h>
@@ -455,7 +455,7 @@ static rto_hit_record miss_rec(void)
 static xc_class classify(const rto_scene *s, const rto_wf_ray *r, rto_hit_record o, rto_hit_record e,
                          const rto_hit_record *closest, const rto_hit_record *robust, xc_result *res)
 {
-    xc_input in = {s, r, &o, &e, closest, robust};
+    xc_input in = {s, r, &o, &e, closest, robust, NULL};
     xc_classify(&in, res);
     return res->cls;
 }
@@ -703,7 +703,7 @@ static void check_fixture(const char *rel, uint32_t nrays, uint32_t seed)
     for (uint32_t i = 0; i < nrays; i++) {
         rto_hit_record ref = brute64(s, &r[i]);
         xc_result res;
-        xc_input in = {s, &r[i], &ref, &h[i], NULL, NULL};
+        xc_input in = {s, &r[i], &ref, &h[i], NULL, NULL, NULL};
         xc_classify(&in, &res);
         count[res.cls]++;
         hits += ref.miss_flag == 0;
@@ -758,7 +758,7 @@ static size_t count_unexplained(const rto_scene *s, const rto_wf_ray *r, const r
 {
     size_t bad = 0;
     for (size_t i = 0; i < n; i++) {
-        xc_input in = {s, &r[i], &o[i], &e[i], NULL, NULL};
+        xc_input in = {s, &r[i], &o[i], &e[i], NULL, NULL, NULL};
         xc_result res;
         xc_classify(&in, &res);
         if (res.cls == XC_UNEXPLAINED && bad++ == 0) {

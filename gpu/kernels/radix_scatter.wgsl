@@ -19,14 +19,16 @@ const NONE = RADIX; // the digit of a slot past the last key
 var<workgroup> counts: array<u32, RADIX * WG>;
 var<workgroup> cursor: array<atomic<u32>, RADIX>; // RACY_SCATTER only
 
-/** Inclusive scan of counts along the invocations, every digit at once (Hillis-Steele: log2(WG) steps). */
+/** Inclusive scan of counts along the invocations, every digit at once (Hillis-Steele: log2(WG) steps). Each step
+ * writes every element of `add`, from the invocation off places below or 0: nothing rests on a loop-local array being
+ * zeroed again on each iteration. */
 fn scan_counts(t: u32) {
+  var add: array<u32, RADIX>;
   for (var off = 1u; off < WG; off <<= 1u) {
-    var add: array<u32, RADIX>; // zero-initialised
-    if (t >= off) {
-      for (var d = 0u; d < RADIX; d++) {
-        add[d] = counts[d * WG + t - off];
-      }
+    let has = t >= off;
+    let src = select(0u, t - off, has);
+    for (var d = 0u; d < RADIX; d++) {
+      add[d] = select(0u, counts[d * WG + src], has);
     }
     workgroupBarrier();
     for (var d = 0u; d < RADIX; d++) {

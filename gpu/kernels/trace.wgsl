@@ -75,10 +75,18 @@ fn trace_slab(bmin: vec3<f32>, bmax: vec3<f32>, o: vec3<f32>, inv: vec3<f32>, tM
 // a bitwise OR with a word the compiler cannot know (always 0) pins x down as the rounded value it is.
 fn trace_keep(x: f32) -> f32 { return bitcast<f32>(bitcast<u32>(x) | scene[SCENE_ZERO]); }
 
+// A product that stays a product: GPUs fuse `a*b + c` into one fused multiply-add (NVIDIA's compiler does), which
+// skips the product's rounding. §6's expressions round every product, and rays aimed at edges and vertices (the
+// grazing and axis sets) tell the difference: a fused edge test can let a ray through between two triangles.
+fn trace_mul(a: f32, b: f32) -> f32 { return trace_keep(a * b); }
+
 // §6 dot and cross, written out (no dot()/cross(): their evaluation order is the implementation's).
-fn trace_dot(a: vec3<f32>, b: vec3<f32>) -> f32 { return (a.x * b.x + a.y * b.y) + a.z * b.z; }
+fn trace_dot(a: vec3<f32>, b: vec3<f32>) -> f32 {
+  return (trace_mul(a.x, b.x) + trace_mul(a.y, b.y)) + trace_mul(a.z, b.z);
+}
 fn trace_cross(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-  return vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+  return vec3<f32>(trace_mul(a.y, b.z) - trace_mul(a.z, b.y), trace_mul(a.z, b.x) - trace_mul(a.x, b.z),
+                   trace_mul(a.x, b.y) - trace_mul(a.y, b.x));
 }
 
 // Möller–Trumbore in §6's order; ok = the hit test (culling comes after, from det).
@@ -154,8 +162,10 @@ fn trace_test_triangle(inst: u32, prim: u32, o: vec3<f32>, d: vec3<f32>, r: WfRa
 
 // Row r of W2O applied as ((m0·x + m1·y) + m2·z) + m3 (points) or without m3 (directions): not renormalised, so t
 // is shared with the world ray.
-fn trace_xform_point(m: vec4<f32>, p: vec3<f32>) -> f32 { return ((m.x * p.x + m.y * p.y) + m.z * p.z) + m.w; }
-fn trace_xform_dir(m: vec4<f32>, d: vec3<f32>) -> f32 { return (m.x * d.x + m.y * d.y) + m.z * d.z; }
+fn trace_xform_point(m: vec4<f32>, p: vec3<f32>) -> f32 { return trace_xform_dir(m, p) + m.w; }
+fn trace_xform_dir(m: vec4<f32>, d: vec3<f32>) -> f32 {
+  return (trace_mul(m.x, d.x) + trace_mul(m.y, d.y)) + trace_mul(m.z, d.z);
+}
 
 // The BLAS of instance inst, entered: the whole tree in order before the TLAS resumes (entries above the TLAS's).
 fn trace_blas(inst: u32, r: WfRay) {

@@ -58,6 +58,9 @@ const char *rto_frame_artifact_name(uint32_t artifact)
 #define RAY_REL 1e-5
 #define ACCUM_REL 1e-4
 #define ACCUM_ABS 1e-6
+/* The absolute part of the accum rule for a program whose colours are barycentrics (the built-in `triangle`): the
+ * barycentric rule of the hit records, since a GPU's barycentrics may differ by that much (§9). */
+#define ACCUM_ABS_BARY 1e-4
 #define IMAGE_STEP 1
 #define IMAGE_PERCENT_DEFAULT 0.1
 /* Payload words are compared as binary32 only where both read as plausible floats: 0, or a magnitude of at least
@@ -107,6 +110,7 @@ typedef struct fcheck {
     uint32_t w, h, depth, words; /* width, height, maxDepth, payload words */
     uint64_t cap, pixels;        /* queue capacity 2 W H, W H */
     int stage2;
+    double accum_abs; /* ACCUM_ABS, or ACCUM_ABS_BARY for `triangle` */
     double scale; /* M: the largest magnitude of the scene bounds and the camera position */
     double fail_percent;
     /* the bundle's frame-wide arrays */
@@ -460,6 +464,8 @@ static rto_status read_manifest(fcheck *c)
         c->stage2 = ski == 1;
     else
         return bad_expected(c, "manifest.json", "frame.scene_kind is missing or neither \"mesh\" nor \"stage2\"");
+    const char *program = rto_bundle_get_str(c->b, "program", "name");
+    c->accum_abs = program && !strcmp(program, "triangle") && !c->stage2 ? ACCUM_ABS_BARY : ACCUM_ABS;
     return RTO_OK;
 }
 
@@ -1138,8 +1144,9 @@ static int payload_float(uint32_t w)
     return isfinite(f) && (f == 0.0f || fabs((double)f) >= PAYLOAD_FLOAT_MIN);
 }
 
-/* Payload floats carry colour on its way to accum, so they compare with accum's §9 rule. */
-static double accum_tolerance(float e) { return ACCUM_REL * fabs((double)e) + ACCUM_ABS; }
+/* §9's accum rule with absolute part abs (ACCUM_ABS, or the frame's accum_abs). Payload floats carry colour on its way
+ * to accum, so they compare with it too. */
+static double accum_tolerance(float e, double abs) { return ACCUM_REL * fabs((double)e) + abs; }
 
 /* Whether two payload words agree: bit for bit, or as close binary32 values (see PAYLOAD_FLOAT_MIN). */
 static int word_close(uint32_t e, uint32_t a)
@@ -1151,7 +1158,7 @@ static int word_close(uint32_t e, uint32_t a)
     float fe, fa;
     memcpy(&fe, &e, 4);
     memcpy(&fa, &a, 4);
-    return fabs((double)fa - (double)fe) <= accum_tolerance(fe);
+    return fabs((double)fa - (double)fe) <= accum_tolerance(fe, ACCUM_ABS);
 }
 
 /* Reads the dump's file of a bounce that pairs with its rays (payloads, hits) into g. Returns 1 when there is
@@ -1254,7 +1261,7 @@ static void step_payloads(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n,
             memcpy(&fa, &a[k], 4);
             if (payload_float(x[k]) && payload_float(a[k]))
                 add_row(c, i, field, rto_val_f32(fe), rto_val_f32(fa), rto_val_f64((double)fa - (double)fe),
-                        rto_val_f64(accum_tolerance(fe)));
+                        rto_val_f64(accum_tolerance(fe, ACCUM_ABS)));
             else
                 add_row(c, i, field, rto_val_hex32(x[k]), rto_val_hex32(a[k]), rto_val_hex32(x[k] ^ a[k]),
                         rto_val_none());
@@ -1584,13 +1591,13 @@ static rto_status mark_drop_pixels(fcheck *c)
 }
 
 /* §9's accum rule for one channel: within 1e-4 |e| + 1e-6; infinities must match, NaN matches only NaN. */
-static int accum_close(float e, float a)
+static int accum_close(const fcheck *c, float e, float a)
 {
     if (isnan(e) || isnan(a))
         return isnan(e) && isnan(a);
     if (isinf(e) || isinf(a))
         return e == a;
-    return fabs((double)a - (double)e) <= accum_tolerance(e);
+    return fabs((double)a - (double)e) <= accum_tolerance(e, c->accum_abs);
 }
 
 static void stats_note(pixel_stats *ps, uint32_t x, uint32_t y, const float *e, const float *a, uint32_t ch)
@@ -1653,7 +1660,7 @@ static void compare_accum(fcheck *c, const char *file, const float *e, const flo
         int over = 0;
         for (uint32_t k = 0; k < ch; k++) {
             stats_max(ps, fabs((double)ap[k] - (double)ep[k]), p, c->w, k);
-            over |= !accum_close(ep[k], ap[k]);
+            over |= !accum_close(c, ep[k], ap[k]);
         }
         if (over) {
             stats_note(ps, (uint32_t)(p % c->w), (uint32_t)(p / c->w), ep, ap, ch);
@@ -1668,21 +1675,22 @@ static void compare_accum(fcheck *c, const char *file, const float *e, const flo
     const pixel_diff *f = &ps->list[0];
     at_pixel(c, f->y * c->w + f->x);
     uint32_t k0 = 0;
-    while (k0 + 1 < ch && accum_close(f->e[k0], f->a[k0]))
+    while (k0 + 1 < ch && accum_close(c, f->e[k0], f->a[k0]))
         k0++;
-    c->r->tolerance_bound = accum_tolerance(f->e[k0]);
+    c->r->tolerance_bound = accum_tolerance(f->e[k0], c->accum_abs);
     for (uint32_t i = 0; i < ps->nlist && c->r->nrows < RTO_REPORT_MAX_ROWS; i++)
         for (uint32_t k = 0; k < ch; k++) {
             const pixel_diff *x = &ps->list[i];
-            if (!accum_close(x->e[k], x->a[k]))
+            if (!accum_close(c, x->e[k], x->a[k]))
                 add_row(c, (uint64_t)x->y * c->w + x->x, channel_names[k], rto_val_f32(x->e[k]), rto_val_f32(x->a[k]),
-                        rto_val_f64((double)x->a[k] - (double)x->e[k]), rto_val_f64(accum_tolerance(x->e[k])));
+                        rto_val_f64((double)x->a[k] - (double)x->e[k]),
+                        rto_val_f64(accum_tolerance(x->e[k], c->accum_abs)));
         }
     rto_report_summary(c->r, "accum: %s: pixel %" PRIu32 " (x %" PRIu32 ", y %" PRIu32 ") channel %s is %.9g, the "
                        "oracle's %.9g (|diff| %.3g > %.3g); %" PRIu64 " of %" PRIu64 " compared pixels outside 1e-4 "
-                       "relative + 1e-6", file, f->y * c->w + f->x, f->x, f->y, channel_names[k0], (double)f->a[k0],
-                       (double)f->e[k0], fabs((double)f->a[k0] - (double)f->e[k0]), accum_tolerance(f->e[k0]),
-                       ps->over, ps->compared);
+                       "relative + %g", file, f->y * c->w + f->x, f->x, f->y, channel_names[k0], (double)f->a[k0],
+                       (double)f->e[k0], fabs((double)f->a[k0] - (double)f->e[k0]),
+                       accum_tolerance(f->e[k0], c->accum_abs), ps->over, ps->compared, c->accum_abs);
 }
 
 static rto_status keep_images(pixel_stats *ps, uint32_t w, uint32_t h, uint32_t ch, rto_pixel_type t, const void *e,
@@ -1938,8 +1946,10 @@ static rto_status write_listing(fcheck *c, const char *path)
     json_t *root = json_object();
     if (!root)
         return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-    if (c->accum.failed && json_object_set_new(root, "accum", stats_json(c, &c->accum, "|actual - expected| <= 1e-4 |"
-                                                              "expected| + 1e-6 per channel (DESIGN.md §9)", &bad)))
+    char accum_rule[128];
+    snprintf(accum_rule, sizeof accum_rule, "|actual - expected| <= 1e-4 |expected| + %g per channel (DESIGN.md §9)",
+             c->accum_abs);
+    if (c->accum.failed && json_object_set_new(root, "accum", stats_json(c, &c->accum, accum_rule, &bad)))
         bad = 1;
     if (c->image.failed) {
         char rule[128];
@@ -2104,8 +2114,8 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
     c.drop_queue = NONE32;
     c.fail_percent = pct;
     snprintf(report->tolerance, sizeof report->tolerance,
-             "counts, indirect args, IDs exact; rays: origin 1e-5*max(4M,|o|), dir/tMin/tMax 1e-5*max(1,|v|); "
-             "payload floats and accum 1e-4 rel + 1e-6; hits as check-hits; image +-1, <= %g %% pixels (§9)", pct);
+             "counts, args, IDs exact; rays: origin 1e-5*max(4M,|o|), dir/tMin/tMax 1e-5*max(1,|v|); payload, accum "
+             "1e-4 rel + 1e-6 (triangle: + 1e-4); hits as check-hits; image +-1, <= %g %% pixels (§9)", pct);
     rto_msg m = {{0}};
     rto_status s = rto_bundle_open(desc->expected_dir, &c.b, &m);
     if (s) {

@@ -193,8 +193,12 @@ static rto_status check_passes(const rto_sort_check_desc *d, rto_report *r, rto_
             }
         } else {
             /* Another fault is primary; keep where the checkpoints diverge in the summary's tail. */
-            rto_report_append(r, "; checkpoints first diverge at pass %" PRIu32 " (k=%" PRIu32 ", j=%" PRIu32
-                              ") slot %zu", p, k, j, first);
+            if (d->algo == RTO_SORT_BITONIC)
+                rto_report_append(r, "; checkpoints first diverge at pass %" PRIu32 " (k=%" PRIu32 ", j=%" PRIu32
+                                  ") slot %zu", p, k, j, first);
+            else
+                rto_report_append(r, "; checkpoints first diverge at radix pass %" PRIu32 " (digit bits %" PRIu32
+                                  "..%" PRIu32 ") slot %zu", p, k, k + d->radix_bits - 1, first);
         }
         break;
     }

@@ -7,6 +7,7 @@
  * and listed, and then held to that primitive's own values. Faults are classified (rto_hit_fault) and the primary
  * one is the highest-priority fault of the first wrong ray, so a report reads "bary at ray 1234" and not "hits
  * differ"; every class seen anywhere is listed too. */
+#include "crosscheck.h"
 #include "report_internal.h"
 #include "trace_internal.h"
 
@@ -78,7 +79,7 @@ typedef struct finding {
  * the summary sentence of each fault class (only the first of a class is kept). */
 typedef struct ray_result {
     unsigned faults;
-    int tie;
+    int tie, grazing;
     uint32_t nrows;
     finding rows[24]; /* at most: 3 tie rows, t, 2 bary, 2 IDs, 12 matrix values; or 4 ID rows + t of a miss */
     char text[HIT_FAULT_LAST + 1][200];
@@ -251,38 +252,11 @@ static void wrong_primitive(const rto_hits_check_desc *d, size_t i, const rto_wf
           i, g->prim_id, g->instance_id, why, e->prim_id, e->instance_id, (double)e->t);
 }
 
-/* A TERMINATE_ON_FIRST_HIT ray that both sides hit: which hit a traversal finds first depends on its order (§6), so
- * only that the claimed primitive is hit, at the claimed t, is defined. */
-static void compare_first_hit(const rto_hits_check_desc *d, size_t i, const rto_wf_ray *ray, const rto_hit_record *e,
-                              const rto_hit_record *g, ray_result *rr)
+/* Compares record g with the reference ref (the oracle's record, or for a tie or grazing the claimed primitive's
+ * own, whose). */
+static void compare_hit_fields(size_t i, const rto_hit_record *ref, const rto_hit_record *g, const char *whose,
+                               ray_result *rr)
 {
-    rto_tri_hit th = {0, 0, 0, 0};
-    const claim_kind k = reintersect(d, ray, g->instance_id, g->prim_id, &th);
-    if (k != CLAIM_HIT) {
-        const rto_hit_fault f = g->instance_id != e->instance_id ? RTO_HIT_INSTANCE : RTO_HIT_PRIM;
-        if (g->instance_id != e->instance_id)
-            id_row(rr, f, "instanceId", e->instance_id, g->instance_id);
-        id_row(rr, f, "primId", e->prim_id, g->prim_id);
-        char why[160];
-        claim_why(d, ray, g, k, &th, g->t, "the record's", why, sizeof why);
-        fault(rr, f, 0, "ray %zu (TERMINATE_ON_FIRST_HIT) claims a hit on triangle %" PRIu32 " of instance %" PRIu32
-              ", %s", i, g->prim_id, g->instance_id, why);
-        return;
-    }
-    /* The primitive is hit: a wrong distance is a fault of t, not of the primitive. */
-    if (!t_close(g->t, th.t)) {
-        const double tol = t_tolerance(th.t);
-        float_row(rr, RTO_HIT_T, "t", th.t, g->t, tol, 1);
-        fault(rr, RTO_HIT_T, tol, "ray %zu (TERMINATE_ON_FIRST_HIT) hits triangle %" PRIu32 " of instance %" PRIu32
-              " at t = %.9g; the GPU's record says t = %.9g (|dt| %.3g > %.3g)", i, g->prim_id, g->instance_id,
-              (double)th.t, (double)g->t, fabs((double)g->t - (double)th.t), tol);
-    }
-}
-
-/* Compares record g with the reference ref (the oracle's record, or for a tie the claimed primitive's own). */
-static void compare_hit_fields(size_t i, const rto_hit_record *ref, const rto_hit_record *g, int tie, ray_result *rr)
-{
-    const char *whose = tie ? "the tied primitive's" : "the oracle's";
     if (!t_close(g->t, ref->t)) {
         const double tol = t_tolerance(ref->t);
         float_row(rr, RTO_HIT_T, "t", ref->t, g->t, tol, 1);
@@ -319,8 +293,146 @@ static void compare_hit_fields(size_t i, const rto_hit_record *ref, const rto_hi
         }
 }
 
-static void compare_ray(const rto_hits_check_desc *d, size_t i, ray_result *rr)
+/* One check: the description, the scene as crosscheck.h's functions read it, and the work the grazing rule's brute
+ * force has done (triangle tests, bounded by GRAZE_BUDGET so that a dump of wrong records on a large scene cannot
+ * make the check quadratic: past it, a disagreement is a fault and the summary says the rule stopped). */
+typedef struct hcheck {
+    const rto_hits_check_desc *d;
+    rto_scene scene;
+    uint64_t graze_tests;
+    int graze_stopped;
+} hcheck;
+
+#define GRAZE_BUDGET (UINT64_C(1) << 27)
+
+/* A hit of the ray on triangle prim of instance inst at t, as a record crosscheck.h's functions can judge. */
+static rto_hit_record hit_at(uint32_t inst, uint32_t prim, float t)
 {
+    rto_hit_record h = rto_hit_record_miss(t);
+    h.miss_flag = 0;
+    h.instance_id = inst;
+    h.prim_id = prim;
+    return h;
+}
+
+/* Whether the oracle's arithmetic hits a triangle, other than the grazing ones and (skip_inst, skip_prim), nearer
+ * than limit (beyond the t tolerance): a solid hit that a record ending at limit skipped. Brute force over every
+ * triangle, with the ray's mask, culling and t range. */
+static int solid_hit_before(hcheck *c, const rto_wf_ray *ray, float limit, uint32_t skip_inst, uint32_t skip_prim)
+{
+    const rto_hits_check_desc *d = c->d;
+    for (uint32_t inst = 0; inst < d->instance_count; inst++) {
+        const rto_instance *in = &d->instances[inst];
+        const rto_mesh *m = &d->meshes[in->blas];
+        if (!(in->mask & ray->cull_mask))
+            continue;
+        if (c->graze_tests + m->triangle_count > GRAZE_BUDGET) {
+            c->graze_stopped = 1;
+            return 1;
+        }
+        c->graze_tests += m->triangle_count;
+        for (uint32_t prim = 0; prim < m->triangle_count; prim++) {
+            rto_tri_hit th;
+            if ((inst == skip_inst && prim == skip_prim) || !rto_instance_triangle_hit(in, m, prim, ray, &th) ||
+                !(th.t < limit) || t_close(th.t, limit))
+                continue;
+            const rto_hit_record h = hit_at(inst, prim, th.t);
+            double rel;
+            if (!xc_grazing_hit(&c->scene, ray, &h, 0, &rel))
+                return 1;
+        }
+    }
+    return 0;
+}
+
+/* DESIGN.md §9's grazing rule, for a GPU record that disagrees with the oracle's on whether or which triangle the ray
+ * hits and is not a tie. A GPU's division is not correctly rounded (WGSL allows 2.5 ulp) and it may fuse
+ * multiply-adds, so on a ray through an edge or a vertex its Möller–Trumbore decides hit or miss differently. The
+ * disagreement is explained when every hit one side found and the other did not grazes its triangle (crosscheck.h's
+ * grazing class: within 1e-5 of an edge, relative, or the ray within 1e-4 of parallel to the plane): the oracle's
+ * hit if the GPU went past it, the GPU's if the oracle's arithmetic misses that triangle (which must exist, meet the
+ * ray's cull mask and not be culled); and the oracle's arithmetic hits no other triangle solidly before the GPU's
+ * answer. The record is then held to its own triangle's values (or to the miss record). Returns 1 when explained. */
+static int grazing(hcheck *c, size_t i, const rto_wf_ray *ray, const rto_hit_record *e, const rto_hit_record *g,
+                   int any_hit, ray_result *rr)
+{
+    const rto_hits_check_desc *d = c->d;
+    const int e_hit = !e->miss_flag, g_hit = !g->miss_flag;
+    double rel = 0;
+    rto_tri_hit th = {0, 0, 0, 0};
+    claim_kind k = CLAIM_MISSED;
+    if (g_hit) {
+        k = reintersect(d, ray, g->instance_id, g->prim_id, &th);
+        if (k != CLAIM_HIT && (k != CLAIM_MISSED || rto__triangle_culled(ray->flags, th.det) ||
+                               !xc_grazing_hit(&c->scene, ray, g, 1, &rel)))
+            return 0;
+    }
+    /* where the GPU's answer lies: its triangle's own t when the oracle's arithmetic hits it (a wrong t in the
+     * record is then a t fault, below) */
+    const float end = !g_hit ? ray->t_max : k == CLAIM_HIT ? th.t : g->t;
+    /* both hit a TERMINATE_ON_FIRST_HIT ray (any_hit): any hit will do, so only the claim's own triangle is judged */
+    if (!any_hit && e_hit && end > e->t && !t_close(end, e->t) && !xc_grazing_hit(&c->scene, ray, e, 0, &rel))
+        return 0;
+    if (!any_hit && solid_hit_before(c, ray, end, g_hit ? g->instance_id : UINT32_MAX, g->prim_id))
+        return 0;
+    rr->grazing = 1;
+    if (e->instance_id != g->instance_id)
+        id_row(rr, RTO_HIT_OK, "grazing.instanceId", e->instance_id, g->instance_id);
+    if (e->prim_id != g->prim_id)
+        id_row(rr, RTO_HIT_OK, "grazing.primId", e->prim_id, g->prim_id);
+    float_row(rr, RTO_HIT_OK, "grazing.t", e->t, g->t, 0, 0);
+    if (any_hit)
+        return 1; /* its t was judged with the triangle (xc_grazing_hit) */
+    if (!g_hit) {
+        compare_miss(i, ray, g, rr);
+        return 1;
+    }
+    if (k == CLAIM_MISSED) { /* the point where the ray meets the triangle's plane, in binary64 */
+        double t, u, v;
+        if (xc_plane_hit(&c->scene, g->instance_id, g->prim_id, ray, &t, &u, &v))
+            th = (rto_tri_hit){(float)t, (float)u, (float)v, th.det};
+        else
+            th = (rto_tri_hit){g->t, g->bary[0], g->bary[1], th.det}; /* parallel: nothing to hold it to */
+    }
+    const rto_hit_record ref = rto_hit_record_make(&d->instances[g->instance_id], g->instance_id, g->prim_id, &th);
+    compare_hit_fields(i, &ref, g, "its triangle's", rr);
+    return 1;
+}
+
+/* A TERMINATE_ON_FIRST_HIT ray that both sides hit: which hit a traversal finds first depends on its order (§6), so
+ * only that the claimed primitive is hit, at the claimed t, is defined. */
+static void compare_first_hit(hcheck *c, size_t i, const rto_wf_ray *ray, const rto_hit_record *e,
+                              const rto_hit_record *g, ray_result *rr)
+{
+    const rto_hits_check_desc *d = c->d;
+    rto_tri_hit th = {0, 0, 0, 0};
+    const claim_kind k = reintersect(d, ray, g->instance_id, g->prim_id, &th);
+    if (k != CLAIM_HIT) {
+        if (grazing(c, i, ray, e, g, 1, rr))
+            return;
+        const rto_hit_fault f = g->instance_id != e->instance_id ? RTO_HIT_INSTANCE : RTO_HIT_PRIM;
+        if (g->instance_id != e->instance_id)
+            id_row(rr, f, "instanceId", e->instance_id, g->instance_id);
+        id_row(rr, f, "primId", e->prim_id, g->prim_id);
+        char why[160];
+        claim_why(d, ray, g, k, &th, g->t, "the record's", why, sizeof why);
+        fault(rr, f, 0, "ray %zu (TERMINATE_ON_FIRST_HIT) claims a hit on triangle %" PRIu32 " of instance %" PRIu32
+              ", %s", i, g->prim_id, g->instance_id, why);
+        return;
+    }
+    /* The primitive is hit: a wrong distance is a fault of t, not of the primitive. */
+    if (!t_close(g->t, th.t)) {
+        const double tol = t_tolerance(th.t);
+        float_row(rr, RTO_HIT_T, "t", th.t, g->t, tol, 1);
+        fault(rr, RTO_HIT_T, tol, "ray %zu (TERMINATE_ON_FIRST_HIT) hits triangle %" PRIu32 " of instance %" PRIu32
+              " at t = %.9g; the GPU's record says t = %.9g (|dt| %.3g > %.3g)", i, g->prim_id, g->instance_id,
+              (double)th.t, (double)g->t, fabs((double)g->t - (double)th.t), tol);
+    }
+}
+
+static void compare_ray(hcheck *c, size_t i, ray_result *rr)
+{
+    const rto_hits_check_desc *d = c->d;
     memset(rr, 0, sizeof *rr);
     const rto_wf_ray *ray = &d->rays[i];
     const rto_hit_record *e = &d->expected[i], *g = &d->gpu[i];
@@ -331,6 +443,8 @@ static void compare_ray(const rto_hits_check_desc *d, size_t i, ray_result *rr)
         return;
     }
     if (g->miss_flag != e->miss_flag) {
+        if (grazing(c, i, ray, e, g, 0, rr))
+            return;
         id_row(rr, RTO_HIT_MISS_FLAG, "missFlag", e->miss_flag, g->miss_flag);
         if (e->miss_flag)
             fault(rr, RTO_HIT_MISS_FLAG, 0, "ray %zu: the GPU reports a hit (triangle %" PRIu32 " of instance %" PRIu32
@@ -345,7 +459,7 @@ static void compare_ray(const rto_hits_check_desc *d, size_t i, ray_result *rr)
         return;
     }
     if (ray->flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) {
-        compare_first_hit(d, i, ray, e, g, rr);
+        compare_first_hit(c, i, ray, e, g, rr);
         return;
     }
     rto_hit_record ref = *e;
@@ -353,7 +467,8 @@ static void compare_ray(const rto_hits_check_desc *d, size_t i, ray_result *rr)
         rto_tri_hit th = {0, 0, 0, 0};
         const claim_kind k = reintersect(d, ray, g->instance_id, g->prim_id, &th);
         if (k != CLAIM_HIT || !t_close(th.t, e->t)) {
-            wrong_primitive(d, i, ray, e, g, k, &th, rr);
+            if (!grazing(c, i, ray, e, g, 0, rr))
+                wrong_primitive(d, i, ray, e, g, k, &th, rr);
             return; /* the other fields have no reference: the oracle's belong to another primitive */
         }
         /* A tie: listed as rows (kept only while nothing is wrong, or on a wrong ray), and from here on the record
@@ -366,7 +481,7 @@ static void compare_ray(const rto_hits_check_desc *d, size_t i, ray_result *rr)
         float_row(rr, RTO_HIT_OK, "tie.t", e->t, th.t, t_tolerance(e->t), 1);
         ref = rto_hit_record_make(&d->instances[g->instance_id], g->instance_id, g->prim_id, &th);
     }
-    compare_hit_fields(i, &ref, g, rr->tie, rr);
+    compare_hit_fields(i, &ref, g, rr->tie ? "the tied primitive's" : "the oracle's", rr);
 }
 
 /* ------------------------------------------------------------------------------------------------------------------ */
@@ -477,7 +592,7 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
     rto_report_table(r, "hit records", "ray");
     snprintf(r->tolerance, sizeof r->tolerance,
              "t |dt| <= 1e-5*max(1,|t|), bary 1e-4 absolute; IDs, customIndex, hitGroup, missFlag, objToWorld exact "
-             "(padding ignored); another primitive is a tie if it re-intersects within the t rule (DESIGN.md §9)");
+             "(padding ignored); ties (same t) and grazing hits (on an edge) accepted (DESIGN.md §9)");
     if ((d->ray_count && (!d->rays || !d->expected)) || (d->gpu_count && !d->gpu))
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL rays, expected records or GPU records");
     rto_status s = check_scene(d, msg);
@@ -520,14 +635,22 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
         rto_report_mark(r, "size", RTO_CHECK_PASSED);
     }
 
+    hcheck c = {.d = d};
+    c.scene.meshes = (rto_mesh *)d->meshes; /* read only: crosscheck.h's functions take a const rto_scene */
+    c.scene.mesh_count = d->mesh_count;
+    c.scene.instances = (rto_instance *)d->instances;
+    c.scene.instance_count = d->instance_count;
+    size_t grazings = 0, first_grazing = 0;
     ray_result rr;
     for (size_t i = 0; i < m; i++) {
-        compare_ray(d, i, &rr);
+        compare_ray(&c, i, &rr);
         if (rr.tie && !ties++)
             first_tie = i;
+        if (rr.grazing && !grazings++)
+            first_grazing = i;
         if (!rr.faults) {
-            if (rr.tie && r->code == RTO_HIT_OK)
-                report_rows(r, i, &rr); /* a passing report lists its ties */
+            if ((rr.tie || rr.grazing) && r->code == RTO_HIT_OK)
+                report_rows(r, i, &rr); /* a passing report lists its ties and grazing rays */
             continue;
         }
         wrong++;
@@ -552,17 +675,26 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
     for (size_t k = 0; k < sizeof check_names / sizeof check_names[0]; k++)
         rto_report_mark(r, check_names[k], RTO_CHECK_PASSED); /* FAILED is sticky */
     rto_report_fact(r, "ties", (int64_t)ties);
+    rto_report_fact(r, "grazing", (int64_t)grazings);
     rto_report_fact(r, "wrong_rays", (int64_t)wrong);
     if (r->code != RTO_HIT_OK) {
         if (wrong)
             rto_report_append(r, "; %zu of %zu compared rays wrong", wrong, m);
         if (ties)
             rto_report_append(r, "; %zu tie(s) accepted", ties);
+        if (grazings)
+            rto_report_append(r, "; %zu grazing ray(s) accepted", grazings);
+        if (c.graze_stopped)
+            rto_report_append(r, "; the grazing rule stopped after %" PRIu64 " triangle tests (later disagreements "
+                              "count as wrong)", c.graze_tests);
         return RTO_ERR_MISMATCH;
     }
     rto_report_summary(r, "ok: %zu rays agree with the oracle within the §9 tolerances", n);
     if (ties)
         rto_report_append(r, "; %zu tie(s) accepted (another primitive at the same t), the first at ray %zu", ties,
                           first_tie);
+    if (grazings)
+        rto_report_append(r, "; %zu grazing ray(s) accepted (a hit one side lacks lies on an edge of its triangle), "
+                          "the first at ray %zu", grazings, first_grazing);
     return RTO_OK;
 }

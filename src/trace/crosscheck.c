@@ -1,4 +1,4 @@
-/* Comparison and classification of oracle and Embree hit records (crosscheck.h states the rules). All geometry
+/* Comparison and classification of the oracle's hit records and another tracer's (Embree's, a GPU's) (crosscheck.h states the rules). All geometry
  * here is binary64, from the scene's binary32 vertices and matrices, so it judges both tracers from outside. */
 #include "crosscheck.h"
 
@@ -89,13 +89,14 @@ static double boundary_distance(const dvec v[3], dvec p, int *degenerate)
 /* A ray against one triangle of an instance in object space, binary64: the ray through worldToObj, the triangle's
  * normal, |cos a| between ray and normal, the plane crossing p and S, the largest coordinate magnitude among the
  * origin, p and the vertices (at least 1): the scale of the binary32 rounding both tracers make. Returns 0 when the
- * ray is (nearly) parallel to the plane (|cos a| <= XC_PARALLEL_COS), the triangle degenerate or the direction 0. */
+ * ray is (nearly) parallel to the plane (|cos a| <= min_cos), the triangle degenerate or the direction 0. */
 typedef struct objray {
     dvec v[3], o, d, p;
     double t, dlen, cosa, s;
 } objray;
 
-static int obj_ray(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, objray *r)
+static int obj_ray(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, double min_cos,
+                   objray *r)
 {
     const rto_instance *in = &sc->instances[inst];
     for (int k = 0; k < 3; k++) {
@@ -113,7 +114,7 @@ static int obj_ray(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_
         return 0;
     double denom = dot(r->d, n);
     r->cosa = fabs(denom) / (nl * r->dlen);
-    if (r->cosa <= XC_PARALLEL_COS)
+    if (r->cosa <= min_cos)
         return 0;
     const double t = dot(sub(r->v[0], r->o), n) / denom;
     r->t = t;
@@ -130,7 +131,7 @@ double xc_edge_distance(const rto_scene *scene, uint32_t inst, uint32_t prim, co
     if (!valid_tri(scene, inst, prim))
         return INFINITY;
     objray r;
-    if (!obj_ray(scene, inst, prim, ray, &r))
+    if (!obj_ray(scene, inst, prim, ray, XC_PARALLEL_COS, &r))
         return 0;
     *parallel = 0;
     int degenerate;
@@ -139,12 +140,26 @@ double xc_edge_distance(const rto_scene *scene, uint32_t inst, uint32_t prim, co
     return bd / r.s * r.cosa;
 }
 
+int xc_plane_hit(const rto_scene *scene, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, double *t, double *u,
+                 double *v)
+{
+    objray r;
+    if (!valid_tri(scene, inst, prim) || !obj_ray(scene, inst, prim, ray, XC_PARALLEL_COS, &r))
+        return 0;
+    dvec e1 = sub(r.v[1], r.v[0]), e2 = sub(r.v[2], r.v[0]), n = cross(e1, e2), w = sub(r.p, r.v[0]);
+    const double nn = dot(n, n);
+    *t = r.t;
+    *u = dot(cross(w, e2), n) / nn;
+    *v = dot(cross(e1, w), n) / nn;
+    return 1;
+}
+
 double xc_t_rounding(const rto_scene *scene, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, double dt)
 {
     if (!valid_tri(scene, inst, prim))
         return INFINITY;
     objray r;
-    if (!obj_ray(scene, inst, prim, ray, &r))
+    if (!obj_ray(scene, inst, prim, ray, XC_PARALLEL_COS, &r))
         return 0;
     /* the two hit points o + t d lie |dt| |d'| |cos a| apart across the triangle's plane */
     return fabs(dt) * r.dlen * r.cosa / r.s;
@@ -153,15 +168,16 @@ double xc_t_rounding(const rto_scene *scene, uint32_t inst, uint32_t prim, const
 /* Whether a hit record is one its triangle can give: the ray meets the triangle's plane at the record's t (within
  * the t tolerance, or the t-rounding bound) and there lies inside the triangle or within the grazing distance of its
  * boundary. A class that explains a disagreement by a record's triangle (tie, coplanar, crossing, grazing) first
- * checks this, so a record naming a wrong triangle is never explained away. A ray nearly parallel to the plane
- * passes (nothing can be decided there). */
-static int plausible(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *h)
+ * checks this, so a record naming a wrong triangle is never explained away. A ray within min_cos of parallel to the
+ * plane passes when min_cos > 0 (crosscheck's rule: nothing can be decided there); with min_cos 0 only a ray exactly
+ * parallel fails, and the plane crossing is judged however ill-conditioned. */
+static int plausible(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *h, double min_cos)
 {
     if (!valid_tri(sc, h->instance_id, h->prim_id))
         return 0;
     objray r;
-    if (!obj_ray(sc, h->instance_id, h->prim_id, ray, &r))
-        return 1;
+    if (!obj_ray(sc, h->instance_id, h->prim_id, ray, min_cos, &r))
+        return min_cos > 0;
     const double dt = (double)h->t - r.t;
     if (!(fabs(dt) <= XC_T_REL * fmax(1, fabs(r.t)) || fabs(dt) * r.dlen * r.cosa / r.s <= XC_EDGE_REL))
         return 0;
@@ -178,6 +194,13 @@ static int grazes(const rto_scene *sc, uint32_t inst, uint32_t prim, const rto_w
         return valid_tri(sc, inst, prim);
     }
     return *rel <= XC_EDGE_REL;
+}
+
+int xc_grazing_hit(const rto_scene *scene, const rto_wf_ray *ray, const rto_hit_record *h, int strict, double *rel)
+{
+    *rel = 0;
+    return plausible(scene, ray, h, strict ? 0 : XC_PARALLEL_COS) &&
+           grazes(scene, h->instance_id, h->prim_id, ray, rel);
 }
 
 static int is_hit(const rto_hit_record *h) { return h && h->miss_flag == 0; }
@@ -302,7 +325,10 @@ static void set(xc_result *out, xc_class c, const char *fmt, ...)
     va_end(ap);
 }
 
-static const char *side_name(int oracle) { return oracle ? "the oracle" : "Embree"; }
+static const char *side_name(const xc_input *in, int oracle)
+{
+    return oracle ? "the oracle" : in->other ? in->other : "Embree";
+}
 
 void xc_classify(const xc_input *in, xc_result *out)
 {
@@ -319,8 +345,9 @@ void xc_classify(const xc_input *in, xc_result *out)
     char why[200] = "";
 
     if (is_hit(o) && is_hit(e) && et && t_close(o->t, et->t) &&
-        (o->instance_id != et->instance_id || o->prim_id != et->prim_id) && plausible(sc, ray, o) &&
-        plausible(sc, ray, et)) {
+        (o->instance_id != et->instance_id || o->prim_id != et->prim_id) &&
+        plausible(sc, ray, o, XC_PARALLEL_COS) &&
+        plausible(sc, ray, et, XC_PARALLEL_COS)) {
         if (share_vertex(sc, o, et, why, sizeof why)) {
             set(out, XC_TIE, "t %.9g / %.9g: %s", o->t, et->t, why);
             return;
@@ -382,14 +409,14 @@ void xc_classify(const xc_input *in, xc_result *out)
     for (int c = 0; c < 2; c++) {
         const rto_hit_record *h = cand[c];
         double rel;
-        if (h && plausible(sc, ray, h) && grazes(sc, h->instance_id, h->prim_id, ray, &rel)) {
+        if (h && xc_grazing_hit(sc, ray, h, 0, &rel)) {
             out->edge_rel = rel;
             if (rel == 0)
                 set(out, XC_GRAZING, "%s's hit (triangle %u of instance %u, t %.9g) is on a ray nearly parallel to "
-                    "its plane", side_name(cand_oracle[c]), h->prim_id, h->instance_id, h->t);
+                    "its plane", side_name(in, cand_oracle[c]), h->prim_id, h->instance_id, h->t);
             else
                 set(out, XC_GRAZING, "%s's hit (triangle %u of instance %u, t %.9g) lies %.3g (relative) from an "
-                    "edge", side_name(cand_oracle[c]), h->prim_id, h->instance_id, h->t, rel);
+                    "edge", side_name(in, cand_oracle[c]), h->prim_id, h->instance_id, h->t, rel);
             return;
         }
     }
@@ -410,5 +437,5 @@ void xc_classify(const xc_input *in, xc_result *out)
     if (h && valid_tri(sc, h->instance_id, h->prim_id))
         rel = xc_edge_distance(sc, h->instance_id, h->prim_id, ray, &parallel);
     out->edge_rel = rel;
-    set(out, XC_UNEXPLAINED, "the oracle found %s, Embree %s; nearest edge %.3g (relative)", a, b, rel);
+    set(out, XC_UNEXPLAINED, "the oracle found %s, %s %s; nearest edge %.3g (relative)", a, side_name(in, 0), b, rel);
 }

@@ -1,6 +1,8 @@
-/* Per-ray comparison of the oracle's hit records with Embree's, and the classification of every disagreement
- * (docs/trace.md "crosscheck"). Pure functions of the scene, the ray and the records, so the classes are tested on
- * hand-made cases (tests/test_crosscheck.c) as well as used by `rtoracle crosscheck`.
+/* Per-ray comparison of the oracle's hit records with another tracer's (Embree's, or a GPU's), and the
+ * classification of every disagreement (docs/trace.md "crosscheck"). Pure functions of the scene, the ray and the
+ * records, so the classes are tested on hand-made cases (tests/test_embree.c) as well as used by `rtoracle
+ * crosscheck` and, for its grazing class, by rto_hits_check (a GPU's division and fused multiply-adds decide edges
+ * differently from the oracle, as Embree's arithmetic does).
  *
  * A ray agrees when both miss, or both hit the same (instance, primitive) with |t_oracle - t_embree| <=
  * 1e-5 max(1, |t_oracle|) (DESIGN.md §9; Embree's t differs by rounding: it inverts objToWorld itself and uses other
@@ -35,8 +37,8 @@
  * must first be one its triangle can give: the ray meets the triangle's plane at the record's t (within the t
  * tolerance or the t-rounding bound) at a point inside the triangle or within the grazing distance of it (rays
  * within XC_PARALLEL_COS of the plane pass). A record naming a wrong triangle is therefore never explained away. */
-#ifndef RTO_ORACLE_CROSSCHECK_H
-#define RTO_ORACLE_CROSSCHECK_H
+#ifndef RTO_TRACE_CROSSCHECK_H
+#define RTO_TRACE_CROSSCHECK_H
 
 #include "rtoracle.h"
 
@@ -76,6 +78,7 @@ typedef struct xc_input {
     const rto_hit_record *embree_closest;
     /* Comparing against Embree default: the robust mirror's record of the ray (NULL when not traced). */
     const rto_hit_record *robust;
+    const char *other; /* how `why` names the other tracer: NULL means "Embree" */
 } xc_input;
 
 typedef struct xc_result {
@@ -97,6 +100,19 @@ int xc_agree(const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_recor
  * edge line) times |cos a| / S, so grazing is a result <= XC_EDGE_REL; sets *parallel (and returns 0) when |cos a|
  * <= XC_PARALLEL_COS, the triangle is degenerate or the direction zero. */
 double xc_edge_distance(const rto_scene *scene, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, int *parallel);
+
+/** The grazing class of one hit record: whether it is one its triangle can give (see above) and lies within the
+ * grazing distance of the triangle's boundary or on a ray nearly parallel to its plane; *rel as xc_edge_distance
+ * (0 for a parallel ray). strict: a record on a nearly parallel ray must be one its triangle can give too (its t at
+ * the binary64 plane crossing within the t or t-rounding bound, the crossing within the grazing distance of the
+ * triangle), so only a ray exactly parallel to the plane fails it; check-hits asks this of a GPU's claimed hit. */
+int xc_grazing_hit(const rto_scene *scene, const rto_wf_ray *ray, const rto_hit_record *h, int strict, double *rel);
+
+/** Where a ray meets the plane of a triangle of an instance, in binary64: t and the barycentrics (u, v) of that
+ * point. Returns 0 (and leaves them alone) for a ray parallel to the plane, a degenerate triangle or a zero
+ * direction. */
+int xc_plane_hit(const rto_scene *scene, uint32_t inst, uint32_t prim, const rto_wf_ray *ray, double *t, double *u,
+                 double *v);
 
 /** The t-rounding measure of a t difference dt on one triangle: |dt| |d'| |cos a| / S (object space, binary64); 0 for
  * a ray parallel to the plane, a degenerate triangle or a zero direction. */
