@@ -13,7 +13,7 @@
  * box as the oracle's instance-box pass does (no geometry object per instance). The oracle's timed region is the whole
  * rto_accel_build, so the BLAS cases include its TLAS over the scene's few instances, and the TLAS case the one
  * 12-triangle BLAS of the box.
- * Usage: bench_bvh [bunny.gltf] [2CylinderEngine.glb]. RTO_BENCH_EMBREE_CONFIG is appended to both devices' config
+ * Usage: bench_bvh [--json] [bunny.gltf] [2CylinderEngine.glb]. RTO_BENCH_EMBREE_CONFIG is appended to both devices' config
  * (e.g. "verbose=2" prints the builder Embree picked). Devices and mesh scenes are made by oracle/embree.c, as
  * crosscheck makes them. */
 #define _GNU_SOURCE
@@ -166,9 +166,10 @@ static double embree_user_tlas(const user_tlas *u, const econf *c)
     return t;
 }
 
-/* The oracle's row, then one per Embree configuration (suffix: "" or " user"; note: NULL or one per row). */
-static void print_rows(const char *label, uint64_t prims, double oracle, const double *embree, const char *suffix,
-                       const double *note)
+/* The oracle's row (when label is not NULL), then one per Embree configuration (suffix: "" or " user"; note: NULL or
+ * one per row), each also a --json row of case kase. */
+static void print_rows(const char *label, const char *kase, uint64_t prims, double oracle, const double *embree,
+                       const char *suffix, const double *note)
 {
     if (label)
         printf("%-36s %8llu  %-24s %7s %9.2f %9.2f %12s\n", label, (unsigned long long)prims,
@@ -186,6 +187,7 @@ static void print_rows(const char *label, uint64_t prims, double oracle, const d
         snprintf(ratio, sizeof ratio, "%.2f", oracle / embree[c]);
         printf("%-36s %8s  %-24s %7s %9.2f %9.2f %12s%s\n", "", "", name, threads, embree[c] * 1e3,
                (double)prims / embree[c] * 1e-6, ratio, extra);
+        bench_row("bvh", kase, name, confs[c].dev ? 0 : 1, oracle, embree[c]);
     }
 }
 
@@ -211,7 +213,7 @@ static void bench_blas(const char *path)
     const char *base = strrchr(path, '/');
     char label[128];
     snprintf(label, sizeof label, "BLAS %s (%u meshes)", base ? base + 1 : path, s->mesh_count);
-    print_rows(label, tris, median(to), me, "", NULL);
+    print_rows(label, label, tris, median(to), me, "", NULL);
     rto_scene_destroy(s);
 }
 
@@ -244,8 +246,8 @@ static void bench_tlas(const char *spec)
     char label[128];
     snprintf(label, sizeof label, "TLAS %s", spec);
     double o = median(to);
-    print_rows(label, s->instance_count, o, me, " inst", mc);
-    print_rows(NULL, s->instance_count, o, mu, " user", NULL);
+    print_rows(label, label, s->instance_count, o, me, " inst", mc);
+    print_rows(NULL, label, s->instance_count, o, mu, " user", NULL);
     for (int d = 0; d < 2; d++)
         rtcReleaseScene(blas[d]);
     rto_scene_destroy(s);
@@ -253,6 +255,7 @@ static void bench_tlas(const char *spec)
 
 int main(int argc, char **argv)
 {
+    bench_init(&argc, argv);
     cpu_set_t set;
     hw_threads = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 0;
     devices[0] = new_device(1);
@@ -267,6 +270,7 @@ int main(int argc, char **argv)
            "> 1 means the oracle is slower\n",
            RUNS, RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH);
     print_load("after");
+    bench_finish("bvh", RUNS, NULL);
     emb_device_destroy(devices[0]);
     emb_device_destroy(devices[1]);
     return 0;

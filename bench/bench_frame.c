@@ -24,7 +24,7 @@
  * what `--stages none` writes), and times Embree a second time into a hit array written before ("emb warm": tracing
  * alone, without the page faults of new memory, which dominate on some virtual machines; the header prints what a
  * first touch costs on this one).
- * Usage: bench_frame [--width W] [--height H] [--runs N (5 .. 7)] [--no-golden] [bunny.gltf] [cornellBox.gltf]
+ * Usage: bench_frame [--json] [--width W] [--height H] [--runs N (5 .. 7)] [--no-golden] [bunny.gltf] [cornellBox.gltf]
  *        [2CylinderEngine.glb] (rtstress:16 is always added; --no-golden skips the bundle and RSS child). */
 #define _GNU_SOURCE
 #include "bench_util.h"
@@ -377,6 +377,11 @@ static void bench_scene(const char *spec, const char *label)
                s[RTO_STAGE_RESOLVE] * 1e3, t.total[d] * 1e3, t.lean[d] * 1e3, t.embree[d] * 1e3,
                t.embree_warm[d] * 1e3, s[RTO_STAGE_TRACE] / t.embree[d], t.total[d] / t.embree[d],
                t.lean[d] / t.embree[d]);
+        char kase[96];
+        snprintf(kase, sizeof kase, "%s TRACE stage", label);
+        bench_row("frame", kase, "embree (primary + shadow rays)", d ? 0 : 1, s[RTO_STAGE_TRACE], t.embree[d]);
+        snprintf(kase, sizeof kase, "%s whole frame", label);
+        bench_row("frame", kase, "embree (primary + shadow rays)", d ? 0 : 1, t.total[d], t.embree[d]);
     }
     const double mb = 1.0 / (1024.0 * 1024.0);
     const double bytes_mb = (double)g.bundle_bytes * mb, rss_mb = (double)g.rss_peak_kb / 1024.0;
@@ -435,6 +440,7 @@ int main(int argc, char **argv)
 {
     const char *scenes[8];
     int nscenes = 0;
+    bench_init(&argc, argv);
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--width") && i + 1 < argc)
             width = arg_u32(argv[++i], 1, 8192);
@@ -465,5 +471,6 @@ int main(int argc, char **argv)
         bench_scene(scenes[i], base ? base + 1 : scenes[i]);
     }
     print_load("after");
+    bench_finish("frame", runs, NULL);
     return 0;
 }

@@ -135,6 +135,10 @@ static void bench_scene(const char *spec, const char *label)
             printf("%-16s %-8s %8s %9zu %9zu %9zu %9.1f %8.2f %9.1f %8.2f %7.2f %9.1f %8.2f %7.2f\n", label,
                    rto_ray_set_name(sets[k]), th, r.n, hits_o, hits_e, mo * 1e3, n / mo * 1e-6, me * 1e3,
                    n / me * 1e-6, mo / me, mr * 1e3, n / mr * 1e-6, mo / mr);
+            char kase[96];
+            snprintf(kase, sizeof kase, "%s %s", label, rto_ray_set_name(sets[k]));
+            bench_row("trace", kase, "embree", d ? 0 : 1, mo, me);
+            bench_row("trace", kase, "embree robust", d ? 0 : 1, mo, mr);
             json_array_append_new(jrows, json_pack("{s:s, s:s, s:i, s:I, s:I, s:I, s:f, s:f, s:f, s:f, s:f, s:f}",
                 "scene", label, "rays", rto_ray_set_name(sets[k]), "threads", d ? hw_threads : 1, "count",
                 (json_int_t)r.n, "oracle_hits", (json_int_t)hits_o, "embree_hits", (json_int_t)hits_e,
@@ -218,14 +222,13 @@ int main(int argc, char **argv)
 {
     const char *scenes[8];
     int nscenes = 0;
-    int json = 0, stress_only = 0;
+    int stress_only = 0;
+    bench_init(&argc, argv);
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--width") && i + 1 < argc)
             width = arg_u32(argv[++i]);
         else if (!strcmp(argv[i], "--height") && i + 1 < argc)
             height = arg_u32(argv[++i]);
-        else if (!strcmp(argv[i], "--json"))
-            json = 1;
         else if (!strcmp(argv[i], "--stress-only"))
             stress_only = 1;
         else if (nscenes < 6)
@@ -255,17 +258,8 @@ int main(int argc, char **argv)
         bench_scene("rtstress:16", "rtstress:16");
     bench_stress();
     print_load("after");
-    if (json) {
-        json_t *root = json_pack("{s:i, s:i, s:i, s:o, s:o}", "width", (int)width, "height", (int)height, "threads",
-                                 hw_threads, "rows", jrows, "rtstress", jstress);
-        char *text = json_dumps(root, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
-        printf("%s\n", text ? text : "null");
-        free(text);
-        json_decref(root);
-    } else {
-        json_decref(jrows);
-        json_decref(jstress);
-    }
+    bench_finish("trace", RUNS, json_pack("{s:i, s:i, s:i, s:o, s:o}", "width", (int)width, "height", (int)height,
+                                    "threads", hw_threads, "rays", jrows, "rtstress", jstress));
     emb_device_destroy(devices[0]);
     emb_device_destroy(devices[1]);
     return 0;

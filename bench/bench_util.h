@@ -1,10 +1,14 @@
-/* Timing helpers shared by the benchmarks: a monotonic clock, the median of RUNS samples and the machine's load. */
+/* Timing helpers shared by the benchmarks: a monotonic clock, the median of RUNS samples, the machine's load, and
+ * the machine-readable output every benchmark gives with --json. */
 #ifndef RTO_BENCH_UTIL_H
 #define RTO_BENCH_UTIL_H
 
+#include <jansson.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #define RUNS 7
 
@@ -39,6 +43,74 @@ static inline void print_load(const char *when)
         fclose(f);
     }
     printf("load average %s: %s", when, line);
+}
+
+/* --json: the tables go to stderr and stdout carries one JSON document (bench_finish):
+ *   {"benchmark": NAME, "runs": RUNS, "rows": [ROW...], "detail": ...}
+ * ROW = {"group", "case", "reference", "threads", "oracle_ms", "reference_ms", "ratio"}, one per figure the
+ * benchmark compares: ratio = time(oracle) / time(reference) on the same work in the same process (> 1: the oracle is
+ * slower). scripts/bench-plot draws the rows. */
+static int bench_json_fd = -1;
+static json_t *bench_rows;
+
+/* Takes --json out of argv (the other arguments stay for the benchmark); with it, stdout is redirected to stderr
+ * until bench_finish. Returns 1 with --json. */
+static inline int bench_init(int *argc, char **argv)
+{
+    int json = 0, k = 1;
+    for (int i = 1; i < *argc; i++) {
+        if (!strcmp(argv[i], "--json"))
+            json = 1;
+        else
+            argv[k++] = argv[i];
+    }
+    *argc = k;
+    argv[k] = NULL;
+    bench_rows = json_array();
+    if (json) {
+        fflush(stdout);
+        bench_json_fd = dup(1);
+        if (bench_json_fd < 0 || dup2(2, 1) < 0 || !bench_rows) {
+            perror("bench: --json");
+            exit(2);
+        }
+    }
+    return json;
+}
+
+/* One compared figure (see above); threads 0 means every hardware thread. */
+static inline void bench_row(const char *group, const char *kase, const char *reference, int threads,
+                             double oracle_s, double reference_s)
+{
+    json_t *row = json_pack("{s:s, s:s, s:s, s:i, s:f, s:f, s:f}", "group", group, "case", kase, "reference",
+                            reference, "threads", threads, "oracle_ms", oracle_s * 1e3, "reference_ms",
+                            reference_s * 1e3, "ratio", oracle_s / reference_s);
+    if (!row || json_array_append_new(bench_rows, row)) {
+        fprintf(stderr, "bench: out of memory\n");
+        exit(1);
+    }
+}
+
+/* With --json, writes the document (runs: the samples per median; detail: the benchmark's own figures, or NULL;
+ * stolen) to the real stdout. */
+static inline void bench_finish(const char *name, int runs, json_t *detail)
+{
+    if (bench_json_fd < 0) {
+        json_decref(detail);
+        json_decref(bench_rows);
+        return;
+    }
+    fflush(stdout);
+    json_t *root = json_pack("{s:s, s:i, s:o, s:o}", "benchmark", name, "runs", runs, "rows", bench_rows, "detail",
+                             detail ? detail : json_null());
+    char *text = root ? json_dumps(root, JSON_INDENT(2) | JSON_PRESERVE_ORDER) : NULL;
+    FILE *out = fdopen(bench_json_fd, "w");
+    if (!text || !out || fprintf(out, "%s\n", text) < 0 || fclose(out)) {
+        fprintf(stderr, "bench: --json: could not write the document\n");
+        exit(1);
+    }
+    free(text);
+    json_decref(root);
 }
 
 #endif

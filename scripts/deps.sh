@@ -13,14 +13,20 @@ RTO_DEBS=(
 )
 
 rto_install_deps() {
-    local missing=()
-    for p in "${RTO_DEBS[@]}"; do
-        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-    done
+    local extra=()
     # gpu/ runs on Node.js (Debian 12 ships 18; a newer one already installed is kept).
     if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
-        missing+=(nodejs npm)
+        extra+=(nodejs npm)
     fi
+    rto_install_debs "${RTO_DEBS[@]}" "${extra[@]}"
+}
+
+# Installs those of the named Debian packages that are missing (also used by scripts/bench-plot for its plotting).
+rto_install_debs() {
+    local missing=()
+    for p in "$@"; do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+    done
     [ ${#missing[@]} -eq 0 ] && return 0
     local sudo=""
     if [ "$(id -u)" != 0 ]; then
