@@ -13,8 +13,8 @@
  * box as the oracle's instance-box pass does (no geometry object per instance). The oracle's timed region is the whole
  * rto_accel_build, so the BLAS cases include its TLAS over the scene's few instances, and the TLAS case the one
  * 12-triangle BLAS of the box.
- * Usage: bench_bvh [--json] [bunny.gltf] [2CylinderEngine.glb]. RTO_BENCH_EMBREE_CONFIG is appended to both devices' config
- * (e.g. "verbose=2" prints the builder Embree picked). Devices and mesh scenes are made by oracle/embree.c, as
+ * Usage: bench_bvh [--json] [bunny.gltf] [2CylinderEngine.glb]. RTO_BENCH_EMBREE_CONFIG is appended to both
+ * devices' config (e.g. "verbose=2" prints the builder Embree picked). Devices and mesh scenes are made by oracle/embree.c, as
  * crosscheck makes them. */
 #define _GNU_SOURCE
 #include "bench_util.h"
