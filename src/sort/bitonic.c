@@ -158,7 +158,7 @@ rto_status rto__bitonic_sort_scalar(rto_key_format f, const void *keys, size_t n
             BASELINE_CE(T, a, ix, o + j, o + j + h, d);                                                                \
         }                                                                                                              \
     }                                                                                                                  \
-    static const rto__bitonic_kernels NAME##_kernels = {1, NAME##_pass1, NAME##_pass2, NULL, NULL};
+    static const rto__bitonic_kernels NAME##_kernels = {1, NAME##_pass1, NAME##_pass2, NULL, NULL, NULL};
 
 DEFINE_BASELINE(int32_t, base32)
 DEFINE_BASELINE(int64_t, base64)
@@ -243,6 +243,16 @@ static void span_passes(const net *t, size_t k, size_t j, uint32_t m, size_t lo,
 static void l1_passes(const net *t, size_t k, size_t j, size_t lo, size_t hi)
 {
     const size_t lanes = t->K->lanes;
+    if (t->K->tail) { /* strides of 8 vectors and up in sweeps, the rest in registers */
+        while (j >= 8 * lanes) {
+            uint32_t m = fuse_count(t->K, j, 8 * lanes);
+            span_passes(t, k, j, m, lo, hi);
+            j >>= m;
+        }
+        if (j)
+            t->K->tail(t->a, t->ix, k, k, j, lo, hi);
+        return;
+    }
     while (j >= lanes) {
         uint32_t m = fuse_count(t->K, j, lanes);
         span_passes(t, k, j, m, lo, hi);
@@ -274,9 +284,13 @@ static void stage_passes(const net *t, size_t k, size_t j, size_t lo, size_t hi)
 static void block_sort(const net *t, size_t lo, size_t hi)
 {
     const size_t size = hi - lo, blk = size < t->b1 ? size : t->b1;
-    for (size_t b = lo; b < hi; b += blk)
-        for (size_t k = 2; k <= blk; k <<= 1)
+    const size_t first = t->K->tail ? 8 * (size_t)t->K->lanes : 1; /* stages 2 .. first: one sweep in registers */
+    for (size_t b = lo; b < hi; b += blk) {
+        if (t->K->tail)
+            t->K->tail(t->a, t->ix, 2, first, 1, b, b + blk);
+        for (size_t k = 2 * first; k <= blk; k <<= 1)
             l1_passes(t, k, k >> 1, b, b + blk);
+    }
     for (size_t k = 2 * blk; k <= size; k <<= 1)
         stage_passes(t, k, k >> 1, lo, hi);
 }
@@ -391,8 +405,8 @@ rto_status rto__bitonic_sort_with(rto_key_format f, const void *keys, size_t n, 
     t.K = ksz == 4 ? &base32_kernels : &base64_kernels;
     if (isa != RTO__BITONIC_BASELINE) {
         const rto__bitonic_kernels *K = rto__bitonic_simd_kernels(isa, ksz);
-        /* A vector path needs at least two vectors of slots; smaller arrays take the baseline (same bytes). */
-        if (K && np >= 2 * (size_t)K->lanes)
+        /* A vector path needs at least eight vectors of slots; smaller arrays take the baseline (same bytes). */
+        if (K && np >= 8 * (size_t)K->lanes)
             t.K = K;
     }
     t.a = rto_alloc(np, ksz);

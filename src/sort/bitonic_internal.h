@@ -56,6 +56,9 @@ typedef struct rto__bitonic_kernels {
     /** Passes jtop, jtop/2, ..., jbot of stage k (jbot <= jtop < lanes) inside each vector of [lo, hi) (lo, hi
      * multiples of lanes); NULL for the baseline. */
     void (*small)(void *a, uint32_t *ix, size_t k, size_t jtop, size_t jbot, size_t lo, size_t hi);
+    /** Stages k0 .. k1 (k1 <= 8 lanes) on groups of 8 vectors of [lo, hi) held in registers: stage k0 from stride
+     * jtop, the others from k/2, down to stride 1. lo, hi multiples of 8 lanes. NULL for the baseline. */
+    void (*tail)(void *a, uint32_t *ix, size_t k0, size_t k1, size_t jtop, size_t lo, size_t hi);
 } rto__bitonic_kernels;
 
 /** The kernels of a SIMD path (AVX2 or AVX512) for 4- or 8-byte keys; NULL when not built. */

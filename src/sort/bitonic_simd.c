@@ -9,6 +9,13 @@
 #if defined(__GNUC__) && defined(__x86_64__)
 #include <immintrin.h>
 
+/* Vector-stride pass JV (vectors t and t + JV of the 8 in registers) inside P##_tail. */
+#define P_VPASS(P, W, JV)                                                                                              \
+    do {                                                                                                               \
+        _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++) if (!(t & (JV)))                                           \
+            P##_ce(&x[t], &x[t + (JV)], P##_dvec(((p + (size_t)t * (W)) & k) != 0));                                  \
+    } while (0)
+
 /* The loops shared by every variant P with W lanes: P##_v a vector of keys with its indices, P##_d a key vector,
  * P##_load / P##_store / P##_dvec / P##_ce / P##_inreg defined per variant before. */
 #define DEFINE_KERNELS(P, W)                                                                                           \
@@ -66,7 +73,28 @@
             P##_store(a, ix, p, x);                                                                                    \
         }                                                                                                              \
     }                                                                                                                  \
-    static const rto__bitonic_kernels P##_kernels = {(W), P##_pass1, P##_pass2, P##_pass3, P##_small};
+    static void P##_tail(void *a, uint32_t *ix, size_t k0, size_t k1, size_t jtop, size_t lo, size_t hi)              \
+    {                                                                                                                  \
+        for (size_t p = lo; p < hi; p += 8 * (size_t)(W)) {                                                            \
+            P##_v x[8];                                                                                                \
+            _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++) x[t] = P##_load(a, ix, p + (size_t)t * (W));         \
+            for (size_t k = k0; k <= k1; k <<= 1)                                                                      \
+                for (size_t j = k == k0 ? jtop : k >> 1; j; j >>= 1) {                                                 \
+                    if (j >= (W)) {                                                                                    \
+                        switch (j / (W)) {                                                                             \
+                        case 4: P##_VPASS(4); break;                                                                   \
+                        case 2: P##_VPASS(2); break;                                                                   \
+                        default: P##_VPASS(1); break;                                                                  \
+                        }                                                                                              \
+                    } else {                                                                                           \
+                        _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++) x[t] =                                     \
+                            P##_inreg(x[t], k, j, p + (size_t)t * (W));                                                \
+                    }                                                                                                  \
+                }                                                                                                      \
+            _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++) P##_store(a, ix, p + (size_t)t * (W), x[t]);         \
+        }                                                                                                              \
+    }                                                                                                                  \
+    static const rto__bitonic_kernels P##_kernels = {(W), P##_pass1, P##_pass2, P##_pass3, P##_small, P##_tail};
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 #pragma GCC push_options
@@ -117,6 +145,7 @@ static inline a2w_v a2w_inreg(a2w_v x, size_t k, size_t j, size_t p)
     a2w_v r = {_mm256_blendv_epi8(x.k, pk, m), _mm256_blendv_epi8(x.i, pi, m)};
     return r;
 }
+#define a2w_VPASS(JV) P_VPASS(a2w, 8, JV)
 DEFINE_KERNELS(a2w, 8)
 
 /* AVX2, 64-bit keys: 4 keys per vector, their 4 indices in a 128-bit vector (the 64-bit mask narrowed to 32). */
@@ -172,6 +201,7 @@ static inline a2d_v a2d_inreg(a2d_v x, size_t k, size_t j, size_t p)
     a2d_v r = {_mm256_blendv_epi8(x.k, pk, m), _mm_blendv_epi8(x.i, pi, a2d_narrow(m))};
     return r;
 }
+#define a2d_VPASS(JV) P_VPASS(a2d, 4, JV)
 DEFINE_KERNELS(a2d, 4)
 
 #pragma GCC pop_options
@@ -221,6 +251,7 @@ static inline a5w_v a5w_inreg(a5w_v x, size_t k, size_t j, size_t p)
     a5w_v r = {_mm512_mask_blend_epi32(m, x.k, pk), _mm512_mask_blend_epi32(m, x.i, pi)};
     return r;
 }
+#define a5w_VPASS(JV) P_VPASS(a5w, 16, JV)
 DEFINE_KERNELS(a5w, 16)
 
 /* AVX-512, 64-bit keys: 8 keys per vector, their 8 indices in a 256-bit vector, one 8-bit mask for both. */
@@ -265,6 +296,7 @@ static inline a5d_v a5d_inreg(a5d_v x, size_t k, size_t j, size_t p)
     a5d_v r = {_mm512_mask_blend_epi64(m, x.k, pk), _mm256_mask_blend_epi32(m, x.i, pi)};
     return r;
 }
+#define a5d_VPASS(JV) P_VPASS(a5d, 8, JV)
 DEFINE_KERNELS(a5d, 8)
 
 #pragma GCC pop_options
