@@ -1,6 +1,7 @@
 /* The bitonic network and the radix reference against independent references: qsort for the final order, a
  * (key, index) qsort for stability, and a literal transcription of DESIGN.md §4's pseudo-code for every pass. */
 #include "testutil.h"
+#include "sort/bitonic_internal.h"
 
 /* DESIGN.md §4 verbatim: every i, l = i ^ j, act when l > i. Used to check the oracle's checkpoints. */
 static void literal_network(uint64_t *a, size_t n, uint64_t *passes)
@@ -121,6 +122,11 @@ static void test_checkpoints_follow_the_schedule(void **state)
                 for (size_t i = 0; i < (size_t)P * np; i++)
                     if (tu_get(f, ck, i) != ref[i])
                         fail_msg("%s n=%zu: pass %zu slot %zu", dists[d], n, i / np, i % np);
+                /* the kept scalar reference follows the literal schedule too */
+                assert_int_equal(rto__bitonic_sort_scalar(f, keys, n, out, NULL, ck, NULL), RTO_OK);
+                for (size_t i = 0; i < (size_t)P * np; i++)
+                    if (tu_get(f, ck, i) != ref[i])
+                        fail_msg("reference %s n=%zu: pass %zu slot %zu", dists[d], n, i / np, i % np);
                 free(keys);
                 free(a);
                 free(ref);
@@ -257,6 +263,157 @@ static void test_fast_radix_sort_paths(void **state)
     print_message("fast radix matched qsort and the network on %zu shaped cases\n", cases);
 }
 
+/* The first differing slot of two n-slot arrays of sz-byte elements, or n. */
+static size_t first_diff(const void *x, const void *y, size_t n, size_t sz)
+{
+    for (size_t i = 0; i < n; i++)
+        if (memcmp((const unsigned char *)x + i * sz, (const unsigned char *)y + i * sz, sz) != 0)
+            return i;
+    return n;
+}
+
+/* One path and thread count against the kept scalar reference: the final keys and permutation, and (when ref_ck is
+ * given) every pass's checkpoint, byte for byte. */
+static void check_path(rto__bitonic_isa isa, uint32_t threads, rto_key_format f, const char *dist, uint32_t seed,
+                       const void *keys, size_t n, const void *ref, const uint32_t *ref_perm, const void *ref_ck)
+{
+    const size_t np = rto_next_pow2(n), ksz = rto_key_size(f);
+    const uint32_t P = rto_bitonic_pass_count(np);
+    void *out = malloc(np * ksz);
+    uint32_t *perm = malloc(np * 4);
+    const char *fmt = f == RTO_KEY_U32 ? "u32" : "u64", *name = rto__bitonic_isa_name(isa);
+    rto_msg msg = {{0}};
+    if (rto__bitonic_sort_with(f, keys, n, out, perm, NULL, isa, threads, &msg) != RTO_OK)
+        fail_msg("%s: %s", name, msg.text);
+    size_t i = first_diff(out, ref, np, ksz);
+    if (i < np)
+        fail_msg("bitonic:%s:threads=%u:fmt=%s:dist=%s:n=%zu seed=%u: key slot %zu is %llx, reference %llx", name,
+                 threads, fmt, dist, n, seed, i, (unsigned long long)tu_get(f, out, i),
+                 (unsigned long long)tu_get(f, ref, i));
+    i = first_diff(perm, ref_perm, np, 4);
+    if (i < np)
+        fail_msg("bitonic:%s:threads=%u:fmt=%s:dist=%s:n=%zu seed=%u: perm slot %zu is %u, reference %u", name,
+                 threads, fmt, dist, n, seed, i, perm[i], ref_perm[i]);
+    if (ref_ck) {
+        void *ck = malloc((size_t)P * np * ksz);
+        assert_non_null(ck);
+        memset(perm, 0, np * 4);
+        if (rto__bitonic_sort_with(f, keys, n, out, perm, ck, isa, threads, &msg) != RTO_OK)
+            fail_msg("%s: %s", name, msg.text);
+        for (uint32_t p = 0; p < P; p++) {
+            i = first_diff((const unsigned char *)ck + (size_t)p * np * ksz,
+                           (const unsigned char *)ref_ck + (size_t)p * np * ksz, np, ksz);
+            if (i < np) {
+                uint32_t k, j;
+                rto_bitonic_pass_kj(p, &k, &j);
+                fail_msg("bitonic:%s:fmt=%s:dist=%s:n=%zu seed=%u: checkpoint pass %u (k=%u, j=%u) slot %zu", name, fmt,
+                         dist, n, seed, p, k, j, i);
+            }
+        }
+        if (first_diff(out, ref, np, ksz) < np || first_diff(perm, ref_perm, np, 4) < np)
+            fail_msg("bitonic:%s:fmt=%s:dist=%s:n=%zu seed=%u: final array with checkpoints", name, fmt, dist, n, seed);
+        free(ck);
+    }
+    free(out);
+    free(perm);
+}
+
+/* Every path this CPU has (baseline, AVX2, AVX-512), 1 and N threads, against the kept scalar reference: keys,
+ * permutation (so equal keys end where the reference's compare-exchanges leave them) and every checkpoint. */
+static void test_paths_equal_scalar_reference(void **state)
+{
+    (void)state;
+    static const size_t sizes[] = {1, 2, 3, 255, 256, 257, 4095, 4096, 4097, 65535};
+    static const uint32_t thread_counts[] = {1, 3, 0};
+    size_t cases = 0;
+    for (int isa = RTO__BITONIC_BASELINE; isa < RTO__BITONIC_ISA_COUNT; isa++)
+        print_message("bitonic path %s: %s\n", rto__bitonic_isa_name((rto__bitonic_isa)isa),
+                      rto__bitonic_isa_supported((rto__bitonic_isa)isa) ? "tested" : "not on this CPU");
+    for (int fi = 0; fi < 2; fi++) {
+        rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+        const size_t ksz = rto_key_size(f);
+        for (size_t d = 0; d < rto_dist_count(); d++) {
+            const rto_dist_info *di = rto_dist_at(d);
+            for (size_t z = 0; z < sizeof sizes / sizeof sizes[0]; z++) {
+                const size_t n = sizes[z], np = rto_next_pow2(n);
+                if (!tu_dist_applies(di, f, n))
+                    continue;
+                const uint32_t seed = (uint32_t)(4000 + d * 37 + z), P = rto_bitonic_pass_count(np);
+                void *keys = tu_keys(di->name, f, seed, n);
+                void *ref = malloc(np * ksz), *ref_ck = malloc((P ? P : 1) * np * ksz);
+                uint32_t *ref_perm = malloc(np * 4);
+                assert_int_equal(rto__bitonic_sort_scalar(f, keys, n, ref, ref_perm, ref_ck, NULL), RTO_OK);
+                for (int isa = RTO__BITONIC_BASELINE; isa < RTO__BITONIC_ISA_COUNT; isa++) {
+                    if (!rto__bitonic_isa_supported((rto__bitonic_isa)isa))
+                        continue;
+                    for (size_t t = 0; t < sizeof thread_counts / sizeof thread_counts[0]; t++)
+                        check_path((rto__bitonic_isa)isa, thread_counts[t], f, di->name, seed, keys, n, ref, ref_perm,
+                                   t == 0 ? ref_ck : NULL);
+                    cases++;
+                }
+                free(keys);
+                free(ref);
+                free(ref_ck);
+                free(ref_perm);
+            }
+        }
+    }
+    print_message("every bitonic path matched the scalar reference on %zu path x format x dist x size cases\n",
+                  cases);
+    assert_true(cases > 300);
+}
+
+/* Arrays large enough for the fused whole-array passes (strides above the L2 block, split across threads). */
+static void test_paths_equal_reference_large(void **state)
+{
+    (void)state;
+    static const char *dists[] = {"random", "few-unique", "sentinel-heavy"};
+    static const size_t sizes[] = {262145, (size_t)1 << 20};
+    for (int fi = 0; fi < 2; fi++)
+        for (size_t d = 0; d < 3; d++)
+            for (size_t z = 0; z < 2; z++) {
+                rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+                const size_t n = sizes[z], np = rto_next_pow2(n), ksz = rto_key_size(f);
+                const uint32_t seed = (uint32_t)(9000 + 10 * d + z);
+                void *keys = tu_keys(dists[d], f, seed, n), *ref = malloc(np * ksz);
+                uint32_t *ref_perm = malloc(np * 4);
+                assert_int_equal(rto__bitonic_sort_scalar(f, keys, n, ref, ref_perm, NULL, NULL), RTO_OK);
+                for (int isa = RTO__BITONIC_BASELINE; isa < RTO__BITONIC_ISA_COUNT; isa++) {
+                    if (!rto__bitonic_isa_supported((rto__bitonic_isa)isa))
+                        continue;
+                    check_path((rto__bitonic_isa)isa, 1, f, dists[d], seed, keys, n, ref, ref_perm, NULL);
+                    check_path((rto__bitonic_isa)isa, 3, f, dists[d], seed, keys, n, ref, ref_perm, NULL);
+                }
+                free(keys);
+                free(ref);
+                free(ref_perm);
+            }
+}
+
+/* RTO_BITONIC_ISA forces a narrower path (or the reference) for rto_bitonic_sort; an unknown path is refused by
+ * rto__bitonic_sort_with, not guessed. */
+static void test_path_selection(void **state)
+{
+    (void)state;
+    const size_t n = 5000, np = 8192;
+    void *keys = tu_keys("few-unique", RTO_KEY_U32, 5, n);
+    uint32_t ref[8192], out[8192], ref_perm[8192], perm[8192];
+    assert_int_equal(rto__bitonic_sort_scalar(RTO_KEY_U32, keys, n, ref, ref_perm, NULL, NULL), RTO_OK);
+    const char *names[] = {"scalar", "baseline", "avx2", "avx512", "bogus"};
+    for (size_t i = 0; i < 5; i++) {
+        assert_int_equal(setenv("RTO_BITONIC_ISA", names[i], 1), 0);
+        assert_int_equal(rto_bitonic_sort(RTO_KEY_U32, keys, n, out, perm, NULL, NULL), RTO_OK);
+        assert_memory_equal(out, ref, np * 4);
+        assert_memory_equal(perm, ref_perm, np * 4);
+    }
+    unsetenv("RTO_BITONIC_ISA");
+    rto_msg msg = {{0}};
+    assert_int_equal(rto__bitonic_sort_with(RTO_KEY_U32, keys, n, out, perm, NULL, (rto__bitonic_isa)9, 1, &msg),
+                     RTO_ERR_UNSUPPORTED);
+    assert_non_null(strstr(msg.text, "not available"));
+    free(keys);
+}
+
 static void test_sort_refuses_bad_arguments(void **state)
 {
     (void)state;
@@ -283,6 +440,9 @@ int main(void)
         cmocka_unit_test(test_pass_schedule),
         cmocka_unit_test(test_sorts_equal_qsort_everywhere),
         cmocka_unit_test(test_checkpoints_follow_the_schedule),
+        cmocka_unit_test(test_paths_equal_scalar_reference),
+        cmocka_unit_test(test_paths_equal_reference_large),
+        cmocka_unit_test(test_path_selection),
         cmocka_unit_test(test_radix_intermediates),
         cmocka_unit_test(test_fast_radix_sort_paths),
         cmocka_unit_test(test_sort_refuses_bad_arguments),
