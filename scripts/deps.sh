@@ -44,8 +44,8 @@ rto_build() {
         meson setup "$dir" "$@" >"$dir.setup.log" 2>&1 || { cat "$dir.setup.log" >&2; return 1; }
         rm -f "$dir.setup.log"
     fi
-    ninja -C "$dir" >"$dir.ninja.log" 2>&1 || { cat "$dir.ninja.log" >&2; return 1; }
-    rm -f "$dir.ninja.log"
+    local log
+    log=$(ninja -C "$dir" 2>&1) || { printf '%s\n' "$log" >&2; return 1; }
 }
 
 # gpu/'s npm dependencies, pinned by gpu/package-lock.json: installed once (npm ci), kept while the lock is unchanged.
