@@ -13,9 +13,11 @@ RTO_DEBS=(
 )
 
 rto_install_deps() {
-    local missing=()
+    local missing=() installed p
+    # One dpkg-query for the whole list (one per package takes seconds on a busy machine).
+    installed=" $(dpkg-query -W -f='${db:Status-Abbrev}${Package} ' "${RTO_DEBS[@]}" 2>/dev/null | tr -s ' ' | sed 's/ii \([^ ]*\)/+\1/g') "
     for p in "${RTO_DEBS[@]}"; do
-        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+        [[ $installed == *" +$p "* ]] || missing+=("$p")
     done
     # gpu/ runs on Node.js (Debian 12 ships 18; a newer one already installed is kept).
     if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
