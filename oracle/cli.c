@@ -270,3 +270,37 @@ const char *cli_npy_what(const rto_npy_desc *d, const char *layout, char *buf, s
         snprintf(buf + used, cap - (size_t)used, ")");
     return buf;
 }
+
+int cli_up_to_date(const char *cmd, const char *out, const char *request, bool force)
+{
+    if (force || !request)
+        return 0;
+    rto_msg why = {{0}};
+    rto_bundle_state st = rto_bundle_check(out, request, &why);
+    if (st == RTO_BUNDLE_CURRENT) {
+        printf("%s: %s is up to date (same inputs, options and rtoracle build); not rewritten\n", cmd, out);
+        fflush(stdout);
+        return 1;
+    }
+    if (st == RTO_BUNDLE_CHANGED)
+        fprintf(stderr, "rtoracle %s: %s: %s; writing it again\n", cmd, out, why.text);
+    return 0;
+}
+
+rto_status cli_set_request(rto_bundle *b, const char *request, const rto_scene *sc, const char *extra, rto_msg *msg)
+{
+    if (!request)
+        return RTO_OK; /* out of memory composing it: the bundle goes unstamped */
+    const size_t n = (sc ? sc->source_count : 0) + (extra ? 1 : 0);
+    const char **src = cli_alloc(n, sizeof *src);
+    if (!src)
+        return rto_msg_set(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    size_t k = 0;
+    for (uint32_t i = 0; sc && i < sc->source_count; i++)
+        src[k++] = sc->sources[i];
+    if (extra)
+        src[k++] = extra;
+    rto_status s = rto_bundle_set_request(b, request, src, k, msg);
+    free(src);
+    return s;
+}

@@ -70,6 +70,16 @@ int cli_bundle_count(const cli_bundle *cb, const char *section, const char *key,
  * for a plain array). A want->shape[0] of UINT64_MAX accepts any first dimension (vertex positions; the message then
  * asks for "dtype <f4, shape (N, 3)"). */
 int cli_bundle_load(const cli_bundle *cb, const char *name, const rto_npy_desc *want, const char *layout, rto_npy *out);
+/**
+ * Whether the bundle at out is already what this request would write (rto_bundle_check): then prints one line,
+ * "CMD: OUT is up to date (...); not rewritten", and returns 1, and the command does nothing more. A bundle whose files
+ * were modified or removed after it was written gets a note on stderr naming the file, and 0: it is written again.
+ * force (--force) or a NULL request (out of memory): 0.
+ */
+int cli_up_to_date(const char *cmd, const char *out, const char *request, bool force);
+/** Records request for the bundle's stamp (rto_bundle_set_request), with the scene's source files (sc may be NULL)
+ * and one more input file (extra: a plugin, a ray file; NULL for none). A NULL request does nothing. */
+rto_status cli_set_request(rto_bundle *b, const char *request, const rto_scene *sc, const char *extra, rto_msg *msg);
 /** Removes the temporaries of unfinished outputs on SIGINT / SIGTERM / SIGHUP, then exits by that signal. */
 void cli_cleanup_on_signals(void);
 /* Scenes on the command line (scene_cli.c). */
@@ -113,6 +123,7 @@ typedef struct key_origin {
     const char *dist;    /* NULL when the keys came from a file */
     uint32_t seed;
     const char *file; /* source path for a file */
+    const char *request; /* the up-to-date record's request (rto_bundle_set_request), or NULL for none */
 } key_origin;
 
 /** Sorts keys with p and writes a sort bundle to outdir (atomically). */

@@ -32,7 +32,9 @@ static const char render_usage[] =
     "  image.png                  the resolved rgba8unorm image\n"
     "  not_comparable.npy         u8 (H, W): 1 = accumulate conflict, 2 = a ray dropped at capacity\n"
     "  manifest.json              scene, program and parameters, camera, counters, per-stage wall times\n"
-    "Everything but the manifest's timings is byte-identical across runs and --threads (--no-timings omits them).\n";
+    "Everything but the manifest's timings is byte-identical across runs and --threads (--no-timings omits them).\n"
+    "An OUTDIR that already holds this very bundle (same inputs, options and rtoracle build, no file changed\n"
+    "since) is left as it is, in one line; --force writes it again.\n";
 
 /* Most pixels of a frame (the library's limit): 2^26. */
 #define RENDER_MAX_PIXELS (UINT64_C(1) << 26)
@@ -123,7 +125,7 @@ int cmd_render(int argc, char **argv)
     const char *out = NULL, *program_arg = NULL, *camera_arg = NULL, *param_arg = NULL, *stages_arg = "all";
     uint64_t width = 160, height = 90, depth = 0, threads = 0, budget_mb = 0;
     unsigned karras = 0;
-    bool no_timings = false;
+    bool no_timings = false, force = false;
     const opt_spec opts[] = {
         OPT_STRING("program", &program_arg, "NAME", "triangle, sun-shadow, normals, a plugin .so, or list"),
         OPT_UINT("width", &width, 1, 65536, "W", "image width", "160"),
@@ -138,6 +140,7 @@ int cmd_render(int argc, char **argv)
         OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
                  "decoded texture memory (RGBA8, MiB) the scene may take", "256"),
         OPT_FLAG("no-timings", &no_timings, "leave the per-stage wall times out of the manifest"),
+        OPT_FLAG("force", &force, "write the bundle even when OUTDIR is up to date"),
         OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
         OPT_END,
     };
@@ -167,15 +170,26 @@ int cmd_render(int argc, char **argv)
     uint32_t nparams = 0;
     if (param_arg && !parse_params(param_arg, params, &nparams))
         return EXIT_BAD_INPUT;
+    const bool is_plugin =
+        !rto_program_builtin(program_arg) && (strchr(program_arg, '/') || strstr(program_arg, ".so"));
+    static const char *const not_inputs[] = {"output", "force", "threads", NULL};
+    char *request = opts_request(&cmd, &args, not_inputs);
+    if (cli_up_to_date("render", out, request, force)) {
+        free(request);
+        return EXIT_PASS;
+    }
 
     rto_plugin *plugin = NULL;
     const rto_program *prog = rto_program_builtin(program_arg);
-    if (!prog && (strchr(program_arg, '/') || strstr(program_arg, ".so"))) {
+    if (is_plugin) {
         rto_status s = rto_plugin_load(program_arg, &plugin, &msg);
-        if (s)
+        if (s) {
+            free(request);
             return cli_fail("render", "--program %s", msg.text);
+        }
         prog = rto_plugin_program(plugin);
     } else if (!prog) {
+        free(request);
         return cli_fail("render", "--program %s: not a built-in program (triangle, sun-shadow, normals) or a .so",
                         program_arg);
     }
@@ -191,6 +205,7 @@ int cmd_render(int argc, char **argv)
         load.texture_budget_bytes = (size_t)(budget_mb << 20);
         if ((s = rto_scene_load_ex(spec, &load, &sc, &msg))) {
             rto_plugin_unload(plugin);
+            free(request);
             return cli_fail("render", "%s", msg.text);
         }
         for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
@@ -198,6 +213,7 @@ int cmd_render(int argc, char **argv)
         if (!cli_pick_camera("render", camera_arg, sc, (float)width / (float)height, &cam)) {
             rto_scene_destroy(sc);
             rto_plugin_unload(plugin);
+            free(request);
             return EXIT_BAD_INPUT;
         }
         rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
@@ -207,6 +223,7 @@ int cmd_render(int argc, char **argv)
             rto_accel_destroy(acc);
             rto_scene_destroy(sc);
             rto_plugin_unload(plugin);
+            free(request);
             return cli_fail("render", "internal self-check of the trees failed: %s", msg.text);
         }
     } else {
@@ -215,6 +232,7 @@ int cmd_render(int argc, char **argv)
         if (camera_arg && strcmp(camera_arg, "scene") && strcmp(camera_arg, "auto") &&
             !cli_camera_numbers(camera_arg, &cam)) {
             rto_plugin_unload(plugin);
+            free(request);
             return cli_fail("render", "--camera %s: stage2 takes scene (its default camera) or 10 numbers", camera_arg);
         }
     }
@@ -244,6 +262,8 @@ int cmd_render(int argc, char **argv)
         fputc('\n', stderr);
     if (!s)
         s = rto_bundle_begin(out, "frame", &b, &msg);
+    if (!s)
+        s = cli_set_request(b, request, sc, is_plugin ? program_arg : NULL, &msg);
     if (!s && !stage2)
         s = rto_accel_write_bundle(acc, b, &msg);
     if (!s && !stage2)
@@ -277,5 +297,6 @@ int cmd_render(int argc, char **argv)
     rto_accel_destroy(acc);
     rto_scene_destroy(sc);
     rto_plugin_unload(plugin);
+    free(request);
     return cli_status("render", s, &msg);
 }

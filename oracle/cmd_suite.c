@@ -7,13 +7,15 @@
 
 static const char suite_usage[] =
     "usage: rtoracle suite sort [--sizes LIST] [--dists LIST] [--formats LIST] [--algos LIST] [--seed S]\n"
-    "                           [--radix-bits 4|8] [--tile T] [--checkpoint-max N] -o DIR\n\n"
+    "                           [--radix-bits 4|8] [--tile T] [--checkpoint-max N] [--force] -o DIR\n\n"
     "Writes one sort bundle per case into DIR/<algo>-<fmt>-<dist>-n<N>/ and DIR/manifest.json listing\n"
     "them with case ids such as sort:bitonic:fmt=u32:dist=clustered:n=4097. Written atomically.\n"
     "Combinations that do not exist are skipped (digit-4..7 need u64; centroid distributions give TLAS\n"
     "keys of at most 65536 instances in u32).\n"
     "A LIST is comma-separated; a name given twice (or also through all / centroid / raw) makes one case.\n"
-    "Sizes run in ascending order, the other lists in the order first given.\n";
+    "Sizes run in ascending order, the other lists in the order first given.\n"
+    "A DIR that already holds this very suite (same options and rtoracle build, no file changed since) is left\n"
+    "as it is, in one line; --force writes it again.\n";
 
 static int cmp_size(const void *a, const void *b)
 {
@@ -40,6 +42,7 @@ int cmd_suite(int argc, char **argv)
     uint32_t seed = 1;
     uint64_t checkpoint_max = 1024;
     sort_params base = {RTO_SORT_BITONIC, 8, 256, false};
+    bool force = false;
     sizes_opt.count = dists_opt.count = formats_opt.count = algos_opt.count = 0;
     const opt_spec opts[] = {
         OPT_LIST("sizes", &sizes_opt, NULL, "size classes (tiny, tile, pow2, large, all) and/or numbers", "all"),
@@ -51,6 +54,7 @@ int cmd_suite(int argc, char **argv)
         OPT_UINT("tile", &base.tile, 1, CLI_TILE_MAX, "T", "radix tile size in keys", "256"),
         OPT_UINT("checkpoint-max", &checkpoint_max, 0, RTO_MAX_KEYS, "N",
                  "write bitonic passes / radix intermediates for cases with n_padded <= N, none for 0", "1024"),
+        OPT_FLAG("force", &force, "write the suite even when DIR is up to date"),
         OPT_PATH("output", 'o', &out, "DIR", "output directory"),
         OPT_END,
     };
@@ -120,11 +124,22 @@ int cmd_suite(int argc, char **argv)
     for (size_t i = 0; i < algos_opt.count; i++)
         algos[i] = (rto_sort_algo)algos_opt.value[i];
 
+    static const char *const not_inputs[] = {"output", "force", NULL};
+    char *request = opts_request(&cmd, &args, not_inputs);
+    if (cli_up_to_date("suite sort", out, request, force)) {
+        free(request);
+        return EXIT_PASS;
+    }
     rto_msg msg = {{0}};
     rto_bundle *suite = NULL;
     rto_status s = rto_bundle_begin(out, "suite", &suite, &msg);
-    if (s)
+    if (!s && request)
+        s = rto_bundle_set_request(suite, request, NULL, 0, &msg);
+    if (s) {
+        rto_bundle_abort(suite);
+        free(request);
         return cli_status("suite", s, &msg);
+    }
     rto_bundle_set_str(suite, "", "suite", "sort");
     rto_bundle_set_int(suite, "params", "seed", (int64_t)seed);
     rto_bundle_set_int(suite, "params", "radix_bits", base.radix_bits);
@@ -166,10 +181,15 @@ int cmd_suite(int argc, char **argv)
                     sort_params p = base;
                     p.algo = algos[a];
                     p.checkpoints = n > 0 && rto_next_pow2(n) <= checkpoint_max;
-                    key_origin origin = {id, dist->name, seed, NULL};
+                    /* Each case is stamped too: the suite's record covers its cases' records. */
+                    char *case_request = request ? malloc(strlen(request) + strlen(id) + 8) : NULL;
+                    if (case_request)
+                        sprintf(case_request, "%scase %s\n", request, id);
+                    key_origin origin = {id, dist->name, seed, NULL, case_request};
                     if (!s)
                         s = sort_bundle_write(path, f, keys, n, &p, &origin, &msg);
                     free(path);
+                    free(case_request);
                     if (!s)
                         s = rto_bundle_add_case(suite, dir, id, &msg);
                     cases++;
@@ -178,6 +198,7 @@ int cmd_suite(int argc, char **argv)
         }
     }
     free(keys);
+    free(request);
     if (s) {
         rto_bundle_abort(suite);
         return cli_status("suite", s, &msg);

@@ -11,7 +11,7 @@
 static const char trace_usage[] =
     "usage: rtoracle trace SCENE [--rays SET|FILE.npy] [--width W --height H] [--count N] [--seed S]\n"
     "                      [--camera scene|auto|N|EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY] [--light X,Y,Z]\n"
-    "                      [--tlas sweep|karras] [--threads N] -o OUTDIR\n\n"
+    "                      [--tlas sweep|karras] [--threads N] [--force] -o OUTDIR\n\n"
     "SCENE is a .gltf / .glb path or a procedural scene (see rtoracle info --help).\n"
     "Ray sets: primary (one camera ray per pixel), shadow (from each primary hit towards a distant light),\n"
     "random (inside the scene bounds), grazing (aimed at triangle edges and vertices), axis (axis-parallel and\n"
@@ -27,7 +27,9 @@ static const char trace_usage[] =
     "                           instanceEntries\n"
     "  camera.npy               CameraUniforms (144 bytes) for camera rays\n"
     "  manifest.json            ray set, camera, hit and miss counts, counter statistics and histograms\n"
-    "The bytes do not depend on --threads.\n";
+    "The bytes do not depend on --threads.\n"
+    "An OUTDIR that already holds this very bundle (same inputs, options and rtoracle build, no file changed\n"
+    "since) is left as it is, in one line; --force writes it again.\n";
 
 static const opt_name tlas_names[] = {{"sweep", 0}, {"karras", 1}, {NULL, 0}};
 
@@ -123,6 +125,7 @@ int cmd_trace(int argc, char **argv)
     const char *out = NULL, *rays_arg = "primary", *camera_arg = NULL, *light_arg = NULL;
     uint64_t width = 160, height = 120, count = 4096, seed = 1, threads = 0, budget_mb = 0;
     unsigned karras = 0;
+    bool force = false;
     const opt_spec opts[] = {
         OPT_STRING("rays", &rays_arg, "SET", "primary, shadow, random, grazing, axis, or a WfRay .npy file"),
         OPT_UINT("width", &width, 1, 65536, "W", "image width (primary, shadow)", "160"),
@@ -135,6 +138,7 @@ int cmd_trace(int argc, char **argv)
         OPT_UINT("threads", &threads, 0, 256, "N", "threads (0: one per CPU); the output is the same", "0"),
         OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
                  "decoded texture memory (RGBA8, MiB) the scene may take", "256"),
+        OPT_FLAG("force", &force, "write the bundle even when OUTDIR is up to date"),
         OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
         OPT_END,
     };
@@ -158,18 +162,27 @@ int cmd_trace(int argc, char **argv)
     float light[3] = {0, 0, 0};
     if (light_arg && !cli_parse_floats(light_arg, light, 3))
         return cli_fail("trace", "--light %s: expected three numbers X,Y,Z", light_arg);
+    static const char *const not_inputs[] = {"output", "force", "threads", NULL};
+    char *request = opts_request(&cmd, &args, not_inputs);
+    if (cli_up_to_date("trace", out, request, force)) {
+        free(request);
+        return EXIT_PASS;
+    }
 
     rto_msg msg = {{0}};
     rto_scene *sc = NULL;
     rto_scene_load_desc load = {0};
     load.texture_budget_bytes = (size_t)(budget_mb << 20);
     rto_status s = rto_scene_load_ex(args.arg[0], &load, &sc, &msg);
-    if (s)
+    if (s) {
+        free(request);
         return cli_fail("trace", "%s", msg.text);
+    }
     for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
         fprintf(stderr, "rtoracle trace: warning: %s\n", sc->warnings[w]);
     rto_camera cam;
     if (!cli_pick_camera("trace", camera_arg, sc, (float)width / (float)height, &cam)) {
+        free(request);
         rto_scene_destroy(sc);
         return EXIT_BAD_INPUT;
     }
@@ -185,6 +198,7 @@ int cmd_trace(int argc, char **argv)
     rto_report r;
     s = rto_accel_build(sc, &adesc, &acc, &msg);
     if (!s && (s = rto_accel_check(acc, &r, &msg)) == RTO_ERR_MISMATCH) {
+        free(request);
         rto_scene_destroy(sc);
         rto_accel_destroy(acc);
         return cli_fail("trace", "internal self-check of the trees failed: %s", msg.text);
@@ -218,6 +232,8 @@ int cmd_trace(int argc, char **argv)
         s = rto_trace(acc, rays, n, &td, hits, counters, &msg);
     if (!s)
         s = rto_bundle_begin(out, "trace", &b, &msg);
+    if (!s)
+        s = cli_set_request(b, request, sc, from_file ? rays_arg : NULL, &msg);
     if (!s)
         s = rto_accel_write_bundle(acc, b, &msg);
     if (!s)
@@ -269,6 +285,7 @@ int cmd_trace(int argc, char **argv)
     free(rays);
     free(hits);
     free(counters);
+    free(request);
     rto_accel_destroy(acc);
     rto_scene_destroy(sc);
     return cli_status("trace", s, &msg);

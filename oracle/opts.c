@@ -426,3 +426,67 @@ void opts_help(const opt_command *c, FILE *to)
         fputs(c->epilog, to);
     }
 }
+
+/* Appends "tag LEN:text\n" (the length keeps any text, a newline included, from running into the next field). */
+static bool req_add(char **buf, size_t *len, const char *tag, const char *text)
+{
+    size_t n = strlen(tag) + strlen(text) + 32;
+    char *grown = realloc(*buf, *len + n);
+    if (!grown)
+        return false;
+    *buf = grown;
+    *len += (size_t)snprintf(grown + *len, n, "%s %zu:%s\n", tag, strlen(text), text);
+    return true;
+}
+
+static uint64_t load_uint(const opt_spec *s)
+{
+    switch (s->target_size) {
+    case 1: { uint8_t x; memcpy(&x, s->target, 1); return x; }
+    case 2: { uint16_t x; memcpy(&x, s->target, 2); return x; }
+    case 4: { uint32_t x; memcpy(&x, s->target, 4); return x; }
+    default: { uint64_t x; memcpy(&x, s->target, 8); return x; }
+    }
+}
+
+char *opts_request(const opt_command *c, const opt_args *a, const char *const *skip)
+{
+    char *buf = NULL;
+    size_t len = 0;
+    bool ok = req_add(&buf, &len, "command", c->name);
+    for (size_t i = 0; ok && i < a->count; i++)
+        ok = req_add(&buf, &len, "arg", a->arg[i]);
+    for (const opt_spec *s = c->opts; ok && s->name; s++) {
+        bool skipped = false;
+        for (size_t k = 0; skip && skip[k]; k++)
+            skipped |= !strcmp(skip[k], s->name);
+        if (skipped)
+            continue;
+        char text[64];
+        const char *value = text;
+        switch (s->kind) {
+        case OPT_KIND_FLAG: value = *(const bool *)s->target ? "yes" : "no"; break;
+        case OPT_KIND_UINT:
+        case OPT_KIND_ENUM: snprintf(text, sizeof text, "%llu", (unsigned long long)load_uint(s)); break;
+        case OPT_KIND_REAL: snprintf(text, sizeof text, "%a", *(const double *)s->target); break;
+        case OPT_KIND_PATH: {
+            const char *p = *(const char *const *)s->target;
+            value = p ? p : "(unset)";
+            break;
+        }
+        case OPT_KIND_LIST: {
+            const opt_list *l = s->target;
+            ok = req_add(&buf, &len, s->name, "(list)");
+            for (size_t k = 0; ok && k < l->count; k++)
+                ok = req_add(&buf, &len, "item", l->item[k]);
+            continue;
+        }
+        }
+        ok = req_add(&buf, &len, s->name, value);
+    }
+    if (!ok) {
+        free(buf);
+        return NULL;
+    }
+    return buf;
+}

@@ -118,4 +118,12 @@ bool opts_parse_uint(const char *text, uint64_t max, uint64_t *out);
  * space, "inf", "nan" or hexadecimal; false when it does not round to a finite double. */
 bool opts_parse_real(const char *text, double *out);
 
+/**
+ * The request text of a parsed command line, for up-to-date checks (rto_bundle_check): the command's name, its
+ * positional arguments and the value of every option in table order (given or default), except those named in skip
+ * (a NULL-terminated list: the output path, thread counts, --force). The same command line, however spelled
+ * (--n=8 or --n 0x8, options in any order), gives the same text. malloc'ed; NULL when out of memory.
+ */
+char *opts_request(const opt_command *c, const opt_args *a, const char *const *skip);
+
 #endif

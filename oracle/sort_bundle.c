@@ -149,7 +149,12 @@ rto_status sort_bundle_write(const char *outdir, rto_key_format f, const void *k
     rto_status s = rto_bundle_begin(outdir, "sort", &b, msg);
     if (s)
         return s;
-    s = add_common(b, f, keys, n, p, origin, msg);
+    if (origin->request) {
+        const char *src[1] = {origin->file};
+        s = rto_bundle_set_request(b, origin->request, src, origin->file ? 1 : 0, msg);
+    }
+    if (!s)
+        s = add_common(b, f, keys, n, p, origin, msg);
     if (!s)
         s = p->algo == RTO_SORT_BITONIC ? write_bitonic(b, f, keys, n, p->checkpoints, msg)
                                         : write_radix(b, f, keys, n, p, msg);

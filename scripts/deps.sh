@@ -23,9 +23,11 @@ rto_install_deps() {
 
 # Installs those of the named Debian packages that are missing (also used by scripts/bench-plot for its plotting).
 rto_install_debs() {
-    local missing=()
+    local missing=() installed p
+    # One dpkg-query for the whole list (one per package takes seconds on a busy machine).
+    installed=" $(dpkg-query -W -f='${db:Status-Abbrev}${Package} ' "$@" 2>/dev/null | tr -s ' ' | sed 's/ii \([^ ]*\)/+\1/g') "
     for p in "$@"; do
-        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+        [[ $installed == *" +$p "* ]] || missing+=("$p")
     done
     [ ${#missing[@]} -eq 0 ] && return 0
     local sudo=""
@@ -50,8 +52,8 @@ rto_build() {
         meson setup "$dir" "$@" >"$dir.setup.log" 2>&1 || { cat "$dir.setup.log" >&2; return 1; }
         rm -f "$dir.setup.log"
     fi
-    ninja -C "$dir" >"$dir.ninja.log" 2>&1 || { cat "$dir.ninja.log" >&2; return 1; }
-    rm -f "$dir.ninja.log"
+    local log
+    log=$(ninja -C "$dir" 2>&1) || { printf '%s\n' "$log" >&2; return 1; }
 }
 
 # gpu/'s npm dependencies, pinned by gpu/package-lock.json: installed once (npm ci), kept while the lock is unchanged.

@@ -499,6 +499,11 @@ typedef struct rto_scene {
     uint32_t camera_count;
     uint32_t warning_count; /* warnings issued (may exceed RTO_SCENE_MAX_WARNINGS; the first ones are kept) */
     char warnings[RTO_SCENE_MAX_WARNINGS][256];
+    /* The files the loader opened, or tried to, in order: the scene file, its external buffers and the external
+     * images its materials use, as paths it opened them by (the inputs of an up-to-date check, rto_bundle_check).
+     * None for a procedural scene. */
+    char **sources;
+    uint32_t source_count;
 } rto_scene;
 
 /** The Stage-2 default camera: position (0, 2, 5), target origin, up +y, fovY 60 degrees. */
@@ -930,6 +935,27 @@ rto_status rto_bundle_set_real(rto_bundle *b, const char *section, const char *k
 rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg);
 /** Removes the temporary directory and frees b. NULL is fine. */
 void rto_bundle_abort(rto_bundle *b);
+
+/**
+ * Up-to-date bundles. A command that writes a bundle may first ask whether outdir already holds exactly what it
+ * would write, and skip the work: rto_bundle_set_request records, at commit, the request (a text the caller composes
+ * from everything its output depends on: command, arguments, option values; not the output path), the content hash
+ * of each source file it read (scene, buffers, images, plugins, ray files), this rtoracle build (the build-ids of the
+ * program and its libraries) and the identity (inode, size, mtime) of manifest.json and every listed file, suite
+ * cases included. The record is an extended attribute of the directory (user.rtoracle.stamp), so the bundle's bytes
+ * do not change; where the file system has none, bundles are simply not stamped and never skipped.
+ */
+typedef enum rto_bundle_state {
+    RTO_BUNDLE_ABSENT = 0,  /* no directory there */
+    RTO_BUNDLE_CURRENT = 1, /* same build, same request, sources unchanged, no file touched since: nothing to do */
+    RTO_BUNDLE_STALE = 2,   /* not stamped, or for another build, request or source content (why says which) */
+    RTO_BUNDLE_CHANGED = 3, /* a file of it was modified, replaced or removed after it was written (why names it) */
+} rto_bundle_state;
+/** What outdir holds for request (see rto_bundle_state). Costs a stat per file and a hash of each source file. */
+rto_bundle_state rto_bundle_check(const char *outdir, const char *request, rto_msg *why);
+/** Records the request and its source files (hashed now; count may be 0) for rto_bundle_commit to stamp. */
+rto_status rto_bundle_set_request(rto_bundle *b, const char *request, const char *const *sources, size_t count,
+                                  rto_msg *msg);
 
 /** A bundle opened for reading: manifest parsed, version checked. */
 typedef struct rto_bundle_reader rto_bundle_reader;

@@ -132,6 +132,22 @@ rto_status rto__bundle_add_image(rto_bundle *b, const char *name, const char *ro
 /** The path (malloc'ed, in *path) of the file the manifest lists as name, once its sha256 matches the manifest's. */
 rto_status rto__bundle_checked_path(rto_bundle_reader *r, const char *name, char **path, rto_msg *msg);
 
+/* Up-to-date bundles (io/stamp.c). */
+
+/** The stamp text's head for a request and its source files (malloc'ed in *out), hashing each source now. *out stays
+ * NULL (and RTO_OK is returned) when the bundle cannot be stamped: no build identity, or source names that do not
+ * fit the record; such a bundle is simply rewritten by every run. */
+rto_status rto__stamp_head(const char *request, const char *const *sources, size_t count, char **out, rto_msg *msg);
+/** Stamps a finished bundle directory (manifest.json written) with head plus the digest of its files; a file system
+ * without user extended attributes leaves it unstamped. head NULL: nothing. */
+void rto__stamp_write(const char *dir, const char *head);
+/** The image module file rtoracle would load (scene/image_module_load.c), or NULL when there is none. */
+const char *rto__image_module_path(void);
+/** Writes an .npy file that does not exist yet (O_EXCL; inside a bundle's temporary directory, which is itself what
+ * is made atomic) and its SHA-256, hashed from memory while writing: no second read of the file. */
+rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, const void *data, char hex[65],
+                                 rto_msg *msg);
+
 /* Input files. */
 
 /**

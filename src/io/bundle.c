@@ -27,6 +27,7 @@ struct rto_bundle {
     json_t *root;
     json_t *files;
     json_t *cases;
+    char *stamp; /* the stamp's head (rto_bundle_set_request), written at commit; NULL: unstamped */
     /* The first failure of a setter, kept so that rto_bundle_commit fails with it even when the caller ignored it. */
     rto_status err;
     rto_msg err_msg;
@@ -426,12 +427,10 @@ rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role,
     rto_msg why = {{0}};
     char hex[65], descr[1024];
     char *path = b && plain_name(name) && role && desc ? join(b->tmpdir, name) : NULL;
-    rto_status s = path ? rto_npy_write(path, desc, data, &why)
+    rto_status s = path ? rto__npy_write_hashed(path, desc, data, hex, &why)
                  : b && plain_name(name) && role && desc
                      ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
                      : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
-    if (!s)
-        s = rto_sha256_file(path, hex, &why);
     if (!s)
         s = rto_npy_descr(desc, descr, sizeof descr);
     free(path);
@@ -510,6 +509,20 @@ rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case
     return keep_error(b, s, &why, "case ", "", name);
 }
 
+rto_status rto_bundle_set_request(rto_bundle *b, const char *request, const char *const *sources, size_t count,
+                                  rto_msg *msg)
+{
+    if (!b || !request || (count && !sources))
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle, request or sources");
+    char *head = NULL;
+    rto_status s = rto__stamp_head(request, sources, count, &head, msg);
+    if (!s) {
+        free(b->stamp);
+        b->stamp = head;
+    }
+    return s;
+}
+
 void rto_bundle_abort(rto_bundle *b)
 {
     if (!b)
@@ -520,6 +533,7 @@ void rto_bundle_abort(rto_bundle *b)
     }
     json_decref(b->root);
     json_decref(b->files);
+    free(b->stamp);
     free(b->name);
     free(b->outdir);
     free(b->tmpdir);
@@ -607,6 +621,8 @@ rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg)
         *msg = b->err_msg;
     if (!s)
         s = write_manifest(b, msg);
+    if (!s)
+        rto__stamp_write(b->tmpdir, b->stamp);
     if (!s)
         s = install(b, msg);
     rto_bundle_abort(b);

@@ -9,6 +9,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <openssl/evp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -902,6 +903,69 @@ rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void 
         return rto_fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(e ? e : EIO));
     }
     return rto_atomic_close(&f, msg);
+}
+
+rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, const void *data, char hex[65],
+                                 rto_msg *msg)
+{
+    if (!path || !hex)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
+    rto_status s = check_desc(desc, msg);
+    if (s != RTO_OK)
+        return s;
+    int ok = 0;
+    uint64_t count = rto_npy_count(desc, &ok), item = rto_npy_itemsize(desc);
+    if (!ok || (item && count > UINT64_MAX / item) || count * item > SIZE_MAX)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%s': shape does not fit in memory", path);
+    size_t nbytes = (size_t)(count * item);
+    if (!data && nbytes)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL data for %zu bytes", nbytes);
+    unsigned char pre[NPY_HEADER_CAP];
+    size_t plen = build_preamble(desc, pre);
+    if (plen == 0)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "header for '%s' is too long", path);
+    EVP_MD_CTX *ctx = EVP_MD_CTX_new();
+    if (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1) {
+        EVP_MD_CTX_free(ctx);
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot start SHA-256");
+    }
+    int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0) {
+        EVP_MD_CTX_free(ctx);
+        return rto_fail(msg, RTO_ERR_IO, "cannot create %s: %s", path, strerror(errno));
+    }
+    /* The bytes are hashed as they go out, in the same chunks, while they are still in cache. */
+    const unsigned char *parts[2] = {pre, data};
+    const size_t lens[2] = {plen, nbytes};
+    int err = 0;
+    for (int k = 0; k < 2 && !err; k++) {
+        for (size_t at = 0; at < lens[k] && !err;) {
+            size_t chunk = lens[k] - at < (1u << 20) ? lens[k] - at : (1u << 20);
+            ssize_t w = write(fd, parts[k] + at, chunk);
+            if (w < 0 && errno == EINTR)
+                continue;
+            if (w <= 0) {
+                err = w < 0 ? errno : EIO;
+                break;
+            }
+            EVP_DigestUpdate(ctx, parts[k] + at, (size_t)w);
+            at += (size_t)w;
+        }
+    }
+    if (close(fd) != 0 && !err)
+        err = errno;
+    unsigned char md[EVP_MAX_MD_SIZE];
+    unsigned int mdlen = 0;
+    if (!err && (EVP_DigestFinal_ex(ctx, md, &mdlen) != 1 || mdlen != 32))
+        err = ENOMEM;
+    EVP_MD_CTX_free(ctx);
+    if (err) {
+        unlink(path); /* ours: created above with O_EXCL */
+        return rto_fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(err));
+    }
+    for (unsigned i = 0; i < 32; i++)
+        snprintf(hex + 2 * i, 3, "%02x", md[i]);
+    return RTO_OK;
 }
 
 rto_status rto_npy_as_keys(const rto_npy *npy, rto_key_format *f, size_t *n, rto_msg *msg)

@@ -566,6 +566,7 @@ struct Context {
         size_t uses = 0; // buffers still to hand it to; the last one takes the bytes without a copy
     };
     std::map<std::string, Pending> files;
+    mutable std::vector<std::string> images; // external image files opened (or tried), in order
     uint64_t input_bytes = 0; // the scene file and the external buffers read: what mesh memory is measured against
 
     // The path of an external URI, exactly as tinygltf forms it (percent-decoded, joined to the base directory).
@@ -1212,6 +1213,7 @@ struct Loader {
         int32_t r = -1;
         if (external) {
             const std::string path = ctx.resolve(img.uri);
+            ctx.images.push_back(path);
             InFile f(path, "image " + std::to_string(i) + " ('" + path.substr(0, 200) + "')", true);
             if (!f.is_open()) {
                 rto__scene_warn(s, "image %d ('%.80s'): cannot open %.100s: %s; material %zu is untextured", i,
@@ -1700,6 +1702,14 @@ void load(const char *path, const rto_scene_load_desc *opts, rto_scene *scene)
     l.load_materials();
     l.load_nodes();
     l.emit();
+    // What was read, for up-to-date checks: the scene file, the buffers (tinygltf reads no other), the images.
+    bool listed = rto__scene_add_source(scene, path) != 0;
+    for (const auto &f : ctx.files)
+        listed = listed && rto__scene_add_source(scene, f.first.c_str());
+    for (const auto &img : ctx.images)
+        listed = listed && rto__scene_add_source(scene, img.c_str());
+    if (!listed)
+        throw std::bad_alloc();
 }
 
 } // namespace

@@ -27,6 +27,16 @@ static int symbol(void *h, const char *name, void *fn, size_t size)
     return 1;
 }
 
+const char *rto__image_module_path(void)
+{
+    const char *env = getenv("RTO_IMAGE_MODULE");
+    const char *paths[] = {env && *env ? env : NULL, RTO_IMAGE_MODULE_BUILD, RTO_IMAGE_MODULE_INSTALL};
+    for (size_t i = 0; i < sizeof paths / sizeof paths[0]; i++)
+        if (paths[i] && access(paths[i], R_OK) == 0)
+            return paths[i];
+    return NULL;
+}
+
 static void load(void)
 {
     const char *env = getenv("RTO_IMAGE_MODULE");

@@ -79,6 +79,20 @@ void rto__scene_warn(rto_scene *scene, const char *fmt, ...)
         scene->warning_count++;
 }
 
+int rto__scene_add_source(rto_scene *scene, const char *path)
+{
+    if (scene->source_count == UINT32_MAX)
+        return 0;
+    char **grown = realloc(scene->sources, (scene->source_count + 1u) * sizeof *grown);
+    if (!grown)
+        return 0;
+    scene->sources = grown;
+    if (!(grown[scene->source_count] = strdup(path)))
+        return 0;
+    scene->source_count++;
+    return 1;
+}
+
 void rto_scene_destroy(rto_scene *scene)
 {
     if (!scene)
@@ -96,6 +110,9 @@ void rto_scene_destroy(rto_scene *scene)
     free(scene->materials);
     free(scene->textures);
     free(scene->cameras);
+    for (uint32_t i = 0; scene->sources && i < scene->source_count; i++)
+        free(scene->sources[i]);
+    free(scene->sources);
     free(scene);
 }
 

@@ -40,6 +40,9 @@ void rto__scene_warn(rto_scene *scene, const char *fmt, ...)
 #endif
     ;
 
+/** Appends a file the loader opened (or tried to) to scene->sources; 0 when out of memory. */
+int rto__scene_add_source(rto_scene *scene, const char *path);
+
 /* The largest cap rto__utf8_copy fills (the scene's text arrays and rto_msg are smaller). */
 #define RTO__UTF8_COPY_MAX 1024
 
