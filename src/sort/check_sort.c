@@ -483,6 +483,9 @@ values:
         }
         rto_report_mark(r, "values", RTO_CHECK_PASSED);
         for (size_t i = 0; i < gn; i++) {
+            /* The source keys are read in the dump's order, all over the input: ask for them ahead of use. */
+            if (i + 16 < gn && d->gpu_values[i + 16] < n)
+                __builtin_prefetch((const unsigned char *)d->input + (size_t)d->gpu_values[i + 16] * ksz);
             uint32_t v = d->gpu_values[i];
             uint64_t src = v < n ? rto_key_get(f, d->input, v) : sentinel;
             const char *why = NULL;
