@@ -16,7 +16,9 @@ static const char check_usage[] =
     "a structured array with fields 'key' and 'value'. With --gpu-passes (shape passes x slots), names the\n"
     "first checkpoint pass (k, j) and slot where the GPU diverges from the oracle's schedule.\n"
     "--expected OUTDIR takes the input, algorithm, digit width and tile from a sort bundle (its input is\n"
-    "verified by sha256); a radix bundle implies --stable when the dump carries values.\n";
+    "verified by sha256); a radix bundle implies --stable when the dump carries values. The dump is compared\n"
+    "with the bundle's sorted.npy directly (with --input alone, with the input radix-sorted), and analysed\n"
+    "further only where it differs.\n";
 
 static const char check_epilog[] =
     "Fault classes: size, lost-key, corrupt-key, duplicate-key, order, tail, value, stability, pass.\n"
