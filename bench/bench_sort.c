@@ -1,8 +1,15 @@
 /* Sort oracle benchmarks: the bitonic network, the radix reference and check-sort, each beside the C library's
  * qsort on the same keys in the same process, as a ratio (median of RUNS runs). Absolute times drift on a shared
- * machine; the ratio is the figure to compare. Embree has no sort, so qsort is the yardstick here. */
+ * machine; the ratio is the figure to compare. Embree has no sort, so qsort is the yardstick here.
+ *
+ * check-sort is timed on a correct dump (the case a CI loop meets) four ways: with only the input (sorted inside by
+ * a radix sort), with expected_keys (a bundle's sorted.npy), with expected_keys and stable carried values, and the
+ * full analysis that every call ran before the fast path (qsort of input and dump), as the before figure.
+ * `bench_sort WORD` runs only the oracles whose name contains WORD (e.g. check; "paths" runs only the table of
+ * bitonic paths, each beside qsort and a plain LSD radix sort). --json: bench_util.h. */
 #include "rtoracle.h"
 #include "bench_util.h"
+#include "core/internal.h" /* rto__sort_check_reference */
 #include "sort/bitonic_internal.h"
 
 #include <stdio.h>
@@ -23,7 +30,17 @@ static int cmp_u64(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-typedef enum { WORK_QSORT, WORK_BITONIC, WORK_RADIX, WORK_CHECK, WORK_LSD, WORK_NET } work;
+typedef enum {
+    WORK_QSORT,
+    WORK_BITONIC,
+    WORK_RADIX,
+    WORK_CHECK_INPUT,
+    WORK_CHECK_EXPECTED,
+    WORK_CHECK_VALUES,
+    WORK_CHECK_FULL,
+    WORK_LSD,
+    WORK_NET
+} work;
 
 typedef struct job {
     rto_key_format f;
@@ -32,9 +49,10 @@ typedef struct job {
     void *scratch;   /* n_padded keys */
     uint32_t *perm;  /* n_padded */
     const void *sorted; /* a correct sorted output, for check-sort */
-    void *tmp;          /* n keys: the plain radix sort's ping-pong buffer */
-    int isa;            /* WORK_NET: rto__bitonic_isa, or -1 for the scalar reference */
-    uint32_t threads;   /* WORK_NET: 0 = all CPUs */
+    const uint32_t *values; /* its stable source indices */
+    void *tmp;              /* n keys: the plain radix sort's ping-pong buffer */
+    int isa;                /* WORK_NET: rto__bitonic_isa, or -1 for the scalar reference */
+    uint32_t threads;       /* WORK_NET: 0 = all CPUs */
 } job;
 
 /* A plain LSD radix sort (8-bit digits, every histogram counted in one read, ping-pong buffers, keys only): the
@@ -88,7 +106,10 @@ static void run(work w, const job *j)
                                                 (rto__bitonic_isa)j->isa, j->threads, NULL);
         break;
     case WORK_RADIX: s = rto_radix_sort(j->f, j->keys, j->n, 8, 256, j->scratch, j->perm, NULL, NULL); break;
-    case WORK_CHECK: {
+    case WORK_CHECK_INPUT:
+    case WORK_CHECK_EXPECTED:
+    case WORK_CHECK_VALUES:
+    case WORK_CHECK_FULL: {
         rto_sort_check_desc d;
         memset(&d, 0, sizeof d);
         d.format = j->f;
@@ -96,8 +117,14 @@ static void run(work w, const job *j)
         d.n = j->n;
         d.gpu_keys = j->sorted;
         d.gpu_n = j->n;
+        if (w == WORK_CHECK_EXPECTED || w == WORK_CHECK_VALUES)
+            d.expected_keys = j->sorted;
+        if (w == WORK_CHECK_VALUES) {
+            d.gpu_values = j->values;
+            d.require_stable = 1;
+        }
         rto_report r;
-        s = rto_sort_check(&d, &r, NULL);
+        s = w == WORK_CHECK_FULL ? rto__sort_check_reference(&d, &r, NULL) : rto_sort_check(&d, &r, NULL);
         break;
     }
     }
@@ -137,7 +164,7 @@ static void bench_paths(void)
         uint32_t *perm = malloc(np * sizeof *perm);
         if (!keys || !scratch || !tmp || !perm || rto_keys_generate(cases[c].dist, cases[c].f, 1, n, keys, NULL))
             exit(1);
-        job j = {cases[c].f, n, keys, scratch, perm, NULL, tmp, 0, 1};
+        job j = {cases[c].f, n, keys, scratch, perm, NULL, NULL, tmp, 0, 1};
         const double tq = median_seconds(WORK_QSORT, &j), tr = median_seconds(WORK_LSD, &j);
         const char *fmt = cases[c].f == RTO_KEY_U32 ? "u32" : "u64";
         printf("%-16s %-4s %8zu %8s %11.3f %9s %10s %10s\n", "qsort", fmt, n, "1", tq * 1e3, "-", "1.00x", "-");
@@ -154,9 +181,13 @@ static void bench_paths(void)
                 const double tb = median_seconds(WORK_NET, &j);
                 char threads[16];
                 snprintf(threads, sizeof threads, "%s", t == 1 ? "1" : "all");
-                printf("%-16s %-4s %8zu %8s %11.3f %9.3f %9.3fx %9.3fx\n",
-                       isa < 0 ? "scalar reference" : rto__bitonic_isa_name((rto__bitonic_isa)isa), fmt, n, threads,
-                       tb * 1e3, tb / ces * 1e9, tb / tq, tb / tr);
+                const char *path = isa < 0 ? "scalar reference" : rto__bitonic_isa_name((rto__bitonic_isa)isa);
+                printf("%-16s %-4s %8zu %8s %11.3f %9.3f %9.3fx %9.3fx\n", path, fmt, n, threads, tb * 1e3,
+                       tb / ces * 1e9, tb / tq, tb / tr);
+                char kase[64];
+                snprintf(kase, sizeof kase, "bitonic %s %s n=%zu", path, fmt, n);
+                bench_row("sort", kase, "qsort (1 thread)", (int)j.threads, tb, tq);
+                bench_row("sort", kase, "plain LSD radix (1 thread)", (int)j.threads, tb, tr);
             }
         }
         free(keys);
@@ -166,8 +197,18 @@ static void bench_paths(void)
     }
 }
 
-int main(void)
+static int cmp_pair(const void *a, const void *b)
 {
+    const uint64_t *x = a, *y = b;
+    if (x[0] != y[0])
+        return (x[0] > y[0]) - (x[0] < y[0]);
+    return (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+int main(int argc, char **argv)
+{
+    bench_init(&argc, argv);
+    const char *only = argc > 1 ? argv[1] : "";
     static const struct {
         rto_key_format f;
         size_t n;
@@ -176,34 +217,63 @@ int main(void)
     static const struct {
         work w;
         const char *name;
-    } works[] = {{WORK_BITONIC, "bitonic"}, {WORK_RADIX, "radix-8/256"}, {WORK_CHECK, "check-sort"}};
-    printf("%-12s %-4s %9s %11s %11s %10s %14s\n", "oracle", "fmt", "n", "median ms", "Mkeys/s", "qsort ms",
+    } works[] = {{WORK_BITONIC, "bitonic"},
+                 {WORK_RADIX, "radix-8/256"},
+                 {WORK_CHECK_INPUT, "check --input"},
+                 {WORK_CHECK_EXPECTED, "check --expected"},
+                 {WORK_CHECK_VALUES, "check --expected +values,stable"},
+                 {WORK_CHECK_FULL, "check full analysis (before)"}};
+    print_load("before");
+    printf("%-31s %-4s %9s %11s %11s %10s %14s\n", "oracle", "fmt", "n", "median ms", "Mkeys/s", "qsort ms",
            "oracle/qsort");
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         const size_t n = cases[c].n, np = rto_next_pow2(n), ksz = rto_key_size(cases[c].f);
         void *keys = malloc(n * ksz), *scratch = malloc(np * ksz), *sorted = malloc(np * ksz);
-        uint32_t *perm = malloc(np * sizeof *perm);
-        if (!keys || !scratch || !sorted || !perm)
+        uint32_t *perm = malloc(np * sizeof *perm), *values = malloc(n * sizeof *values);
+        uint64_t *pairs = malloc(2 * n * sizeof *pairs);
+        if (!keys || !scratch || !sorted || !perm || !values || !pairs)
             return 1;
         if (rto_keys_generate(cases[c].dist, cases[c].f, 1, n, keys, NULL) != RTO_OK)
             return 1;
-        memcpy(sorted, keys, n * ksz);
-        qsort(sorted, n, ksz, cases[c].f == RTO_KEY_U32 ? cmp_u32 : cmp_u64);
-        job j = {cases[c].f, n, keys, scratch, perm, sorted, NULL, 0, 0};
+        /* the correct key/value dump: (key, index) pairs by qsort, so equal keys keep input order */
+        for (size_t i = 0; i < n; i++) {
+            pairs[2 * i] = cases[c].f == RTO_KEY_U32 ? ((const uint32_t *)keys)[i] : ((const uint64_t *)keys)[i];
+            pairs[2 * i + 1] = i;
+        }
+        qsort(pairs, n, 2 * sizeof *pairs, cmp_pair);
+        for (size_t i = 0; i < n; i++) {
+            if (cases[c].f == RTO_KEY_U32)
+                ((uint32_t *)sorted)[i] = (uint32_t)pairs[2 * i];
+            else
+                ((uint64_t *)sorted)[i] = pairs[2 * i];
+            values[i] = (uint32_t)pairs[2 * i + 1];
+        }
+        free(pairs);
+        job j = {cases[c].f, n, keys, scratch, perm, sorted, values, NULL, 0, 0};
         for (size_t w = 0; w < sizeof works / sizeof works[0]; w++) {
+            if (!strstr(works[w].name, only))
+                continue;
             double tq = median_seconds(WORK_QSORT, &j), to = median_seconds(works[w].w, &j);
-            printf("%-12s %-4s %9zu %11.3f %11.2f %10.3f %13.2fx\n", works[w].name,
-                   cases[c].f == RTO_KEY_U32 ? "u32" : "u64", n, to * 1e3, (double)n / to * 1e-6, tq * 1e3, to / tq);
+            const char *fmt = cases[c].f == RTO_KEY_U32 ? "u32" : "u64";
+            printf("%-31s %-4s %9zu %11.3f %11.2f %10.3f %13.2fx\n", works[w].name, fmt, n, to * 1e3,
+                   (double)n / to * 1e-6, tq * 1e3, to / tq);
+            char kase[80];
+            snprintf(kase, sizeof kase, "%s %s n=%zu", works[w].name, fmt, n);
+            bench_row("sort", kase, "qsort", 1, to, tq);
         }
         free(keys);
         free(scratch);
         free(sorted);
         free(perm);
+        free(values);
     }
-    bench_paths();
+    if (strstr("bitonic paths", only))
+        bench_paths();
+    print_load("after");
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
     printf("peak RSS %.1f MiB; median of %d runs each; qsort sorts a copy of the same keys\n",
            (double)ru.ru_maxrss / 1024.0, RUNS);
+    bench_finish("sort", RUNS, NULL);
     return 0;
 }

@@ -16,7 +16,9 @@ static const char check_usage[] =
     "a structured array with fields 'key' and 'value'. With --gpu-passes (shape passes x slots), names the\n"
     "first checkpoint pass (k, j) and slot where the GPU diverges from the oracle's schedule.\n"
     "--expected OUTDIR takes the input, algorithm, digit width and tile from a sort bundle (its input is\n"
-    "verified by sha256); a radix bundle implies --stable when the dump carries values.\n";
+    "verified by sha256); a radix bundle implies --stable when the dump carries values. The dump is compared\n"
+    "with the bundle's sorted.npy directly (with --input alone, with the input radix-sorted), and analysed\n"
+    "further only where it differs.\n";
 
 static const char check_epilog[] =
     "Fault classes: size, lost-key, corrupt-key, duplicate-key, order, tail, value, stability, pass.\n"
@@ -25,11 +27,12 @@ static const char check_epilog[] =
     "(--no-artifacts skips it).\n";
 
 typedef struct loaded {
-    rto_npy input, gpu, values, passes;
+    rto_npy input, gpu, values, passes, sorted;
 } loaded;
 
 static void loaded_free(loaded *l)
 {
+    rto_npy_free(&l->sorted);
     rto_npy_free(&l->input);
     rto_npy_free(&l->gpu);
     rto_npy_free(&l->values);
@@ -188,6 +191,23 @@ int cmd_check_sort(int argc, char **argv)
         } else {
             l.input = bin;
         }
+        /* The bundle's sorted keys let the check compare the dump with them directly. A bundle without them is
+         * checked from its input alone; one whose sorted.npy is listed but changed or malformed is refused. */
+        rto_status ss = rto_bundle_read_role(bundle, "sorted-keys", &l.sorted, &msg);
+        if (ss == RTO_OK) {
+            rto_npy_desc want = rto_npy_desc_keys(l.input.desc.dtype == RTO_DTYPE_U32 ? RTO_KEY_U32 : RTO_KEY_U64,
+                                                  l.input.desc.ndim == 1 ? l.input.desc.shape[0] : 0);
+            char got[96];
+            if (!cli_npy_same(&l.sorted.desc, &want)) {
+                rc = cli_fail("check-sort", "--expected %s: sorted.npy holds %s; the input holds %s", expected,
+                              cli_npy_what(&l.sorted.desc, NULL, got, sizeof got), rto_bundle_get_str(bundle, "input",
+                                                                                                       "format"));
+                goto out;
+            }
+        } else if (ss != RTO_ERR_IO) {
+            rc = cli_fail("check-sort", "--expected: %s", msg.text);
+            goto out;
+        }
         case_id = rto_bundle_get_str(bundle, "", "case");
         const char *algo = rto_bundle_get_str(bundle, "params", "algo");
         int64_t bits = 0, tile = 0;
@@ -241,6 +261,7 @@ int cmd_check_sort(int argc, char **argv)
         goto out;
     }
     d.input = l.input.data;
+    d.expected_keys = l.sorted.data;
     d.gpu_keys = l.gpu.data;
     d.gpu_n = gn;
     if (l.values.data) {
@@ -278,6 +299,10 @@ int cmd_check_sort(int argc, char **argv)
 
     rto_report r;
     rto_status s = rto_sort_check(&d, &r, &msg);
+    if (s == RTO_ERR_INVALID_ARGUMENT && d.expected_keys && strstr(msg.text, "expected keys")) {
+        rc = cli_fail("check-sort", "--expected %s: sorted.npy is not the bundle's input in ascending order", expected);
+        goto out;
+    }
     if (s != RTO_OK && s != RTO_ERR_MISMATCH) {
         rc = cli_status("check-sort", s, &msg);
         goto out;

@@ -415,14 +415,21 @@ typedef struct rto_sort_check_desc {
     rto_sort_algo algo;
     uint32_t radix_bits;
     uint32_t radix_tile;
+    /* NULL, or the n input keys in ascending order (a sort bundle's sorted.npy): the dump is then compared with them
+     * directly instead of with the input sorted here. Refused (RTO_ERR_INVALID_ARGUMENT) unless they ascend and hold
+     * the input's keys (compared by a multiset hash). */
+    const void *expected_keys;
 } rto_sort_check_desc;
 
 /**
  * Validates a GPU sort. Returns RTO_OK when all checks pass, RTO_ERR_MISMATCH when a fault was found (report says
  * which: code is an rto_fault; checks "sorted", "permutation", "tail", "values", "stable", "passes"; location
  * "slot" and, for a checkpoint fault, "pass" with "k" / "j" (bitonic) or "digit_bit" (radix)), other statuses for
- * unusable input (msg says why). Independent of rto_bitonic_sort for the final array: the expected order comes
- * from the C library's qsort. report->what is left empty for the caller (e.g. the case id).
+ * unusable input (msg says why). Independent of rto_bitonic_sort and rto_radix_sort for the final array: the dump is
+ * compared with expected_keys or with the input sorted by rto_fast_radix_sort, a pass over memory; only a dump that
+ * differs is analysed further (sorted and merged against the input) to name the fault and its first bad slot.
+ * Carried values are checked in one pass without sorting. report->what is left empty for the caller (e.g. the case
+ * id).
  */
 rto_status rto_sort_check(const rto_sort_check_desc *desc, rto_report *report, rto_msg *msg);
 

@@ -161,6 +161,10 @@ FILE *rto_open_regular(const char *path, uint64_t *size, rto_status *status, rto
  * reader tells a file the writer did not keep from one that was removed. */
 int rto__bundle_lists(rto_bundle_reader *r, const char *name);
 
+/** rto_sort_check without its fast path: the dump and the input both sorted by the C library's qsort and analysed in
+ * full, expected_keys ignored. The reference the tests hold rto_sort_check to, report for report. */
+rto_status rto__sort_check_reference(const rto_sort_check_desc *desc, rto_report *report, rto_msg *msg);
+
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
 void *rto_alloc(size_t count, size_t size);
 /** rto_alloc for big buffers (frames): from 4 MiB up aligned to 2 MiB and advised as transparent huge pages, which

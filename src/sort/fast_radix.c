@@ -105,7 +105,7 @@ rto_status rto_fast_radix_sort(rto_key_format f, const void *keys, size_t n, voi
         return RTO_OK;
     }
     p.hist = calloc(p.passes, sizeof *p.hist);
-    void *tmp = p.passes > 1 ? rto_alloc(n, ksz) : NULL;
+    void *tmp = p.passes > 1 ? rto__alloc_large(n, ksz) : NULL;
     if (!p.hist || (p.passes > 1 && !tmp)) {
         free(p.hist);
         free(tmp);

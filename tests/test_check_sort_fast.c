@@ -1,0 +1,265 @@
+/* Property test of check-sort's fast path: rto_sort_check (the dump compared with the sorted input, the full analysis
+ * only on a mismatch) and the full analysis it replaced (rto__sort_check_reference: qsort of input and dump, every
+ * check run) give the same status and the same report, text and JSON byte for byte, for correct dumps and for many
+ * mutated ones (swap, flip a bit, duplicate, drop, reorder equal keys, wrong value, tail) across distributions, both
+ * formats, dumps of n and n_padded slots and sizes 1, 2, 3, 255..257 and 4095..4097. The fast path runs twice: with
+ * the input sorted inside and with expected_keys (made here by qsort, as a bundle's sorted.npy would hold them). */
+#include "testutil.h"
+
+#include "core/internal.h"
+
+enum { TEXT_CAP = 1 << 16 };
+
+typedef enum mutation {
+    MUT_NONE,
+    MUT_SWAP,      /* two random slots of the real range exchanged */
+    MUT_SWAP_NEXT, /* a slot and its successor exchanged */
+    MUT_FLIP,      /* one bit of one slot flipped (the sentinel included) */
+    MUT_DUPLICATE, /* a slot overwritten by another slot's key */
+    MUT_DROP,      /* a slot removed, the real range shifted down, a sentinel appended */
+    MUT_REORDER,   /* the values of two equal neighbouring keys exchanged */
+    MUT_VALUE,     /* one carried value replaced by a random index (in or out of range) */
+    MUT_TAIL,      /* a padded slot given a random key */
+    MUT_COUNT
+} mutation;
+
+static const char *const mutation_names[] = {"none", "swap", "swap-next", "flip", "duplicate",
+                                             "drop", "reorder", "value", "tail"};
+
+typedef struct dump {
+    rto_key_format f;
+    size_t n, gn;
+    void *input, *gpu, *expected; /* expected: the input in ascending order, native width */
+    uint32_t *values;
+} dump;
+
+static int cmp_pair(const void *a, const void *b)
+{
+    const uint64_t *x = a, *y = b;
+    if (x[0] != y[0])
+        return (x[0] > y[0]) - (x[0] < y[0]);
+    return (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+/* A correct key/value dump of gn slots made by qsort of (key, index) pairs: stable, padding p carrying n + p. */
+static void dump_make(dump *dp, const char *dist, rto_key_format f, size_t n, int padded, uint32_t seed)
+{
+    const size_t ksz = f == RTO_KEY_U32 ? 4 : 8, np = rto_next_pow2(n);
+    const uint64_t sentinel = f == RTO_KEY_U32 ? UINT32_MAX : UINT64_MAX;
+    dp->f = f;
+    dp->n = n;
+    dp->gn = padded ? np : n;
+    dp->input = tu_keys(dist, f, seed, n);
+    dp->gpu = malloc(dp->gn * ksz);
+    dp->expected = malloc(n * ksz);
+    dp->values = malloc(dp->gn * 4);
+    uint64_t *pairs = malloc(dp->gn * 16), *sorted = tu_qsorted(f, dp->input, n);
+    assert_true(dp->gpu && dp->expected && dp->values && pairs);
+    for (size_t i = 0; i < n; i++)
+        tu_put(f, dp->expected, i, sorted[i]);
+    for (size_t i = 0; i < dp->gn; i++) {
+        pairs[2 * i] = i < n ? tu_get(f, dp->input, i) : sentinel;
+        pairs[2 * i + 1] = i;
+    }
+    qsort(pairs, dp->gn, 16, cmp_pair);
+    for (size_t i = 0; i < dp->gn; i++) {
+        tu_put(f, dp->gpu, i, pairs[2 * i]);
+        dp->values[i] = (uint32_t)pairs[2 * i + 1];
+    }
+    free(pairs);
+    free(sorted);
+}
+
+static void dump_free(dump *dp)
+{
+    free(dp->input);
+    free(dp->gpu);
+    free(dp->expected);
+    free(dp->values);
+}
+
+static void swap_slots(dump *dp, size_t a, size_t b)
+{
+    uint64_t k = tu_get(dp->f, dp->gpu, a);
+    tu_put(dp->f, dp->gpu, a, tu_get(dp->f, dp->gpu, b));
+    tu_put(dp->f, dp->gpu, b, k);
+    uint32_t v = dp->values[a];
+    dp->values[a] = dp->values[b];
+    dp->values[b] = v;
+}
+
+/* Applies mutation m with the test's own random stream; 0 when it does not apply to this dump. */
+static int mutate(dump *dp, mutation m, uint64_t *rng)
+{
+    const size_t n = dp->n, gn = dp->gn, ksz = dp->f == RTO_KEY_U32 ? 4 : 8;
+    const uint64_t sentinel = dp->f == RTO_KEY_U32 ? UINT32_MAX : UINT64_MAX;
+    const size_t i = (size_t)(tu_rng_next(rng) % n), j = (size_t)(tu_rng_next(rng) % n);
+    switch (m) {
+    case MUT_NONE: return 1;
+    case MUT_SWAP: swap_slots(dp, i, j); return 1;
+    case MUT_SWAP_NEXT:
+        if (n < 2)
+            return 0;
+        swap_slots(dp, i % (n - 1), i % (n - 1) + 1);
+        return 1;
+    case MUT_FLIP: {
+        const size_t s = (size_t)(tu_rng_next(rng) % gn);
+        tu_put(dp->f, dp->gpu, s, tu_get(dp->f, dp->gpu, s) ^ (UINT64_C(1) << (tu_rng_next(rng) % (ksz * 8))));
+        return 1;
+    }
+    case MUT_DUPLICATE:
+        tu_put(dp->f, dp->gpu, i, tu_get(dp->f, dp->gpu, j));
+        dp->values[i] = dp->values[j];
+        return 1;
+    case MUT_DROP: {
+        unsigned char *g = dp->gpu;
+        memmove(g + i * ksz, g + (i + 1) * ksz, (n - i - 1) * ksz);
+        memmove(dp->values + i, dp->values + i + 1, (n - i - 1) * 4);
+        tu_put(dp->f, dp->gpu, n - 1, sentinel);
+        return 1;
+    }
+    case MUT_REORDER:
+        for (size_t s = i; s + 1 < gn; s++)
+            if (tu_get(dp->f, dp->gpu, s) == tu_get(dp->f, dp->gpu, s + 1)) {
+                uint32_t v = dp->values[s];
+                dp->values[s] = dp->values[s + 1];
+                dp->values[s + 1] = v;
+                return 1;
+            }
+        return 0;
+    case MUT_VALUE: dp->values[i] = (uint32_t)(tu_rng_next(rng) % (2 * gn + 2)); return 1;
+    case MUT_TAIL:
+        if (gn == n)
+            return 0;
+        tu_put(dp->f, dp->gpu, n + (size_t)(tu_rng_next(rng) % (gn - n)), tu_get(dp->f, dp->input, i));
+        return 1;
+    case MUT_COUNT: break;
+    }
+    return 0;
+}
+
+/* Status, text and JSON of one check. */
+typedef struct outcome {
+    rto_status status;
+    char text[TEXT_CAP], json[TEXT_CAP];
+} outcome;
+
+static void run(const dump *dp, int values, int stable, int way, outcome *o)
+{
+    rto_sort_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.format = dp->f;
+    d.input = dp->input;
+    d.n = dp->n;
+    d.gpu_keys = dp->gpu;
+    d.gpu_n = dp->gn;
+    d.gpu_values = values ? dp->values : NULL;
+    d.require_stable = stable;
+    d.expected_keys = way == 2 ? dp->expected : NULL;
+    rto_report r;
+    rto_msg msg = {{0}};
+    o->status = way == 0 ? rto__sort_check_reference(&d, &r, &msg) : rto_sort_check(&d, &r, &msg);
+    if (o->status != RTO_OK && o->status != RTO_ERR_MISMATCH)
+        fail_msg("check (way %d): %s", way, msg.text);
+    size_t len = 0;
+    assert_int_equal(rto_report_text(&r, o->text, TEXT_CAP, &len), RTO_OK);
+    assert_int_equal(rto_report_json(&r, o->json, TEXT_CAP, &len, NULL), RTO_OK);
+}
+
+static const char *const dists[] = {"random",   "few-unique", "clustered", "sentinel-heavy", "all-equal",
+                                    "sorted",   "reversed",   "one-bucket", "tile-overflow", "entropy-9"};
+static const size_t sizes[] = {1, 2, 3, 255, 256, 257, 4095, 4096, 4097};
+
+static void test_fast_path_agrees_with_full_analysis(void **state)
+{
+    (void)state;
+    static outcome ref, fast;
+    size_t cases = 0, faults = 0, seen[MUT_COUNT] = {0};
+    for (size_t di = 0; di < sizeof dists / sizeof dists[0]; di++)
+        for (size_t zi = 0; zi < sizeof sizes / sizeof sizes[0]; zi++)
+            for (int fi = 0; fi < 2; fi++)
+                for (int padded = 0; padded < 2; padded++)
+                    for (int m = 0; m < MUT_COUNT; m++)
+                        for (int rep = 0; rep < (m == MUT_NONE ? 1 : 3); rep++) {
+                            const uint32_t seed = (uint32_t)(((di * 16 + zi) * 4 + (size_t)(fi * 2 + padded)) * 16 +
+                                                             (size_t)m) * 4 + (uint32_t)rep;
+                            uint64_t rng = seed;
+                            dump dp;
+                            dump_make(&dp, dists[di], fi ? RTO_KEY_U64 : RTO_KEY_U32, sizes[zi], padded, seed);
+                            if (!mutate(&dp, (mutation)m, &rng)) {
+                                dump_free(&dp);
+                                continue;
+                            }
+                            seen[m]++;
+                            /* keys only; values; values and stability */
+                            for (int kind = 0; kind < 3; kind++) {
+                                run(&dp, kind > 0, kind > 1, 0, &ref);
+                                faults += ref.status == RTO_ERR_MISMATCH;
+                                for (int way = 1; way <= 2; way++) {
+                                    run(&dp, kind > 0, kind > 1, way, &fast);
+                                    if (fast.status != ref.status || strcmp(fast.text, ref.text) ||
+                                        strcmp(fast.json, ref.json))
+                                        fail_msg("%s %s n=%zu gn=%zu mutation %s seed %u kind %d way %d: fast "
+                                                 "path\n%s\nfull analysis\n%s",
+                                                 dists[di], fi ? "u64" : "u32", dp.n, dp.gn, mutation_names[m], seed,
+                                                 kind, way, fast.text, ref.text);
+                                }
+                                cases++;
+                            }
+                            dump_free(&dp);
+                        }
+    /* every mutation ran, and most of them were faults */
+    for (int m = 0; m < MUT_COUNT; m++)
+        assert_true(seen[m] > 0);
+    assert_true(faults > cases / 2);
+}
+
+/* expected_keys that are not the input in ascending order are refused, not trusted: unsorted, one key changed, or
+ * the keys of another input. */
+static void test_wrong_expected_keys_refused(void **state)
+{
+    (void)state;
+    for (int fi = 0; fi < 2; fi++) {
+        dump dp;
+        dump_make(&dp, "random", fi ? RTO_KEY_U64 : RTO_KEY_U32, 1000, 0, 5);
+        rto_sort_check_desc d;
+        memset(&d, 0, sizeof d);
+        d.format = dp.f;
+        d.input = dp.input;
+        d.n = dp.n;
+        d.gpu_keys = dp.gpu;
+        d.gpu_n = dp.gn;
+        d.expected_keys = dp.expected;
+        rto_report r;
+        rto_msg msg = {{0}};
+        assert_int_equal(rto_sort_check(&d, &r, &msg), RTO_OK);
+        uint64_t a = tu_get(dp.f, dp.expected, 10), b = tu_get(dp.f, dp.expected, 11);
+        tu_put(dp.f, dp.expected, 10, b); /* out of order */
+        tu_put(dp.f, dp.expected, 11, a);
+        assert_int_equal(rto_sort_check(&d, &r, &msg), RTO_ERR_INVALID_ARGUMENT);
+        assert_non_null(strstr(msg.text, "ascending"));
+        tu_put(dp.f, dp.expected, 10, a);
+        tu_put(dp.f, dp.expected, 11, a); /* ascending, but a key replaced by its neighbour */
+        assert_int_equal(rto_sort_check(&d, &r, NULL), RTO_ERR_INVALID_ARGUMENT);
+        tu_put(dp.f, dp.expected, 11, b);
+        /* the GPU's dump equal to the wrong expectation still fails: the input of another seed */
+        dump other;
+        dump_make(&other, "random", dp.f, 1000, 0, 6);
+        d.expected_keys = other.expected;
+        d.gpu_keys = other.expected;
+        assert_int_equal(rto_sort_check(&d, &r, NULL), RTO_ERR_INVALID_ARGUMENT);
+        d.expected_keys = NULL;
+        assert_int_equal(rto_sort_check(&d, &r, NULL), RTO_ERR_MISMATCH);
+        dump_free(&other);
+        dump_free(&dp);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_fast_path_agrees_with_full_analysis),
+        cmocka_unit_test(test_wrong_expected_keys_refused),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
