@@ -130,6 +130,8 @@ rto_status rto__bundle_add_image(rto_bundle *b, const char *name, const char *ro
                                  rto_status (*write)(const char *path, const rto_image *image, rto_msg *msg),
                                  rto_msg *msg);
 /** The path (malloc'ed, in *path) of the file the manifest lists as name, once its sha256 matches the manifest's. */
+/** dir + "/" + name in new memory (NULL when out of memory); the caller frees it. */
+char *rto__path_join(const char *dir, const char *name);
 rto_status rto__bundle_checked_path(rto_bundle_reader *r, const char *name, char **path, rto_msg *msg);
 
 /* Up-to-date bundles (io/stamp.c). */

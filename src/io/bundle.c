@@ -71,7 +71,7 @@ out:
     return s;
 }
 
-static char *join(const char *dir, const char *name)
+char *rto__path_join(const char *dir, const char *name)
 {
     size_t a = strlen(dir), b = strlen(name);
     char *p = malloc(a + b + 2);
@@ -144,7 +144,7 @@ static rto_status refuse(rto_msg *msg, const char *top, const char *fmt, ...)
 static rto_status load_own_manifest(const char *dir, const char *top, json_t **out, rto_msg *msg)
 {
     *out = NULL;
-    char *path = join(dir, "manifest.json");
+    char *path = rto__path_join(dir, "manifest.json");
     if (!path)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     struct stat st;
@@ -245,7 +245,7 @@ static rto_status scan_bundle(const char *dir, const char *top, int depth, bool 
         if (!strcmp(name, ".") || !strcmp(name, "..") || !strcmp(name, "manifest.json"))
             continue;
         json_t *kind = json_object_get(listed, name); /* NULL also for a name that is not UTF-8 */
-        char *path = join(dir, name);
+        char *path = rto__path_join(dir, name);
         if (!path)
             s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         else if (!kind)
@@ -267,14 +267,14 @@ static rto_status scan_bundle(const char *dir, const char *top, int depth, bool 
         json_t *kind;
         json_object_foreach(listed, name, kind)
         {
-            char *path = join(dir, name);
+            char *path = rto__path_join(dir, name);
             if (path && json_is_true(kind))
                 unlink(path);
             else if (path && lstat(path, &st) == 0)
                 scan_bundle(path, top, depth + 1, true, NULL);
             free(path);
         }
-        char *m = join(dir, "manifest.json");
+        char *m = rto__path_join(dir, "manifest.json");
         if (m)
             unlink(m);
         free(m);
@@ -426,7 +426,7 @@ rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role,
 {
     rto_msg why = {{0}};
     char hex[65], descr[1024];
-    char *path = b && plain_name(name) && role && desc ? join(b->tmpdir, name) : NULL;
+    char *path = b && plain_name(name) && role && desc ? rto__path_join(b->tmpdir, name) : NULL;
     rto_status s = path ? rto__npy_write_hashed(path, desc, data, hex, &why)
                  : b && plain_name(name) && role && desc
                      ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
@@ -456,7 +456,7 @@ rto_status rto__bundle_add_image(rto_bundle *b, const char *name, const char *ro
     rto_msg why = {{0}};
     char hex[65];
     const bool valid = b && plain_name(name) && role && image && write;
-    char *path = valid ? join(b->tmpdir, name) : NULL;
+    char *path = valid ? rto__path_join(b->tmpdir, name) : NULL;
     rto_status s = path    ? write(path, image, &why)
                    : valid ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
                            : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
@@ -483,7 +483,8 @@ rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case
     rto_msg why = {{0}};
     char hex[65];
     bool valid = b && plain_name(name) && case_id;
-    char *dir = valid ? join(b->tmpdir, name) : NULL, *m = dir ? join(dir, "manifest.json") : NULL;
+    char *dir = valid ? rto__path_join(b->tmpdir, name) : NULL;
+    char *m = dir ? rto__path_join(dir, "manifest.json") : NULL;
     rto_status s = m       ? rto_sha256_file(m, hex, &why)
                    : valid ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
                            : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad case '%s'", name ? name : "(null)");
@@ -548,7 +549,7 @@ static rto_status write_manifest(rto_bundle *b, rto_msg *msg)
     char *text = rto_json_text(b->root, JSON_INDENT(2));
     if (!text)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot serialise manifest.json (out of memory)", b->name);
-    char *path = join(b->tmpdir, "manifest.json");
+    char *path = rto__path_join(b->tmpdir, "manifest.json");
     int fd = path ? open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666) : -1;
     FILE *fp = fd >= 0 ? fdopen(fd, "wb") : NULL;
     rto_status s = RTO_OK;
@@ -634,7 +635,7 @@ rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg)
 rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *msg)
 {
     *out = NULL;
-    char *path = dir ? join(dir, "manifest.json") : NULL;
+    char *path = dir ? rto__path_join(dir, "manifest.json") : NULL;
     if (!path)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no bundle directory given");
     json_error_t err;
@@ -720,7 +721,7 @@ static rto_status checked_path(rto_bundle_reader *r, const char *key, const char
             continue;
         if (!plain_name(name) || !sha)
             return rto_fail(msg, RTO_ERR_PARSE, "%s: manifest entry '%s' lacks a plain name or sha256", r->dir, value);
-        char *path = join(r->dir, name);
+        char *path = rto__path_join(r->dir, name);
         char hex[65];
         rto_status s = path ? rto_sha256_file(path, hex, msg) : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         if (!s && strcmp(hex, sha) != 0)

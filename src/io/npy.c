@@ -865,7 +865,9 @@ static size_t build_preamble(const rto_npy_desc *d, unsigned char *out)
     return pre + total;
 }
 
-rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void *data, rto_msg *msg)
+/* What both writers check and build first: the description, the data's size (*nbytes) and the header (pre, *plen). */
+static rto_status npy_prepare(const char *path, const rto_npy_desc *desc, const void *data, unsigned char *pre,
+                              size_t *plen, size_t *nbytes, rto_msg *msg)
 {
     if (!path)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
@@ -881,14 +883,22 @@ rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void 
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "shape %s of %llu-byte elements does not fit in memory", shape,
                         (unsigned long long)item);
     }
-    size_t nbytes = (size_t)(count * item);
-    if (!data && nbytes)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL data for %zu bytes", nbytes);
-
-    unsigned char pre[NPY_HEADER_CAP];
-    size_t plen = build_preamble(desc, pre);
-    if (plen == 0)
+    *nbytes = (size_t)(count * item);
+    if (!data && *nbytes)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL data for %zu bytes", *nbytes);
+    *plen = build_preamble(desc, pre);
+    if (*plen == 0)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "header for '%s' is too long", path);
+    return RTO_OK;
+}
+
+rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void *data, rto_msg *msg)
+{
+    unsigned char pre[NPY_HEADER_CAP];
+    size_t plen = 0, nbytes = 0;
+    rto_status s = npy_prepare(path, desc, data, pre, &plen, &nbytes, msg);
+    if (s != RTO_OK)
+        return s;
 
     /* Atomically through a temporary sibling (io/atomic.c): a reader never sees half a file and a failed write
      * leaves the previous file intact. /dev/null or a FIFO is written through and never unlinked. */
@@ -908,22 +918,13 @@ rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void 
 rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, const void *data, char hex[65],
                                  rto_msg *msg)
 {
-    if (!path || !hex)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
-    rto_status s = check_desc(desc, msg);
+    if (!hex)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hex");
+    unsigned char pre[NPY_HEADER_CAP];
+    size_t plen = 0, nbytes = 0;
+    rto_status s = npy_prepare(path, desc, data, pre, &plen, &nbytes, msg);
     if (s != RTO_OK)
         return s;
-    int ok = 0;
-    uint64_t count = rto_npy_count(desc, &ok), item = rto_npy_itemsize(desc);
-    if (!ok || (item && count > UINT64_MAX / item) || count * item > SIZE_MAX)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%s': shape does not fit in memory", path);
-    size_t nbytes = (size_t)(count * item);
-    if (!data && nbytes)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL data for %zu bytes", nbytes);
-    unsigned char pre[NPY_HEADER_CAP];
-    size_t plen = build_preamble(desc, pre);
-    if (plen == 0)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "header for '%s' is too long", path);
     EVP_MD_CTX *ctx = EVP_MD_CTX_new();
     if (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1) {
         EVP_MD_CTX_free(ctx);

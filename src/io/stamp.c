@@ -216,18 +216,6 @@ typedef struct digest_state {
     char changed[400];
 } digest_state;
 
-static char *path_join(const char *dir, const char *name)
-{
-    size_t a = strlen(dir), b = strlen(name);
-    char *p = malloc(a + b + 2);
-    if (p) {
-        memcpy(p, dir, a);
-        p[a] = '/';
-        memcpy(p + a + 1, name, b + 1);
-    }
-    return p;
-}
-
 static int plain(const char *name)
 {
     return name && *name && !strchr(name, '/') && strcmp(name, ".") && strcmp(name, "..");
@@ -238,7 +226,7 @@ static int digest_dir(const char *dir, int depth, digest_state *ds, char hex[65]
 /* One file's line of the digest; 0 (with ds->changed) when it is missing or not a regular file. */
 static int digest_file(EVP_MD_CTX *ctx, const char *dir, const char *name, digest_state *ds)
 {
-    char *path = plain(name) ? path_join(dir, name) : NULL;
+    char *path = plain(name) ? rto__path_join(dir, name) : NULL;
     struct stat st;
     int ok = path && lstat(path, &st) == 0 && S_ISREG(st.st_mode);
     if (!ok) {
@@ -261,7 +249,7 @@ static int digest_file(EVP_MD_CTX *ctx, const char *dir, const char *name, diges
 /* A suite case's line: its own stamp, checked against its files. */
 static int digest_case(EVP_MD_CTX *ctx, const char *dir, const char *name, int depth, digest_state *ds)
 {
-    char *path = plain(name) ? path_join(dir, name) : NULL;
+    char *path = plain(name) ? rto__path_join(dir, name) : NULL;
     char *text = NULL, hex[65];
     stamp st;
     int ok = 0;
@@ -302,7 +290,7 @@ static int digest_dir(const char *dir, int depth, digest_state *ds, char hex[65]
     int ok = digest_file(ctx, dir, "manifest.json", ds);
     json_t *root = NULL;
     if (ok) {
-        char *m = path_join(dir, "manifest.json");
+        char *m = rto__path_join(dir, "manifest.json");
         json_error_t jerr;
         root = m ? json_load_file(m, JSON_REJECT_DUPLICATES, &jerr) : NULL;
         if (!root) {
