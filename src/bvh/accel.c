@@ -145,10 +145,22 @@ static rto_status build_blas(const rto_mesh *mesh, uint32_t index, rto_accel_bla
         s = rto_fast_radix_sort(RTO_KEY_U64, keys, n, sorted, msg);
     for (size_t j = 0; !s && j < n; j++)
         order[j] = rto_key_prim(RTO_KEY_U64, sorted[j]);
-    if (!s)
-        s = rto_karras_build(RTO_KEY_U64, sorted, n, boxes, nodes, msg);
-    if (!s)
-        b->stats = rto_karras_stats(nodes, n, &b->bounds);
+    if (!s) {
+        rto__karras k;
+        memset(&k, 0, sizeof k);
+        k.f = RTO_KEY_U64;
+        k.keys = sorted;
+        k.n = n;
+        k.boxes = boxes;
+        k.nodes = nodes;
+        s = rto__karras_plan(&k, 1, msg);
+        if (!s) {
+            rto__karras_run(&k, 0, 1);
+            rto__karras_finish(&k);
+            b->stats = rto__karras_stats_depth(nodes, n, &b->bounds, k.depth);
+        }
+        rto__karras_free(&k);
+    }
     free(keys);
     return s;
 }

@@ -78,6 +78,43 @@ rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *inde
  * largest finite magnitude among the bounds' coordinates and the camera position (trace/ray.c). */
 float rto__ray_offset(const rto_aabb *bounds, const rto_camera_uniforms *u);
 
+/* The Karras builder in stages (bvh/karras.c), for a team: plan (one worker), run (every worker, between syncs),
+ * finish (one worker). rto_karras_build runs them with one worker. */
+typedef struct rto__karras_job {
+    uint32_t lo, hi;   /* leaves of the subtree */
+    uint32_t root;     /* its root node */
+    uint32_t parent;   /* the root's parent */
+    uint32_t height;   /* out */
+} rto__karras_job;
+typedef struct rto__karras_top {
+    uint32_t node;
+    int64_t slot[2]; /* per child: -1 leaf, j >= 0 job j, -2 - t top node t */
+    uint32_t height;
+} rto__karras_top;
+typedef struct rto__karras {
+    rto_key_format f;
+    const void *keys;        /* sorted */
+    size_t n;
+    const rto_aabb *boxes;   /* by primitive */
+    rto_bvh_node *nodes;     /* n - 1 */
+    /* filled by plan */
+    uint32_t workers;
+    rto__karras_job *jobs;
+    size_t job_count;
+    rto__karras_top *tops;
+    size_t top_count;
+    uint32_t depth;          /* by finish: the deepest leaf's depth */
+} rto__karras;
+rto_status rto__karras_plan(rto__karras *k, uint32_t workers, rto_msg *msg);
+void rto__karras_run(rto__karras *k, uint32_t worker, uint32_t workers);
+void rto__karras_finish(rto__karras *k);
+void rto__karras_free(rto__karras *k);
+/** The per-node Karras procedure for every node, then boxes bottom-up: the reference the fast builder is tested on. */
+rto_status rto__karras_build_scalar(rto_key_format f, const void *sorted_keys, size_t n, const rto_aabb *prim_boxes,
+                                   rto_bvh_node *nodes, rto_msg *msg);
+/** rto_karras_stats with the depth given (the builder's). */
+rto_bvh_stats rto__karras_stats_depth(const rto_bvh_node *nodes, size_t n, const rto_aabb *root_box, uint32_t depth);
+
 /* Static thread partitioning (core/threads.c, DESIGN.md §2). */
 
 /** Most threads a parallel stage starts. */
@@ -89,6 +126,22 @@ uint32_t rto__thread_count(uint32_t requested);
 /** Splits n items into rto__thread_count(threads) contiguous ranges of equal size (+-1) and runs fn on each in
  * its own thread; returns when all are done. A thread that cannot be created has its range run by the caller. */
 void rto__parallel_ranges(size_t n, uint32_t threads, rto_range_fn fn, void *ctx);
+/** A team of threads for a job of several stages (core/threads.c): fn runs once on every worker, which meet at
+ * rto__team_sync between stages. team is NULL when the team has one worker (then syncs do nothing). */
+typedef struct rto__team rto__team;
+typedef void (*rto_team_fn)(void *ctx, rto__team *team, uint32_t worker, uint32_t workers);
+/** Runs fn on rto__thread_count(threads) workers (fewer if threads cannot be created; worker 0 is the caller) and
+ * returns when all are done. */
+void rto__team_run(uint32_t threads, rto_team_fn fn, void *ctx);
+/** Barrier: returns when every worker of the team has called it (as many times). Memory written before it by one
+ * worker is visible after it to all. */
+void rto__team_sync(rto__team *team);
+/** Item range [begin, end) of worker w of t over n items: [w n / t, (w + 1) n / t). */
+static inline void rto__part(size_t n, uint32_t w, uint32_t t, size_t *begin, size_t *end)
+{
+    *begin = (size_t)((uint64_t)n * w / t);
+    *end = (size_t)((uint64_t)n * (w + 1) / t);
+}
 
 /* Atomic output (io/atomic.c). */
 
