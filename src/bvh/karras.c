@@ -200,6 +200,7 @@ typedef struct open_tree {
  * entries than the tree is deep; and δ grows strictly down every path, from 0 at most to 95 (64 key bits, then 31
  * index bits for equal keys), so no tree is deeper than 97. */
 #define OPEN_MAX 128
+#define PREFETCH 16
 
 /* The sweep over the leaves [job->lo, job->hi] (a subtree: its root is job->root). */
 static inline __attribute__((always_inline)) void sweep(rto_key_format f, const rto__karras *k, rto__karras_job *job,
@@ -215,6 +216,8 @@ static inline __attribute__((always_inline)) void sweep(rto_key_format f, const 
         /* cur: leaf i, then each node it closes; its range is [clo, i]. Kept in scalars (registers): copying the
          * struct through memory stalls on store forwarding. */
         const rto_aabb *b = &k->boxes[rto_key_prim(f, rto_key_get(f, keys, i))];
+        if (i + PREFETCH <= hi) /* leaves visit the boxes in key order, not memory order */
+            __builtin_prefetch(&k->boxes[rto_key_prim(f, rto_key_get(f, keys, i + PREFETCH))]);
         float mn0 = b->min.x, mn1 = b->min.y, mn2 = b->min.z, mx0 = b->max.x, mx1 = b->max.y, mx2 = b->max.z;
         uint32_t ref = RTO_BVH_LEAF_BIT | i, clo = i, h = 0;
         int cdl = dl;
@@ -261,6 +264,8 @@ static inline __attribute__((always_inline)) void sweep(rto_key_format f, const 
             nd->rmax[1] = mx1;
             nd->rmax[2] = mx2;
             nd->pad = 0;
+            if (k->areas) /* rto_karras_stats' term of this node, summed later in index order */
+                k->areas[idx] = rto_box_area(nd->lmin, nd->lmax) + rto_box_area(nd->rmin, nd->rmax);
             if (!(l->ref & RTO_BVH_LEAF_BIT))
                 nodes[l->ref].parent = idx;
             if (!(ref & RTO_BVH_LEAF_BIT))
@@ -405,6 +410,8 @@ void rto__karras_finish(rto__karras *k)
         uint32_t hl, hr;
         top_child(k, t, 0, nd->lmin, nd->lmax, &hl);
         top_child(k, t, 1, nd->rmin, nd->rmax, &hr);
+        if (k->areas)
+            k->areas[t->node] = rto_box_area(nd->lmin, nd->lmax) + rto_box_area(nd->rmin, nd->rmax);
         t->height = 1 + (hl > hr ? hl : hr);
     }
     k->depth = k->top_count ? k->tops[0].height : k->jobs[0].height;
@@ -439,8 +446,9 @@ rto_status rto_karras_build(rto_key_format f, const void *sorted_keys, size_t n,
 }
 
 /* SAH cost as rto_karras_stats sums it (root, then both child boxes of every internal node in index order), with the
- * depth the builder measured. */
-rto_bvh_stats rto__karras_stats_depth(const rto_bvh_node *nodes, size_t n, const rto_aabb *root_box, uint32_t depth)
+ * depth the builder measured and, when areas is not NULL, each node's term as the builder computed it. */
+rto_bvh_stats rto__karras_stats_depth(const rto_bvh_node *nodes, size_t n, const rto_aabb *root_box, uint32_t depth,
+                                      const double *areas)
 {
     rto_bvh_stats st = {0, 0, (uint32_t)n};
     if (n < 2)
@@ -448,8 +456,12 @@ rto_bvh_stats rto__karras_stats_depth(const rto_bvh_node *nodes, size_t n, const
     float rmn[3] = {root_box->min.x, root_box->min.y, root_box->min.z};
     float rmx[3] = {root_box->max.x, root_box->max.y, root_box->max.z};
     double root = rto_box_area(rmn, rmx), sum = root;
-    for (size_t i = 0; i + 1 < n; i++)
-        sum += rto_box_area(nodes[i].lmin, nodes[i].lmax) + rto_box_area(nodes[i].rmin, nodes[i].rmax);
+    if (areas)
+        for (size_t i = 0; i + 1 < n; i++)
+            sum += areas[i];
+    else
+        for (size_t i = 0; i + 1 < n; i++)
+            sum += rto_box_area(nodes[i].lmin, nodes[i].lmax) + rto_box_area(nodes[i].rmin, nodes[i].rmax);
     st.depth = depth;
     st.sah = root > 0 ? sum / root : 0;
     return st;
