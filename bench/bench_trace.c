@@ -170,7 +170,7 @@ static void bench_stress(void)
         rto_msg msg = {{0}};
         rto_scene *s = NULL;
         rto_accel *acc[2] = {NULL, NULL};
-        const rto_accel_desc kinds[2] = {{RTO_TLAS_SWEEP}, {RTO_TLAS_KARRAS}};
+        const rto_accel_desc kinds[2] = {{RTO_TLAS_SWEEP, 0}, {RTO_TLAS_KARRAS, 0}};
         if (rto_scene_load(spec, &s, &msg) || rto_accel_build(s, &kinds[0], &acc[0], &msg) ||
             rto_accel_build(s, &kinds[1], &acc[1], &msg))
             die(spec, &msg);

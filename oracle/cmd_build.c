@@ -8,7 +8,7 @@
 #include <string.h>
 
 static const char build_usage[] =
-    "usage: rtoracle build SCENE [--tlas sweep|karras] [--texture-budget MB] [--force] -o OUTDIR\n\n"
+    "usage: rtoracle build SCENE [--tlas sweep|karras] [--texture-budget MB] [--threads N] [--force] -o OUTDIR\n\n"
     "SCENE is a .gltf / .glb path or a procedural scene: triangle, rtstress:N (1..40),\n"
     "instances:DIST:N (N boxes around the centroids of a centroid distribution, N <= 65536),\n"
     "sphere:L[:SEED] (a closed icosphere, L 0..7), random:SEED (rtoracle info --help lists them).\n"
@@ -23,7 +23,7 @@ static const char build_usage[] =
     "                           leaf, blas_M_nodes.npy: BlasNode (triangles - 1), blas_M_prim_aabbs.npy\n"
     "  manifest.json            counts, depth and SAH cost of every tree\n"
     "An OUTDIR that already holds this very bundle (same inputs, options and rtoracle build, no file changed\n"
-    "since) is left as it is, in one line; --force writes it again.\n";
+    "since) is left as it is, in one line; --force writes it again. The bytes do not depend on --threads.\n";
 
 /* --tlas: the sweep tree (the seeds' implicit heap) or a Karras tree. */
 static const opt_name tlas_names[] = {{"sweep", 0}, {"karras", 1}, {NULL, 0}};
@@ -32,13 +32,14 @@ int cmd_build(int argc, char **argv)
 {
     const char *out = NULL;
     unsigned karras = 0;
-    uint64_t budget_mb = 0;
+    uint64_t budget_mb = 0, threads = 0;
     bool force = false;
     const opt_spec opts[] = {
         OPT_ENUM("tlas", &karras, tlas_names, "T", "TLAS layout", "sweep, the seeds' implicit tree"),
         OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
                  "decoded texture memory (RGBA8, MiB) the scene may take", "256"),
         OPT_FLAG("force", &force, "write the bundle even when OUTDIR is up to date"),
+        OPT_UINT("threads", &threads, 0, 256, "N", "threads (0: one per CPU); the output is the same", "0"),
         OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
         OPT_END,
     };
@@ -50,7 +51,7 @@ int cmd_build(int argc, char **argv)
     static const char *const required[] = {"output", NULL};
     if ((rc = opts_require(&cmd, &args, required)))
         return rc;
-    static const char *const not_inputs[] = {"output", "force", NULL};
+    static const char *const not_inputs[] = {"output", "force", "threads", NULL};
     char *request = opts_request(&cmd, &args, not_inputs);
     if (cli_up_to_date("build", out, request, force)) {
         free(request);
@@ -68,7 +69,7 @@ int cmd_build(int argc, char **argv)
     }
     for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
         fprintf(stderr, "rtoracle build: warning: %s\n", sc->warnings[w]);
-    rto_accel_desc desc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+    rto_accel_desc desc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, (uint32_t)threads};
     rto_accel *acc = NULL;
     s = rto_accel_build(sc, &desc, &acc, &msg);
     rto_report r;

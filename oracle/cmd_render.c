@@ -216,7 +216,7 @@ int cmd_render(int argc, char **argv)
             free(request);
             return EXIT_BAD_INPUT;
         }
-        rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+        rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, (uint32_t)threads};
         rto_report r;
         s = rto_accel_build(sc, &adesc, &acc, &msg);
         if (!s && (s = rto_accel_check(acc, &r, &msg)) == RTO_ERR_MISMATCH) {

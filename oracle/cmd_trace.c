@@ -186,7 +186,7 @@ int cmd_trace(int argc, char **argv)
         rto_scene_destroy(sc);
         return EXIT_BAD_INPUT;
     }
-    rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+    rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, (uint32_t)threads};
     rto_accel *acc = NULL;
     rto_wf_ray *rays = NULL;
     rto_hit_record *hits = NULL;

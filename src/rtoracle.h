@@ -26,7 +26,7 @@
  *     rto_msg msg = {{0}};
  *     rto_scene *scene = NULL;
  *     rto_accel *accel = NULL;
- *     rto_accel_desc desc = {RTO_TLAS_SWEEP};                     // zero-initialised = the defaults
+ *     rto_accel_desc desc = {RTO_TLAS_SWEEP, 0};                  // zero-initialised = the defaults
  *     if (rto_scene_load("bunny.gltf", &scene, &msg) || rto_accel_build(scene, &desc, &accel, &msg))
  *         fprintf(stderr, "%s\n", msg.text);                      // ... and stop
  *     const rto_accel_tlas *tlas = rto_accel_get_tlas(accel);     // tlas->sweep_nodes[0 .. tlas->node_count - 1]
@@ -1031,6 +1031,8 @@ typedef enum rto_tlas_kind {
 /** How to build. Zero-initialised (or a NULL pointer) means the defaults. */
 typedef struct rto_accel_desc {
     rto_tlas_kind tlas; /* default RTO_TLAS_SWEEP */
+    uint32_t threads;   /* 0: one per online CPU. Work is split statically (many BLAS at once, and each big BLAS in
+                         * ranges), so the output bytes do not depend on the thread count. */
 } rto_accel_desc;
 
 typedef struct rto_accel rto_accel;

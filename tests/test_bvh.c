@@ -2,8 +2,10 @@
  * brute-force unions, qsort), the acceleration-structure object against the step-by-step pipeline with the canonical
  * network, empty meshes, and mutation tests for the tree validators. */
 #include "testutil.h"
+#include "core/internal.h" /* rto__karras_build_scalar, the kept per-node builder */
 
 #include <math.h>
+#include <unistd.h>
 
 /* Boxes of half-size h around the centroids of a centroid distribution. */
 static rto_aabb *make_boxes(const char *dist, size_t n, float h, uint32_t seed)
@@ -191,9 +193,17 @@ static void expect_bvh(rto_status s, const rto_report *r, rto_bvh_fault f, int64
 static void check_karras(rto_key_format f, const void *sorted, size_t n, const rto_aabb *boxes, const char *what)
 {
     rto_bvh_node *nodes = malloc((n ? n : 1) * sizeof *nodes), *ref = calloc(n ? n : 1, sizeof *ref);
+    rto_bvh_node *scalar = malloc((n ? n : 1) * sizeof *scalar);
     rto_msg msg = {{0}};
     if (rto_karras_build(f, sorted, n, boxes, nodes, &msg))
         fail_msg("%s: %s", what, msg.text);
+    /* every byte (links, parents, boxes, padding) as the kept per-node builder writes it */
+    if (rto__karras_build_scalar(f, sorted, n, boxes, scalar, &msg))
+        fail_msg("%s: scalar: %s", what, msg.text);
+    for (size_t i = 0; i + 1 < n; i++)
+        if (memcmp(&nodes[i], &scalar[i], sizeof *nodes))
+            fail_msg("%s n=%zu: node %zu differs from the per-node builder's", what, n, i);
+    free(scalar);
     if (n >= 2) {
         reference_tree(f, sorted, 0, (uint32_t)n - 1, 0, ref);
         for (size_t i = 0; i + 1 < n; i++)
@@ -820,7 +830,7 @@ static void reference_tlas(const rto_scene *sc, rto_tlas_kind kind, const rto_ac
         free(nodes);
     } else {
         rto_bvh_node *nodes = malloc((n ? n : 1) * sizeof *nodes);
-        assert_int_equal(rto_karras_build(RTO_KEY_U32, sorted, n, boxes, nodes, NULL), RTO_OK);
+        assert_int_equal(rto__karras_build_scalar(RTO_KEY_U32, sorted, n, boxes, nodes, NULL), RTO_OK);
         assert_int_equal(t->node_count, n >= 2 ? n - 1 : 0);
         assert_null(t->sweep_nodes);
         if (memcmp(t->karras_nodes, nodes, t->node_count * sizeof *nodes))
@@ -846,7 +856,7 @@ static void reference_blas(const rto_mesh *mesh, const rto_accel_blas *b, const 
     assert_int_equal(rto_bitonic_sort(RTO_KEY_U64, bk, t, bs, NULL, NULL, NULL), RTO_OK);
     for (size_t j = 0; j < t; j++)
         order[j] = (uint32_t)bs[j]; /* the low word of a BLAS key is the triangle */
-    assert_int_equal(rto_karras_build(RTO_KEY_U64, bs, t, tb, bn, NULL), RTO_OK);
+    assert_int_equal(rto__karras_build_scalar(RTO_KEY_U64, bs, t, tb, bn, NULL), RTO_OK);
     assert_int_equal(b->triangle_count, t);
     assert_int_equal(b->node_count, t >= 2 ? t - 1 : 0);
     rto_aabb bounds = rto_mesh_aabb(mesh); /* the accel takes it as the union of the triangle boxes */
@@ -855,6 +865,11 @@ static void reference_blas(const rto_mesh *mesh, const rto_accel_blas *b, const 
     if (memcmp(b->sorted_keys, bs, t * 8) || memcmp(b->order, order, t * 4) || memcmp(b->prim_aabbs, tb, t * sizeof *tb) ||
         memcmp(b->nodes, bn, b->node_count * sizeof *bn))
         fail_msg("%s BLAS %u: differs from the step-by-step pipeline", spec, b->mesh);
+    /* statistics as rto_karras_stats computes them from the finished tree (a walk from the root for the depth) */
+    const rto_bvh_stats st = rto_karras_stats(bn, t, &bounds);
+    if (b->stats.depth != st.depth || b->stats.leaves != st.leaves || memcmp(&b->stats.sah, &st.sah, sizeof st.sah))
+        fail_msg("%s BLAS %u: stats depth %u sah %.17g, rto_karras_stats %u %.17g", spec, b->mesh, b->stats.depth,
+                 b->stats.sah, st.depth, st.sah);
     free(bk);
     free(bs);
     free(tb);
@@ -872,7 +887,7 @@ static void check_scene_trees(const char *spec)
     if (rto_scene_load(spec, &sc, &msg))
         fail_msg("%s: %s", spec, msg.text);
     for (int kind = 0; kind < 2; kind++) {
-        rto_accel_desc desc = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+        rto_accel_desc desc = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, 0};
         rto_accel *acc = NULL;
         if (rto_accel_build(sc, &desc, &acc, &msg))
             fail_msg("%s: %s", spec, msg.text);
@@ -940,6 +955,168 @@ static void test_fixture_trees(void **state)
     }
 }
 
+/* The same bytes with any thread count (DESIGN.md §2): every array and statistic of every tree, built with 1 thread
+ * and with several (big meshes split among the team, small ones one per worker). */
+/* Field by field: the struct has padding. */
+static int same_stats(const rto_bvh_stats *a, const rto_bvh_stats *b)
+{
+    return a->depth == b->depth && a->leaves == b->leaves && !memcmp(&a->sah, &b->sah, sizeof a->sah);
+}
+
+static void expect_same_accel(const rto_accel *x, const rto_accel *y, const char *spec, uint32_t threads)
+{
+    const rto_accel_tlas *a = rto_accel_get_tlas(x), *b = rto_accel_get_tlas(y);
+    if (a->kind != b->kind || a->instance_count != b->instance_count || a->key_count != b->key_count ||
+        a->n_padded != b->n_padded || a->node_count != b->node_count ||
+        memcmp(a->instance_aabbs, b->instance_aabbs, a->instance_count * sizeof(rto_aabb)) ||
+        memcmp(a->keys, b->keys, a->key_count * 4u) || memcmp(a->sorted_keys, b->sorted_keys, a->n_padded * 4u) ||
+        (a->sweep_nodes && memcmp(a->sweep_nodes, b->sweep_nodes, a->node_count * sizeof(rto_tlas_node))) ||
+        (a->karras_nodes && memcmp(a->karras_nodes, b->karras_nodes, a->node_count * sizeof(rto_bvh_node))) ||
+        !same_stats(&a->stats, &b->stats))
+        fail_msg("%s: the TLAS with %u threads differs from the one with 1", spec, threads);
+    assert_int_equal(rto_accel_blas_count(x), rto_accel_blas_count(y));
+    for (uint32_t m = 0; m < rto_accel_blas_count(x); m++) {
+        const rto_accel_blas *p = rto_accel_get_blas(x, m), *q = rto_accel_get_blas(y, m);
+        const size_t t = p->triangle_count;
+        if (p->triangle_count != q->triangle_count || p->node_count != q->node_count ||
+            memcmp(&p->bounds, &q->bounds, sizeof p->bounds) || memcmp(p->sorted_keys, q->sorted_keys, t * 8) ||
+            memcmp(p->order, q->order, t * 4) || memcmp(p->prim_aabbs, q->prim_aabbs, t * sizeof(rto_aabb)) ||
+            memcmp(p->nodes, q->nodes, p->node_count * sizeof(rto_bvh_node)) ||
+            !same_stats(&p->stats, &q->stats))
+            fail_msg("%s: BLAS %u with %u threads differs from the one with 1", spec, m, threads);
+    }
+}
+
+static void check_threads(const rto_scene *sc, const char *spec)
+{
+    static const uint32_t threads[] = {2, 3, 8, 33};
+    for (int kind = 0; kind < 2; kind++) {
+        rto_accel_desc one = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, 1};
+        rto_accel *ref = NULL;
+        rto_msg msg = {{0}};
+        if (rto_accel_build(sc, &one, &ref, &msg))
+            fail_msg("%s: %s", spec, msg.text);
+        for (size_t i = 0; i < sizeof threads / sizeof threads[0]; i++) {
+            rto_accel_desc d = one;
+            d.threads = threads[i];
+            rto_accel *acc = NULL;
+            if (rto_accel_build(sc, &d, &acc, &msg))
+                fail_msg("%s, %u threads: %s", spec, threads[i], msg.text);
+            expect_same_accel(ref, acc, spec, threads[i]);
+            rto_accel_destroy(acc);
+        }
+        rto_accel_destroy(ref);
+    }
+}
+
+static void check_threads_spec(const char *spec)
+{
+    rto_scene *sc = NULL;
+    rto_msg msg = {{0}};
+    if (rto_scene_load(spec, &sc, &msg))
+        fail_msg("%s: %s", spec, msg.text);
+    check_threads(sc, spec);
+    rto_scene_destroy(sc);
+}
+
+static void test_accel_bytes_do_not_depend_on_threads(void **state)
+{
+    (void)state;
+    char path[1024];
+    const char *fix = getenv("RTO_FIXTURES");
+    if (!fix)
+        fail_msg("RTO_FIXTURES is not set (meson sets it to fixtures/)");
+    snprintf(path, sizeof path, "%s/StanfordBunny/bunny.gltf", fix); /* one big mesh: built by the whole team */
+    check_threads_spec(path);
+    const char *models = getenv("RTO_ASSIMP_MODELS"); /* 34 meshes: one worker each */
+    if (models) {
+        snprintf(path, sizeof path, "%s/2CylinderEngine-glTF-Binary/2CylinderEngine.glb", models);
+        if (access(path, R_OK) == 0)
+            check_threads_spec(path);
+    }
+    check_threads_spec("rtstress:4");
+    check_threads_spec("instances:clustered:4097");
+    check_threads_spec("instances:uniform:65536");
+    check_threads_spec("triangle"); /* one triangle */
+    /* an empty mesh beside a non-empty one, its instances unkeyed; and a scene with nothing at all */
+    rto_scene empty;
+    memset(&empty, 0, sizeof empty);
+    check_threads(&empty, "no meshes");
+    rto_mesh none;
+    memset(&none, 0, sizeof none);
+    snprintf(none.name, sizeof none.name, "empty");
+    none.material = -1;
+    rto_instance inst;
+    memset(&inst, 0, sizeof inst);
+    const double m[3][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+    assert_int_equal(rto_instance_set_transform(&inst, m, NULL), RTO_OK);
+    inst.mask = 0xFF;
+    empty.meshes = &none;
+    empty.mesh_count = 1;
+    empty.instances = &inst;
+    empty.instance_count = 1;
+    check_threads(&empty, "one empty mesh");
+}
+
+/* The Karras builder's subtrees (several workers) on key sets of every distribution, duplicates included: the same
+ * bytes as the kept per-node builder. */
+static void test_karras_team_matches_scalar(void **state)
+{
+    (void)state;
+    const size_t ns[] = {2, 3, 1000, 4097, 30000};
+    for (size_t d = 0; d < rto_dist_count(); d++) {
+        const rto_dist_info *di = rto_dist_at(d);
+        if (di->kind != RTO_DIST_CENTROID)
+            continue;
+        for (size_t z = 0; z < sizeof ns / sizeof ns[0]; z++) {
+            const size_t n = ns[z];
+            rto_aabb *boxes = make_boxes(di->name, n, 1e-4f, 9);
+            rto_vec3 *c = malloc(n * sizeof *c);
+            uint64_t *keys = malloc(n * 8), *sorted = malloc(n * 8);
+            for (size_t i = 0; i < n; i++)
+                c[i] = rto_aabb_centroid(&boxes[i]);
+            assert_int_equal(rto_blas_keys(c, n, keys, NULL), RTO_OK);
+            assert_int_equal(rto_fast_radix_sort(RTO_KEY_U64, keys, n, sorted, NULL), RTO_OK);
+            /* and the same keys with their index dropped: duplicates fall back to the index prefix */
+            for (int dup = 0; dup < 2; dup++) {
+                if (dup)
+                    for (size_t i = 0; i < n; i++)
+                        sorted[i] &= ~(uint64_t)0xFFFFFFFFu;
+                rto_bvh_node *want = malloc(n * sizeof *want), *got = malloc(n * sizeof *got);
+                assert_int_equal(rto__karras_build_scalar(RTO_KEY_U64, sorted, n, boxes, want, NULL), RTO_OK);
+                const rto_bvh_stats st = rto_karras_stats(want, n, &boxes[0]);
+                for (uint32_t workers = 1; workers <= 16; workers *= 2) {
+                    memset(got, 0xA5, n * sizeof *got);
+                    rto__karras k;
+                    memset(&k, 0, sizeof k);
+                    k.f = RTO_KEY_U64;
+                    k.keys = sorted;
+                    k.n = n;
+                    k.boxes = boxes;
+                    k.nodes = got;
+                    assert_int_equal(rto__karras_plan(&k, workers, NULL), RTO_OK);
+                    for (uint32_t w = workers; w-- > 0;) /* any order: the workers share nothing they write */
+                        rto__karras_run(&k, w, workers);
+                    rto__karras_finish(&k);
+                    if (memcmp(got, want, (n - 1) * sizeof *got))
+                        fail_msg("%s n=%zu dup=%d workers=%u: nodes differ from the per-node builder's", di->name, n,
+                                 dup, workers);
+                    if (k.depth != st.depth)
+                        fail_msg("%s n=%zu dup=%d workers=%u: depth %u, rto_karras_stats %u", di->name, n, dup,
+                                 workers, k.depth, st.depth);
+                    rto__karras_free(&k);
+                }
+                free(want);
+                free(got);
+            }
+            free(boxes);
+            free(c);
+            free(keys);
+            free(sorted);
+        }
+    }
+}
+
 /* ------------------------------------------------------------------------------------------------------------------ */
 /* Empty meshes (DESIGN.md §5): an empty BLAS, and no TLAS key or leaf for its instances                              */
 
@@ -990,7 +1167,7 @@ static void test_empty_mesh_builds_an_empty_blas(void **state)
     hand_scene h;
     hand_scene_make(&h, blas, off, 4);
     for (int kind = 0; kind < 2; kind++) {
-        rto_accel_desc desc = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+        rto_accel_desc desc = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, 0};
         rto_accel *acc = NULL;
         rto_msg msg = {{0}};
         if (rto_accel_build(&h.sc, &desc, &acc, &msg))
@@ -1038,7 +1215,7 @@ static void test_empty_mesh_builds_an_empty_blas(void **state)
     const uint32_t blas2[] = {1, 1};
     hand_scene_make(&h, blas2, off, 2);
     for (int kind = 0; kind < 2; kind++) {
-        rto_accel_desc desc = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP};
+        rto_accel_desc desc = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, 0};
         rto_accel *acc = NULL;
         assert_int_equal(rto_accel_build(&h.sc, &desc, &acc, NULL), RTO_OK);
         const rto_accel_tlas *t = rto_accel_get_tlas(acc);
@@ -1121,7 +1298,7 @@ static void test_accel_contract(void **state)
     rto_scene *sc = NULL;
     assert_int_equal(rto_scene_load("rtstress:3", &sc, &msg), RTO_OK);
     assert_int_equal(rto_accel_build(sc, NULL, NULL, &msg), RTO_ERR_INVALID_ARGUMENT);
-    rto_accel_desc bad = {(rto_tlas_kind)7};
+    rto_accel_desc bad = {(rto_tlas_kind)7, 0};
     assert_int_equal(rto_accel_build(sc, &bad, &acc, &msg), RTO_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(msg.text, "TLAS kind"));
     /* NULL and a zero-initialised description both mean the sweep TLAS, with identical bytes */
@@ -1224,6 +1401,8 @@ int main(void)
         cmocka_unit_test(test_leaf_order_permutation),
         cmocka_unit_test(test_procedural_scene_trees),
         cmocka_unit_test(test_fixture_trees),
+        cmocka_unit_test(test_accel_bytes_do_not_depend_on_threads),
+        cmocka_unit_test(test_karras_team_matches_scalar),
         cmocka_unit_test(test_empty_mesh_builds_an_empty_blas),
         cmocka_unit_test(test_tlas_keys_skip_empty_boxes),
         cmocka_unit_test(test_accel_contract),

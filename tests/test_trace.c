@@ -23,7 +23,7 @@ static rto_wf_ray make_ray(const float o[3], const float d[3], uint32_t flags)
 
 static rto_accel *build(const rto_scene *s, rto_tlas_kind kind)
 {
-    rto_accel_desc d = {kind};
+    rto_accel_desc d = {kind, 0};
     rto_accel *a = NULL;
     rto_msg msg = {{0}};
     if (rto_accel_build(s, &d, &a, &msg))

@@ -3,8 +3,8 @@
  *   meshes     triangle boxes (their union: the mesh's bounds) -> BLAS keys -> radix sort -> leaf order -> Karras
  *   instances  world boxes (the mesh's bounds through objToWorld) -> TLAS keys of the non-empty ones -> radix sort
  *              -> sweep or Karras tree
- * The sorts are rto_fast_radix_sort: real keys are unique, so any correct sort gives the canonical network's bytes
- * (§4). An instance of an empty BLAS has an empty world box and gets no key and no leaf; an empty mesh gets an
+ * The sorts are rto_fast_radix_sort's (run by a team): real keys are unique, so any correct sort gives the canonical
+ * network's bytes (§4). The stages run on threads with static partitions (below; docs/bvh.md "Building"). An instance of an empty BLAS has an empty world box and gets no key and no leaf; an empty mesh gets an
  * empty BLAS (§5). Building validates nothing beyond its inputs; rto_accel_check runs the tree validators. */
 #include "internal.h"
 
@@ -54,103 +54,325 @@ static rto_aabb union_box(rto_aabb a, rto_aabb b)
     return a;
 }
 
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* The build: one team of threads for the whole accel (DESIGN.md §2: static partitions, bytes independent of the    */
+/* thread count). Meshes of fewer than BIG_PER_WORKER triangles per worker are built whole by one worker each,       */
+/* assigned before any work starts (largest first, each to the least loaded worker); bigger ones by the whole team,  */
+/* one after the other, every stage split into static ranges: triangle boxes and keys, the radix sort, the leaf      */
+/* order, the Karras subtrees. Then the TLAS: instance boxes in ranges, keys (worker 0), the team's sort, the tree.  */
+
+#define BIG_PER_WORKER 8192u
+#define SOLO UINT32_MAX
+
+typedef struct blas_work {
+    const rto_mesh *mesh;
+    rto_accel_blas *b;
+    size_t n;
+    rto_aabb *boxes;
+    uint64_t *keys, *sorted, *tmp;
+    uint32_t *order;
+    rto_bvh_node *nodes;
+    rto__karras k;
+    rto_status status; /* RTO_ERR_INVALID_ARGUMENT: keys refused (the message is made again afterwards) */
+} blas_work;
+
+typedef struct build_ctx {
+    rto_accel *a;
+    const rto_scene *scene;
+    rto_tlas_kind kind;
+    blas_work *work;
+    uint32_t max_workers;
+    /* scratch for max_workers workers */
+    rto__key_part *parts;
+    uint32_t *hist, *first;
+    uint64_t *diff;
+    uint8_t *ordered;
+    uint64_t *load;
+    uint32_t *owner; /* per mesh: its worker, or SOLO for the team */
+    uint64_t *by_size;
+    /* the TLAS */
+    rto_aabb *blas_bounds;
+    uint32_t *tlas_tmp;
+    rto__karras tk;
+    rto_status tlas_status;
+    rto_msg tlas_msg;
+} build_ctx;
+
 static rto_status oom(rto_msg *msg) { return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory"); }
 
-static rto_status build_tlas(rto_accel *a, rto_tlas_kind kind, rto_msg *msg)
+/* Radix scratch of worker slot w (a worker building alone) or of the whole team (w = 0). */
+static rto__radix_team radix_of(const build_ctx *c, rto_key_format f, const void *in, size_t n, void *out, void *tmp,
+                                uint32_t w)
 {
-    const rto_scene *sc = a->scene;
-    rto_accel_tlas *t = &a->tlas;
+    rto__radix_team r = {f, in, n, out, tmp, c->hist + rto__radix_team_hist_words(w), c->first + (size_t)w * 2048u,
+                         c->diff + w, c->ordered + w};
+    return r;
+}
+
+/* One BLAS by worker w of t (team NULL: alone, with scratch slot `slot`). Every worker of a team calls it and
+ * reaches the same syncs; a refusal is seen by all from shared data, so all return together. */
+static void blas_stages(build_ctx *c, blas_work *W, rto__team *team, uint32_t w, uint32_t t, uint32_t slot)
+{
+    const size_t n = W->n;
+    size_t b, e;
+    rto__part(n, w, t, &b, &e);
+    /* The centroids (3 floats a triangle) live in the sort's output and scratch arrays until the keys are made. */
+    float *const cent[3] = {(float *)W->tmp, (float *)W->tmp + n, (float *)W->sorted};
+    rto__key_part all;
+    rto__blas_boxes_part(W->mesh, b, e, W->boxes, cent, &all);
+    if (team) {
+        c->parts[w] = all;
+        rto__team_sync(team);
+        rto__key_part_init(&all);
+        for (uint32_t v = 0; v < t; v++)
+            rto__key_part_merge(&all, &c->parts[v]);
+    }
+    if (!rto__key_bounds_ok(&all, n)) {
+        if (w == 0)
+            W->status = RTO_ERR_INVALID_ARGUMENT;
+        return;
+    }
+    if (w == 0)
+        W->b->bounds = all.u;
+    rto__blas_keys_part(cent, b, e, &all, W->keys);
+    rto__team_sync(team);
+    rto__radix_team r = radix_of(c, RTO_KEY_U64, W->keys, n, W->sorted, W->tmp, slot);
+    rto__radix_team_sort(&r, team, w, t);
+    for (size_t j = b; j < e; j++)
+        W->order[j] = (uint32_t)W->sorted[j];
+    if (w == 0) {
+        memset(&W->k, 0, sizeof W->k);
+        W->k.f = RTO_KEY_U64;
+        W->k.keys = W->sorted;
+        W->k.n = n;
+        W->k.boxes = W->boxes;
+        W->k.nodes = W->nodes;
+        W->k.areas = NULL;
+        W->status = rto__karras_plan(&W->k, t, NULL);
+    }
+    rto__team_sync(team);
+    if (W->status)
+        return;
+    rto__karras_run(&W->k, w, t);
+    rto__team_sync(team);
+    if (w == 0) {
+        rto__karras_finish(&W->k);
+        W->b->stats = rto__karras_stats_depth(W->nodes, n, &W->b->bounds, W->k.depth, W->k.areas);
+        rto__karras_free(&W->k);
+    }
+}
+
+/* Which worker builds which mesh, fixed before any work: meshes of at least BIG_PER_WORKER * t triangles go to the
+ * team (SOLO); the others, largest first (then by index), each to the worker with the fewest triangles so far (then
+ * the lowest). */
+static int cmp_u64(const void *x, const void *y)
+{
+    const uint64_t i = *(const uint64_t *)x, j = *(const uint64_t *)y;
+    return (i > j) - (i < j);
+}
+
+static void assign_meshes(build_ctx *c, uint32_t t)
+{
+    const uint32_t mc = c->a->blas_count;
+    /* (UINT32_MAX - triangles) << 32 | mesh: ascending is largest first, then by index */
+    for (uint32_t m = 0; m < mc; m++)
+        c->by_size[m] = ((uint64_t)(UINT32_MAX - c->work[m].b->triangle_count) << 32) | m;
+    qsort(c->by_size, mc, sizeof *c->by_size, cmp_u64);
+    for (uint32_t v = 0; v < t; v++)
+        c->load[v] = 0;
+    for (uint32_t k = 0; k < mc; k++) {
+        const uint32_t m = (uint32_t)c->by_size[k];
+        if (t > 1 && c->work[m].n >= (size_t)BIG_PER_WORKER * t) {
+            c->owner[m] = SOLO;
+            continue;
+        }
+        uint32_t best = 0;
+        for (uint32_t v = 1; v < t; v++)
+            if (c->load[v] < c->load[best])
+                best = v;
+        c->owner[m] = best;
+        c->load[best] += c->work[m].n + 1;
+    }
+}
+
+static void tlas_stages(build_ctx *c, rto__team *team, uint32_t w, uint32_t t)
+{
+    rto_accel *a = c->a;
+    const rto_scene *sc = c->scene;
+    rto_accel_tlas *tl = &a->tlas;
     const size_t n = sc->instance_count;
-    t->kind = kind;
-    t->instance_count = sc->instance_count;
-    rto_aabb *boxes = rto_alloc(n, sizeof *boxes);
-    uint32_t *keys = rto_alloc(n, sizeof *keys);
-    t->instance_aabbs = boxes;
-    t->keys = keys;
-    if (!boxes || !keys)
-        return oom(msg);
+    rto_aabb *boxes = (rto_aabb *)(uintptr_t)tl->instance_aabbs;
+    uint32_t *keys = (uint32_t *)(uintptr_t)tl->keys, *sorted = (uint32_t *)(uintptr_t)tl->sorted_keys;
     /* The mesh's box through objToWorld, as rto_instance_aabb computes it, but with the mesh's box taken from its
      * BLAS instead of a scan of the mesh per instance. */
-    for (size_t i = 0; i < n; i++)
-        boxes[i] = rto_aabb_transform(&sc->instances[i].obj_to_world, &a->blas[sc->instances[i].blas].bounds);
-    size_t m = 0;
-    rto_status s = rto_tlas_keys_from_boxes(boxes, n, keys, &m, msg);
-    if (s)
-        return s;
-    const size_t np = rto_next_pow2(m);
-    t->key_count = (uint32_t)m;
-    t->n_padded = (uint32_t)np;
-    uint32_t *sorted = rto_alloc(np, sizeof *sorted);
-    t->sorted_keys = sorted;
-    if (!sorted)
-        return oom(msg);
-    s = rto_fast_radix_sort(RTO_KEY_U32, keys, m, sorted, msg);
-    if (s)
-        return s;
-    for (size_t j = m; j < np; j++)
-        sorted[j] = RTO_SENTINEL_U32;
-    if (kind == RTO_TLAS_SWEEP) {
-        t->node_count = rto_tlas_sweep_node_count(m);
-        rto_tlas_node *nodes = rto_alloc(t->node_count, sizeof *nodes);
-        t->sweep_nodes = nodes;
-        if (!nodes)
-            return oom(msg);
-        s = rto_tlas_build_sweep(sorted, m, boxes, nodes, msg);
-        if (!s)
-            t->stats = rto_tlas_stats(nodes, m);
-    } else {
-        t->node_count = m >= 2 ? m - 1 : 0;
-        rto_bvh_node *nodes = rto_alloc(t->node_count, sizeof *nodes);
-        t->karras_nodes = nodes;
-        if (!nodes)
-            return oom(msg);
-        s = rto_karras_build(RTO_KEY_U32, sorted, m, boxes, nodes, msg);
+    size_t b, e;
+    rto__part(n, w, t, &b, &e);
+    rto__instance_boxes_part(sc->instances, c->blas_bounds, b, e, boxes);
+    rto__team_sync(team);
+    if (w == 0) {
+        size_t m = 0;
+        c->tlas_status = rto_tlas_keys_from_boxes(boxes, n, keys, &m, &c->tlas_msg);
+        tl->key_count = (uint32_t)m;
+        tl->n_padded = (uint32_t)rto_next_pow2(m);
+    }
+    rto__team_sync(team);
+    if (c->tlas_status)
+        return;
+    const size_t m = tl->key_count, np = tl->n_padded;
+    rto__radix_team r = radix_of(c, RTO_KEY_U32, keys, m, sorted, c->tlas_tmp, 0);
+    rto__radix_team_sort(&r, team, w, t);
+    if (w == 0)
+        for (size_t j = m; j < np; j++)
+            sorted[j] = RTO_SENTINEL_U32;
+    if (tl->kind == RTO_TLAS_SWEEP) {
+        if (w == 0) {
+            tl->node_count = rto_tlas_sweep_node_count(m);
+            rto_tlas_node *nodes = (rto_tlas_node *)(uintptr_t)tl->sweep_nodes;
+            c->tlas_status = rto_tlas_build_sweep(sorted, m, boxes, nodes, &c->tlas_msg);
+            if (!c->tlas_status)
+                tl->stats = rto_tlas_stats(nodes, m);
+        }
+        return;
+    }
+    rto_bvh_node *nodes = (rto_bvh_node *)(uintptr_t)tl->karras_nodes;
+    if (w == 0) {
+        tl->node_count = m >= 2 ? m - 1 : 0;
+        memset(&c->tk, 0, sizeof c->tk);
+        c->tk.f = RTO_KEY_U32;
+        c->tk.keys = sorted;
+        c->tk.n = m;
+        c->tk.boxes = boxes;
+        c->tk.nodes = nodes;
+        c->tlas_status = rto__karras_plan(&c->tk, t, &c->tlas_msg);
+    }
+    rto__team_sync(team);
+    if (c->tlas_status)
+        return;
+    rto__karras_run(&c->tk, w, t);
+    rto__team_sync(team);
+    if (w == 0) {
+        rto__karras_finish(&c->tk);
         /* The root box of the statistics: the union of the keyed instances' boxes (rto_scene_aabb's value). */
         rto_aabb root = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
         for (size_t i = 0; i < n; i++)
             if (!rto_aabb_is_empty(&boxes[i]))
                 root = union_box(root, boxes[i]);
-        if (!s)
-            t->stats = rto_karras_stats(nodes, m, &root);
+        tl->stats = rto__karras_stats_depth(nodes, m, &root, c->tk.depth, NULL);
+        rto__karras_free(&c->tk);
     }
-    return s;
 }
 
-static rto_status build_blas(const rto_mesh *mesh, uint32_t index, rto_accel_blas *b, rto_msg *msg)
+static void build_team(void *arg, rto__team *team, uint32_t w, uint32_t t)
+{
+    build_ctx *c = arg;
+    const uint32_t mc = c->a->blas_count;
+    if (w == 0)
+        assign_meshes(c, t);
+    rto__team_sync(team);
+    for (uint32_t m = 0; m < mc; m++)
+        if (c->owner[m] == w)
+            blas_stages(c, &c->work[m], NULL, 0, 1, w);
+    for (uint32_t m = 0; m < mc; m++)
+        if (c->owner[m] == SOLO)
+            blas_stages(c, &c->work[m], team, w, t, 0);
+    rto__team_sync(team);
+    for (uint32_t m = 0; m < mc; m++)
+        if (c->work[m].status)
+            return;
+    if (w == 0)
+        for (uint32_t m = 0; m < mc; m++)
+            c->blas_bounds[m] = c->a->blas[m].bounds;
+    rto__team_sync(team);
+    tlas_stages(c, team, w, t);
+}
+
+/* Arrays of one BLAS; the accel owns those it keeps. */
+static rto_status blas_alloc(blas_work *W, const rto_mesh *mesh, uint32_t index, rto_accel_blas *b)
 {
     const size_t n = mesh->triangle_count;
+    W->mesh = mesh;
+    W->b = b;
+    W->n = n;
     b->mesh = index;
     b->triangle_count = mesh->triangle_count;
     b->node_count = n >= 2 ? n - 1 : 0;
-    rto_aabb *boxes = rto_alloc(n, sizeof *boxes);
-    uint64_t *keys = rto_alloc(n, sizeof *keys), *sorted = rto_alloc(n, sizeof *sorted);
-    uint32_t *order = rto_alloc(n, sizeof *order);
-    rto_bvh_node *nodes = rto_alloc(b->node_count, sizeof *nodes);
-    b->prim_aabbs = boxes;
-    b->sorted_keys = sorted;
-    b->order = order;
-    b->nodes = nodes;
-    rto_status s = boxes && keys && sorted && order && nodes ? RTO_OK : oom(msg);
-    /* The mesh's bounds as the union of its triangles' boxes, in triangle order: the same bytes as rto_mesh_aabb
-     * (min / max over the referenced vertices in index order, the later operand kept when equal). */
-    rto_aabb u = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-    for (size_t t = 0; !s && t < n; t++) {
-        boxes[t] = rto_mesh_triangle_aabb(mesh, (uint32_t)t);
-        u = union_box(u, boxes[t]);
+    b->bounds = (rto_aabb){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    W->boxes = rto_alloc(n, sizeof *W->boxes);
+    W->keys = rto_alloc(n, sizeof *W->keys);
+    W->sorted = rto_alloc(n, sizeof *W->sorted);
+    W->tmp = rto_alloc(n, sizeof *W->tmp);
+    W->order = rto_alloc(n, sizeof *W->order);
+    /* A big BLAS's nodes get transparent huge pages (rto__alloc_large): first touches of 4 KiB pages cost more than
+     * building the tree. */
+    W->nodes = rto__alloc_large(b->node_count, sizeof *W->nodes);
+    b->prim_aabbs = W->boxes;
+    b->sorted_keys = W->sorted;
+    b->order = W->order;
+    b->nodes = W->nodes;
+    return W->boxes && W->keys && W->sorted && W->tmp && W->order && W->nodes ? RTO_OK : RTO_ERR_OUT_OF_MEMORY;
+}
+
+static rto_status tlas_alloc(build_ctx *c)
+{
+    rto_accel_tlas *t = &c->a->tlas;
+    const size_t n = c->scene->instance_count, np = rto_next_pow2(n);
+    t->kind = c->kind;
+    t->instance_count = c->scene->instance_count;
+    t->instance_aabbs = rto_alloc(n, sizeof(rto_aabb));
+    t->keys = rto_alloc(n, sizeof(uint32_t));
+    t->sorted_keys = rto_alloc(np, sizeof(uint32_t));
+    c->tlas_tmp = rto_alloc(n, sizeof(uint32_t));
+    if (c->kind == RTO_TLAS_SWEEP)
+        t->sweep_nodes = rto_alloc(rto_tlas_sweep_node_count(n), sizeof(rto_tlas_node));
+    else
+        t->karras_nodes = rto_alloc(n >= 2 ? n - 1 : 0, sizeof(rto_bvh_node));
+    return t->instance_aabbs && t->keys && t->sorted_keys && c->tlas_tmp && (t->sweep_nodes || t->karras_nodes)
+               ? RTO_OK
+               : RTO_ERR_OUT_OF_MEMORY;
+}
+
+static void ctx_free(build_ctx *c)
+{
+    for (uint32_t m = 0; c->work && m < c->a->blas_count; m++) {
+        free(c->work[m].keys);
+        free(c->work[m].tmp);
     }
-    b->bounds = u;
-    if (!s)
-        s = rto_blas_keys_from_boxes(boxes, n, keys, msg);
-    if (!s)
-        s = rto_fast_radix_sort(RTO_KEY_U64, keys, n, sorted, msg);
-    for (size_t j = 0; !s && j < n; j++)
-        order[j] = rto_key_prim(RTO_KEY_U64, sorted[j]);
-    if (!s)
-        s = rto_karras_build(RTO_KEY_U64, sorted, n, boxes, nodes, msg);
-    if (!s)
-        b->stats = rto_karras_stats(nodes, n, &b->bounds);
-    free(keys);
-    return s;
+    free(c->work);
+    free(c->parts);
+    free(c->hist);
+    free(c->first);
+    free(c->diff);
+    free(c->ordered);
+    free(c->load);
+    free(c->owner);
+    free(c->by_size);
+    free(c->blas_bounds);
+    free(c->tlas_tmp);
+}
+
+/* The message of a refused build, as the sequential pipeline gave it: the first mesh in order that failed (its keys'
+ * own message, made again from its boxes), else the TLAS's. */
+static rto_status build_message(build_ctx *c, rto_msg *msg)
+{
+    for (uint32_t m = 0; m < c->a->blas_count; m++) {
+        blas_work *W = &c->work[m];
+        if (!W->status)
+            continue;
+        rto_status s = W->status == RTO_ERR_OUT_OF_MEMORY
+                           ? oom(msg)
+                           : rto_blas_keys_from_boxes(W->boxes, W->n, W->keys, msg);
+        if (!s) /* cannot happen: the same boxes were refused */
+            s = rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys refused");
+        if (msg) {
+            /* Name the mesh: the key and tree messages only know their own indices. */
+            rto_msg inner = *msg;
+            rto_fail(msg, s, "mesh %u (%s): %s", m, c->scene->meshes[m].name, inner.text);
+        }
+        return s;
+    }
+    if (c->tlas_status && msg)
+        *msg = c->tlas_msg;
+    return c->tlas_status;
 }
 
 rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, rto_accel **out, rto_msg *msg)
@@ -160,7 +382,8 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     *out = NULL;
     if (!scene || (scene->mesh_count && !scene->meshes) || (scene->instance_count && !scene->instances))
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL scene or scene arrays");
-    rto_accel_desc d = {RTO_TLAS_SWEEP};
+    rto_accel_desc d;
+    memset(&d, 0, sizeof d);
     if (desc)
         d = *desc;
     if (d.tlas != RTO_TLAS_SWEEP && d.tlas != RTO_TLAS_KARRAS)
@@ -189,18 +412,39 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     a->scene = scene;
     a->blas_count = scene->mesh_count;
     a->blas = calloc(a->blas_count ? a->blas_count : 1, sizeof *a->blas);
-    /* BLAS first: the TLAS takes each mesh's bounds from its BLAS. */
-    rto_status s = a->blas ? RTO_OK : oom(msg);
-    for (uint32_t m = 0; !s && m < a->blas_count; m++) {
-        s = build_blas(&scene->meshes[m], m, &a->blas[m], msg);
-        if (s && msg) {
-            /* Name the mesh: the key and tree messages only know their own indices. */
-            rto_msg inner = *msg;
-            rto_fail(msg, s, "mesh %u (%s): %s", m, scene->meshes[m].name, inner.text);
-        }
+    build_ctx c;
+    memset(&c, 0, sizeof c);
+    c.a = a;
+    c.scene = scene;
+    c.kind = d.tlas;
+    const uint32_t W = rto__thread_count(d.threads), mc = a->blas_count;
+    c.max_workers = W;
+    c.work = calloc(mc ? mc : 1, sizeof *c.work);
+    c.parts = rto_alloc(W, sizeof *c.parts);
+    c.hist = rto_alloc(rto__radix_team_hist_words(W), sizeof *c.hist);
+    c.first = rto_alloc((size_t)W * 2048u, sizeof *c.first);
+    c.diff = rto_alloc(W, sizeof *c.diff);
+    c.ordered = rto_alloc(W, sizeof *c.ordered);
+    c.load = rto_alloc(W, sizeof *c.load);
+    c.owner = rto_alloc(mc, sizeof *c.owner);
+    c.by_size = rto_alloc(mc, sizeof *c.by_size);
+    c.blas_bounds = rto_alloc(mc, sizeof *c.blas_bounds);
+    rto_status s = a->blas && c.work && c.parts && c.hist && c.first && c.diff && c.ordered && c.load && c.owner &&
+                           c.by_size && c.blas_bounds
+                       ? RTO_OK
+                       : oom(msg);
+    for (uint32_t m = 0; !s && m < mc; m++)
+        c.work[m].status = blas_alloc(&c.work[m], &scene->meshes[m], m, &a->blas[m]);
+    if (!s && tlas_alloc(&c))
+        s = oom(msg);
+    for (uint32_t m = 0; !s && m < mc; m++)
+        if (c.work[m].status)
+            s = build_message(&c, msg);
+    if (!s) {
+        rto__team_run(W, build_team, &c);
+        s = build_message(&c, msg);
     }
-    if (!s)
-        s = build_tlas(a, d.tlas, msg);
+    ctx_free(&c);
     if (s) {
         rto_accel_destroy(a);
         return s;

@@ -78,6 +78,97 @@ rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *inde
  * largest finite magnitude among the bounds' coordinates and the camera position (trace/ray.c). */
 float rto__ray_offset(const rto_aabb *bounds, const rto_camera_uniforms *u);
 
+/** Spreads the low 10 bits of v so that bit b lands on bit 3b (keys/morton.c's Morton codes). */
+static inline uint32_t rto__spread3(uint32_t v)
+{
+    v &= 0x3ffu;
+    v = (v | (v << 16)) & 0x030000ffu;
+    v = (v | (v << 8)) & 0x0300f00fu;
+    v = (v | (v << 4)) & 0x030c30c3u;
+    v = (v | (v << 2)) & 0x09249249u;
+    return v;
+}
+
+/* BLAS keys in parts (keys/box_keys.c), for a team: each worker takes a static range of triangles. */
+
+/** What one range of triangles contributes to the mesh: the union of its boxes in triangle order (rto_minf /
+ * rto_maxf: the later operand kept when equal), the bounds of its centroids (the earlier kept, as rto_blas_keys),
+ * and whether a centroid is not finite. Parts combine in range order with rto__key_part_merge. */
+typedef struct rto__key_part {
+    rto_aabb u;
+    float lo[3], hi[3];
+    int bad;
+} rto__key_part;
+void rto__key_part_init(rto__key_part *p);
+void rto__key_part_merge(rto__key_part *into, const rto__key_part *p);
+/** Boxes of triangles [begin, end) of a mesh (rto_mesh_triangle_aabb) into boxes[begin..end), their centroids into
+ * cent[axis][begin..end), and their part. */
+void rto__blas_boxes_part(const rto_mesh *mesh, size_t begin, size_t end, rto_aabb *boxes, float *const cent[3],
+                          rto__key_part *part);
+/** The mesh's centroid bounds are usable for keys (every centroid finite, spans within binary32). */
+int rto__key_bounds_ok(const rto__key_part *all, size_t n);
+/** BLAS keys [begin, end) (rto_blas_keys' bytes) from the centroids and the whole mesh's part. */
+void rto__blas_keys_part(float *const cent[3], size_t begin, size_t end, const rto__key_part *all,
+                         uint64_t *keys);
+/** World boxes of instances [begin, end): rto_aabb_transform of their BLAS's bounds. */
+void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bounds, size_t begin, size_t end,
+                              rto_aabb *boxes);
+
+/** rto_fast_radix_sort for a team (sort/fast_radix.c): the same bytes. Scratch the caller provides for up to W workers:
+ * hist rto__radix_team_hist_words(W) u32, first W * 2048 u32, diff W u64, ordered W bytes; tmp n keys. in and out must
+ * not overlap. Every worker calls it; it returns after a sync, with out sorted. */
+typedef struct rto__team rto__team;
+typedef struct rto__radix_team {
+    rto_key_format f;
+    const void *in;
+    size_t n;
+    void *out, *tmp;
+    uint32_t *hist, *first;
+    uint64_t *diff;
+    uint8_t *ordered;
+} rto__radix_team;
+size_t rto__radix_team_hist_words(uint32_t workers);
+void rto__radix_team_sort(rto__radix_team *r, rto__team *team, uint32_t worker, uint32_t workers);
+
+/* The Karras builder in stages (bvh/karras.c), for a team: plan (one worker), run (every worker, between syncs),
+ * finish (one worker). rto_karras_build runs them with one worker. */
+typedef struct rto__karras_job {
+    uint32_t lo, hi;   /* leaves of the subtree */
+    uint32_t root;     /* its root node */
+    uint32_t parent;   /* the root's parent */
+    uint32_t height;   /* out */
+} rto__karras_job;
+typedef struct rto__karras_top {
+    uint32_t node;
+    int64_t slot[2]; /* per child: -1 leaf, j >= 0 job j, -2 - t top node t */
+    uint32_t height;
+} rto__karras_top;
+typedef struct rto__karras {
+    rto_key_format f;
+    const void *keys;        /* sorted */
+    size_t n;
+    const rto_aabb *boxes;   /* by primitive */
+    rto_bvh_node *nodes;     /* n - 1 */
+    double *areas;           /* NULL, or n - 1: each node's SAH term (rto__karras_stats_depth) */
+    /* filled by plan */
+    uint32_t workers;
+    rto__karras_job *jobs;
+    size_t job_count;
+    rto__karras_top *tops;
+    size_t top_count;
+    uint32_t depth;          /* by finish: the deepest leaf's depth */
+} rto__karras;
+rto_status rto__karras_plan(rto__karras *k, uint32_t workers, rto_msg *msg);
+void rto__karras_run(rto__karras *k, uint32_t worker, uint32_t workers);
+void rto__karras_finish(rto__karras *k);
+void rto__karras_free(rto__karras *k);
+/** The per-node Karras procedure for every node, then boxes bottom-up: the reference the fast builder is tested on. */
+rto_status rto__karras_build_scalar(rto_key_format f, const void *sorted_keys, size_t n, const rto_aabb *prim_boxes,
+                                   rto_bvh_node *nodes, rto_msg *msg);
+/** rto_karras_stats with the depth given (the builder's) and, unless NULL, the node terms (rto__karras.areas). */
+rto_bvh_stats rto__karras_stats_depth(const rto_bvh_node *nodes, size_t n, const rto_aabb *root_box, uint32_t depth,
+                                      const double *areas);
+
 /* Static thread partitioning (core/threads.c, DESIGN.md §2). */
 
 /** Most threads a parallel stage starts. */
@@ -89,6 +180,22 @@ uint32_t rto__thread_count(uint32_t requested);
 /** Splits n items into rto__thread_count(threads) contiguous ranges of equal size (+-1) and runs fn on each in
  * its own thread; returns when all are done. A thread that cannot be created has its range run by the caller. */
 void rto__parallel_ranges(size_t n, uint32_t threads, rto_range_fn fn, void *ctx);
+/** A team of threads for a job of several stages (core/threads.c): fn runs once on every worker, which meet at
+ * rto__team_sync between stages. team is NULL when the team has one worker (then syncs do nothing). */
+typedef struct rto__team rto__team;
+typedef void (*rto_team_fn)(void *ctx, rto__team *team, uint32_t worker, uint32_t workers);
+/** Runs fn on rto__thread_count(threads) workers (fewer if threads cannot be created; worker 0 is the caller) and
+ * returns when all are done. */
+void rto__team_run(uint32_t threads, rto_team_fn fn, void *ctx);
+/** Barrier: returns when every worker of the team has called it (as many times). Memory written before it by one
+ * worker is visible after it to all. */
+void rto__team_sync(rto__team *team);
+/** Item range [begin, end) of worker w of t over n items: [w n / t, (w + 1) n / t). */
+static inline void rto__part(size_t n, uint32_t w, uint32_t t, size_t *begin, size_t *end)
+{
+    *begin = (size_t)((uint64_t)n * w / t);
+    *end = (size_t)((uint64_t)n * (w + 1) / t);
+}
 
 /* Atomic output (io/atomic.c). */
 

@@ -5,6 +5,7 @@
 
 #include <pthread.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 uint32_t rto__thread_count(uint32_t requested)
@@ -54,4 +55,93 @@ void rto__parallel_ranges(size_t n, uint32_t threads, rto_range_fn fn, void *ctx
         else
             run_range(&jobs[w]);
     }
+}
+
+/* A team: one set of threads for a whole multi-stage job, with barriers between the stages, so a build starts its
+ * threads once instead of once per stage. Workers are numbered in creation order, and only after every thread has
+ * been asked for is their number fixed: a thread that could not be created leaves no gap, the others share its
+ * work. The partitions stay static (each worker derives its ranges from its number and the team size alone). */
+struct rto__team {
+    pthread_mutex_t lock;
+    pthread_cond_t cond;
+    uint32_t size;       /* workers, fixed before any runs */
+    uint32_t waiting;    /* workers at the current barrier */
+    uint64_t generation; /* barriers passed */
+    int started;         /* size is final */
+    rto_team_fn fn;
+    void *ctx;
+};
+
+typedef struct team_member {
+    rto__team *team;
+    uint32_t worker;
+} team_member;
+
+static void *team_main(void *arg)
+{
+    team_member *m = arg;
+    rto__team *t = m->team;
+    pthread_mutex_lock(&t->lock);
+    while (!t->started)
+        pthread_cond_wait(&t->cond, &t->lock);
+    pthread_mutex_unlock(&t->lock);
+    t->fn(t->ctx, t, m->worker, t->size);
+    return NULL;
+}
+
+void rto__team_sync(rto__team *t)
+{
+    if (!t || t->size < 2)
+        return;
+    pthread_mutex_lock(&t->lock);
+    uint64_t gen = t->generation;
+    if (++t->waiting == t->size) {
+        t->waiting = 0;
+        t->generation++;
+        pthread_cond_broadcast(&t->cond);
+    } else {
+        while (gen == t->generation)
+            pthread_cond_wait(&t->cond, &t->lock);
+    }
+    pthread_mutex_unlock(&t->lock);
+}
+
+void rto__team_run(uint32_t threads, rto_team_fn fn, void *ctx)
+{
+    uint32_t want = rto__thread_count(threads);
+    if (want < 2) {
+        fn(ctx, NULL, 0, 1);
+        return;
+    }
+    rto__team t;
+    memset(&t, 0, sizeof t);
+    t.fn = fn;
+    t.ctx = ctx;
+    if (pthread_mutex_init(&t.lock, NULL)) {
+        fn(ctx, NULL, 0, 1);
+        return;
+    }
+    if (pthread_cond_init(&t.cond, NULL)) {
+        pthread_mutex_destroy(&t.lock);
+        fn(ctx, NULL, 0, 1);
+        return;
+    }
+    team_member members[RTO_THREADS_MAX];
+    pthread_t ids[RTO_THREADS_MAX];
+    uint32_t made = 1; /* worker 0 is the caller */
+    for (uint32_t w = 1; w < want; w++) {
+        members[made] = (team_member){&t, made};
+        if (pthread_create(&ids[made], NULL, team_main, &members[made]) == 0)
+            made++;
+    }
+    pthread_mutex_lock(&t.lock);
+    t.size = made;
+    t.started = 1;
+    pthread_cond_broadcast(&t.cond);
+    pthread_mutex_unlock(&t.lock);
+    fn(ctx, made > 1 ? &t : NULL, 0, made);
+    for (uint32_t w = 1; w < made; w++)
+        pthread_join(ids[w], NULL);
+    pthread_cond_destroy(&t.cond);
+    pthread_mutex_destroy(&t.lock);
 }

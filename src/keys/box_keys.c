@@ -116,3 +116,167 @@ rto_status rto_tlas_keys_from_boxes(const rto_aabb *boxes, size_t n, uint32_t *k
     free(index);
     return s;
 }
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* In parts, for the accel's team: the same bytes as the functions above, a static range of items per worker.       */
+
+void rto__key_part_init(rto__key_part *p)
+{
+    p->u = (rto_aabb){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    for (int a = 0; a < 3; a++) {
+        p->lo[a] = INFINITY;
+        p->hi[a] = -INFINITY;
+    }
+    p->bad = 0;
+}
+
+/* Both folds are associative with their tie rules, so parts merged in range order give the sequential bytes: the
+ * union keeps the later operand when equal (rto_minf), the centroid bounds the earlier (centroid_bounds). */
+void rto__key_part_merge(rto__key_part *into, const rto__key_part *p)
+{
+    into->u.min.x = rto_minf(into->u.min.x, p->u.min.x);
+    into->u.min.y = rto_minf(into->u.min.y, p->u.min.y);
+    into->u.min.z = rto_minf(into->u.min.z, p->u.min.z);
+    into->u.max.x = rto_maxf(into->u.max.x, p->u.max.x);
+    into->u.max.y = rto_maxf(into->u.max.y, p->u.max.y);
+    into->u.max.z = rto_maxf(into->u.max.z, p->u.max.z);
+    for (int a = 0; a < 3; a++) {
+        into->lo[a] = p->lo[a] < into->lo[a] ? p->lo[a] : into->lo[a];
+        into->hi[a] = p->hi[a] > into->hi[a] ? p->hi[a] : into->hi[a];
+    }
+    into->bad |= p->bad;
+}
+
+void rto__blas_boxes_part(const rto_mesh *mesh, size_t begin, size_t end, rto_aabb *boxes, float *const cent[3],
+                          rto__key_part *part)
+{
+    rto__key_part p;
+    rto__key_part_init(&p);
+    const float *pos = mesh->positions;
+    const uint32_t *idx = mesh->indices;
+    for (size_t t = begin; t < end; t++) {
+        const float *p0 = &pos[3 * (size_t)idx[3 * t]], *p1 = &pos[3 * (size_t)idx[3 * t + 1]],
+                    *p2 = &pos[3 * (size_t)idx[3 * t + 2]];
+        rto_aabb b;
+        b.min.x = rto_minf(rto_minf(p0[0], p1[0]), p2[0]);
+        b.min.y = rto_minf(rto_minf(p0[1], p1[1]), p2[1]);
+        b.min.z = rto_minf(rto_minf(p0[2], p1[2]), p2[2]);
+        b.max.x = rto_maxf(rto_maxf(p0[0], p1[0]), p2[0]);
+        b.max.y = rto_maxf(rto_maxf(p0[1], p1[1]), p2[1]);
+        b.max.z = rto_maxf(rto_maxf(p0[2], p1[2]), p2[2]);
+        boxes[t] = b;
+        p.u.min.x = rto_minf(p.u.min.x, b.min.x);
+        p.u.min.y = rto_minf(p.u.min.y, b.min.y);
+        p.u.min.z = rto_minf(p.u.min.z, b.min.z);
+        p.u.max.x = rto_maxf(p.u.max.x, b.max.x);
+        p.u.max.y = rto_maxf(p.u.max.y, b.max.y);
+        p.u.max.z = rto_maxf(p.u.max.z, b.max.z);
+        const float c[3] = {(b.min.x + b.max.x) * 0.5f, (b.min.y + b.max.y) * 0.5f, (b.min.z + b.max.z) * 0.5f};
+        for (int a = 0; a < 3; a++) {
+            cent[a][t] = c[a];
+            p.bad |= !isfinite(c[a]);
+            p.lo[a] = c[a] < p.lo[a] ? c[a] : p.lo[a];
+            p.hi[a] = c[a] > p.hi[a] ? c[a] : p.hi[a];
+        }
+    }
+    *part = p;
+}
+
+int rto__key_bounds_ok(const rto__key_part *all, size_t n)
+{
+    if (all->bad)
+        return 0;
+    for (int a = 0; a < 3; a++)
+        if (n > 0 && !isfinite(all->hi[a] - all->lo[a]))
+            return 0;
+    return 1;
+}
+
+/* Morton code of 4 quantised triples (SSE2, the baseline of x86-64): rto__spread3 lane by lane. */
+#if defined(__SSE2__)
+#include <emmintrin.h>
+
+static inline __m128i spread3_x4(__m128i v)
+{
+    v = _mm_and_si128(_mm_or_si128(v, _mm_slli_epi32(v, 16)), _mm_set1_epi32(0x030000ff));
+    v = _mm_and_si128(_mm_or_si128(v, _mm_slli_epi32(v, 8)), _mm_set1_epi32(0x0300f00f));
+    v = _mm_and_si128(_mm_or_si128(v, _mm_slli_epi32(v, 4)), _mm_set1_epi32(0x030c30c3));
+    v = _mm_and_si128(_mm_or_si128(v, _mm_slli_epi32(v, 2)), _mm_set1_epi32(0x09249249));
+    return v;
+}
+
+/* min(1023, trunc(((c - lo) / span) * 1024)) of 4 centroids; the values are in [0, 1024], so the 16-bit minimum
+ * is the 32-bit one (the high halves are 0). */
+static inline __m128i quantise_x4(__m128 c, __m128 lo, __m128 span)
+{
+    __m128i q = _mm_cvttps_epi32(_mm_mul_ps(_mm_div_ps(_mm_sub_ps(c, lo), span), _mm_set1_ps(1024.0f)));
+    return _mm_min_epi16(q, _mm_set1_epi32(1023));
+}
+#endif
+
+void rto__blas_keys_part(float *const cent[3], size_t begin, size_t end, const rto__key_part *all,
+                         uint64_t *keys)
+{
+    /* quantise() of morton.c: q = min(1023, floor(((c - lo) / (hi - lo)) * 1024)), 0 where hi == lo. c >= lo, so the
+     * product is >= 0 (or -0) and truncation is floor. Division stays division (binary32, exact as the scalar one). */
+    float lo[3], span[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = all->lo[a];
+        span[a] = all->hi[a] - all->lo[a];
+    }
+    size_t t = begin;
+#if defined(__SSE2__)
+    if (span[0] != 0 && span[1] != 0 && span[2] != 0) {
+        const __m128 lx = _mm_set1_ps(lo[0]), ly = _mm_set1_ps(lo[1]), lz = _mm_set1_ps(lo[2]);
+        const __m128 sx = _mm_set1_ps(span[0]), sy = _mm_set1_ps(span[1]), sz = _mm_set1_ps(span[2]);
+        for (; t + 4 <= end; t += 4) {
+            const __m128i qx = quantise_x4(_mm_loadu_ps(&cent[0][t]), lx, sx);
+            const __m128i qy = quantise_x4(_mm_loadu_ps(&cent[1][t]), ly, sy);
+            const __m128i qz = quantise_x4(_mm_loadu_ps(&cent[2][t]), lz, sz);
+            const __m128i m = _mm_or_si128(_mm_or_si128(_mm_slli_epi32(spread3_x4(qx), 2),
+                                                        _mm_slli_epi32(spread3_x4(qy), 1)),
+                                           spread3_x4(qz));
+            const __m128i idx = _mm_add_epi32(_mm_set1_epi32((int)(uint32_t)t), _mm_set_epi32(3, 2, 1, 0));
+            /* key = m << 32 | index: (index, m) pairs as little-endian u64 */
+            _mm_storeu_si128((__m128i *)&keys[t], _mm_unpacklo_epi32(idx, m));
+            _mm_storeu_si128((__m128i *)&keys[t + 2], _mm_unpackhi_epi32(idx, m));
+        }
+    }
+#endif
+    for (; t < end; t++) {
+        uint32_t q[3];
+        for (int a = 0; a < 3; a++) {
+            uint32_t v = span[a] == 0 ? 0 : (uint32_t)(((cent[a][t] - lo[a]) / span[a]) * 1024.0f);
+            q[a] = v < 1023 ? v : 1023;
+        }
+        const uint32_t m = (rto__spread3(q[0]) << 2) | (rto__spread3(q[1]) << 1) | rto__spread3(q[2]);
+        keys[t] = ((uint64_t)m << 32) | (uint64_t)t;
+    }
+}
+
+void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bounds, size_t begin, size_t end,
+                              rto_aabb *boxes)
+{
+    for (size_t i = begin; i < end; i++) {
+        const rto_aabb *box = &blas_bounds[inst[i].blas];
+        rto_aabb w = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+        if (box->min.x <= box->max.x && box->min.y <= box->max.y && box->min.z <= box->max.z) {
+            const float(*m)[4] = inst[i].obj_to_world.m;
+            /* rto_aabb_transform's corners in its order, each row as rto_mat34_point evaluates it. */
+            for (int c = 0; c < 8; c++) {
+                const float x = (c & 1) ? box->max.x : box->min.x, y = (c & 2) ? box->max.y : box->min.y,
+                            z = (c & 4) ? box->max.z : box->min.z;
+                const float qx = ((m[0][0] * x + m[0][1] * y) + m[0][2] * z) + m[0][3];
+                const float qy = ((m[1][0] * x + m[1][1] * y) + m[1][2] * z) + m[1][3];
+                const float qz = ((m[2][0] * x + m[2][1] * y) + m[2][2] * z) + m[2][3];
+                w.min.x = rto_minf(w.min.x, qx);
+                w.min.y = rto_minf(w.min.y, qy);
+                w.min.z = rto_minf(w.min.z, qz);
+                w.max.x = rto_maxf(w.max.x, qx);
+                w.max.y = rto_maxf(w.max.y, qy);
+                w.max.z = rto_maxf(w.max.z, qz);
+            }
+        }
+        boxes[i] = w;
+    }
+}

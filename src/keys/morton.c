@@ -3,16 +3,7 @@
 
 #include <math.h>
 
-/* Spreads the low 10 bits of v so that bit b lands on bit 3b. */
-static uint32_t spread3(uint32_t v)
-{
-    v &= 0x3ffu;
-    v = (v | (v << 16)) & 0x030000ffu;
-    v = (v | (v << 8)) & 0x0300f00fu;
-    v = (v | (v << 4)) & 0x030c30c3u;
-    v = (v | (v << 2)) & 0x09249249u;
-    return v;
-}
+static uint32_t spread3(uint32_t v) { return rto__spread3(v); }
 
 uint32_t rto_morton15(uint32_t qx, uint32_t qy, uint32_t qz)
 {

@@ -119,3 +119,109 @@ rto_status rto_fast_radix_sort(rto_key_format f, const void *keys, size_t n, voi
     free(tmp);
     return RTO_OK;
 }
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* The same sort for a team (the accel's builds): each worker takes a static range of the array. Per pass, every    */
+/* worker counts the digits of its range, and its first slot per digit is the keys of smaller digits plus those of  */
+/* the same digit in lower workers' ranges: the stable order, so the bytes are the sequential sort's.               */
+
+size_t rto__radix_team_hist_words(uint32_t workers) { return (size_t)workers * MAX_PASSES * (1u << MAX_DIGIT_BITS); }
+
+#define DEFINE_TEAM_SORT(KEY, NAME, IDX_BITS)                                                                          \
+    static void team_##NAME(rto__radix_team *r, rto__team *team, uint32_t w, uint32_t t)                               \
+    {                                                                                                                  \
+        const KEY *in = r->in;                                                                                         \
+        KEY *out = r->out, *tmp = r->tmp;                                                                              \
+        const size_t n = r->n;                                                                                         \
+        size_t b, e;                                                                                                   \
+        rto__part(n, w, t, &b, &e);                                                                                    \
+        /* The plan: differing bits and whether the index field grows along the input. */                             \
+        {                                                                                                              \
+            KEY diff = 0;                                                                                              \
+            int ordered = 1;                                                                                           \
+            const KEY idx_mask = (KEY)((((KEY)1) << (IDX_BITS)) - 1);                                                  \
+            for (size_t i = b > 0 ? b : 1; i < e; i++) {                                                               \
+                diff |= in[i] ^ in[0];                                                                                 \
+                ordered &= (in[i] & idx_mask) >= (in[i - 1] & idx_mask);                                               \
+            }                                                                                                          \
+            r->diff[w] = diff;                                                                                         \
+            r->ordered[w] = (uint8_t)ordered;                                                                          \
+        }                                                                                                              \
+        rto__team_sync(team);                                                                                          \
+        uint64_t diff = 0;                                                                                             \
+        int ordered = 1;                                                                                               \
+        for (uint32_t v = 0; v < t; v++) {                                                                             \
+            diff |= r->diff[v];                                                                                        \
+            ordered &= r->ordered[v];                                                                                  \
+        }                                                                                                              \
+        uint32_t lo = ctz64(diff), hi = bitlen64(diff);                                                                \
+        if (ordered && lo < (IDX_BITS))                                                                                \
+            lo = (IDX_BITS);                                                                                           \
+        const uint32_t passes = lo < hi ? (hi - lo + MAX_DIGIT_BITS - 1) / MAX_DIGIT_BITS : 0;                         \
+        const uint32_t width = passes ? (hi - lo + passes - 1) / passes : 0;                                           \
+        const uint32_t radix = 1u << width;                                                                            \
+        const KEY mask = (KEY)(radix - 1);                                                                             \
+        uint32_t(*hist)[MAX_PASSES][1u << MAX_DIGIT_BITS] = (void *)r->hist; /* [worker][pass][digit] */              \
+        uint32_t active[MAX_PASSES], m = 0;                                                                            \
+        if (passes) {                                                                                                  \
+            for (uint32_t q = 0; q < passes; q++)                                                                      \
+                memset(hist[w][q], 0, radix * sizeof hist[w][q][0]);                                                   \
+            for (size_t i = b; i < e; i++)                                                                             \
+                for (uint32_t q = 0; q < passes; q++)                                                                  \
+                    hist[w][q][(in[i] >> (lo + q * width)) & mask]++;                                                  \
+            rto__team_sync(team);                                                                                      \
+            for (uint32_t q = 0; q < passes; q++) {                                                                    \
+                int constant = 0;                                                                                      \
+                for (uint32_t d = 0; d < radix && !constant; d++) {                                                    \
+                    size_t total = 0;                                                                                  \
+                    for (uint32_t v = 0; v < t; v++)                                                                   \
+                        total += hist[v][q][d];                                                                        \
+                    constant = total == n;                                                                             \
+                }                                                                                                      \
+                if (!constant)                                                                                         \
+                    active[m++] = q;                                                                                   \
+            }                                                                                                          \
+        }                                                                                                              \
+        if (m == 0) {                                                                                                  \
+            memcpy(out + b, in + b, (e - b) * sizeof *in);                                                             \
+            rto__team_sync(team);                                                                                      \
+            return;                                                                                                    \
+        }                                                                                                              \
+        const KEY *src = in;                                                                                           \
+        uint32_t *first = r->first + (size_t)w * (1u << MAX_DIGIT_BITS);                                               \
+        for (uint32_t a = 0; a < m; a++) {                                                                             \
+            KEY *dst = ((m - 1 - a) % 2 == 0) ? out : tmp;                                                             \
+            const uint32_t q = active[a], shift = lo + q * width;                                                      \
+            if (a > 0 && t > 1) { /* this pass's counts over this worker's range of the array as it is now */         \
+                memset(hist[w][q], 0, radix * sizeof hist[w][q][0]);                                                   \
+                for (size_t i = b; i < e; i++)                                                                         \
+                    hist[w][q][(src[i] >> shift) & mask]++;                                                            \
+                rto__team_sync(team);                                                                                  \
+            }                                                                                                          \
+            uint32_t run = 0;                                                                                          \
+            for (uint32_t d = 0; d < radix; d++) {                                                                     \
+                uint32_t before = 0, all = 0;                                                                          \
+                for (uint32_t v = 0; v < t; v++) {                                                                     \
+                    before += v < w ? hist[v][q][d] : 0;                                                               \
+                    all += hist[v][q][d];                                                                              \
+                }                                                                                                      \
+                first[d] = run + before;                                                                               \
+                run += all;                                                                                            \
+            }                                                                                                          \
+            for (size_t i = b; i < e; i++)                                                                             \
+                dst[first[(src[i] >> shift) & mask]++] = src[i];                                                       \
+            rto__team_sync(team);                                                                                      \
+            src = dst;                                                                                                 \
+        }                                                                                                              \
+    }
+
+DEFINE_TEAM_SORT(uint32_t, u32, 16u)
+DEFINE_TEAM_SORT(uint64_t, u64, 32u)
+
+void rto__radix_team_sort(rto__radix_team *r, rto__team *team, uint32_t worker, uint32_t workers)
+{
+    if (r->f == RTO_KEY_U32)
+        team_u32(r, team, worker, workers);
+    else
+        team_u64(r, team, worker, workers);
+}
