@@ -179,8 +179,8 @@ static void print_rows(const char *label, const char *kase, uint64_t prims, cons
         snprintf(threads, sizeof threads, d ? "all(%d)" : "1", hw_threads);
         char count[24];
         snprintf(count, sizeof count, "%llu", (unsigned long long)prims);
-        printf("%-36s %8s  %-24s %7s %9.2f %9.2f %12s\n", d ? "" : label, d ? "" : count, "oracle rto_accel_build", threads,
-               oracle[d] * 1e3, (double)prims / oracle[d] * 1e-6, "1.00");
+        printf("%-36s %8s  %-24s %7s %9.2f %9.2f %12s\n", d ? "" : label, d ? "" : count, "oracle rto_accel_build",
+               threads, oracle[d] * 1e3, (double)prims / oracle[d] * 1e-6, "1.00");
     }
     for (size_t c = 0; c < NCONF; c++) {
         char name[64], extra[64] = "";

@@ -42,7 +42,7 @@ def main():
         runs.add(n)
         for r in rows:
             threads = "1 thread" if r["threads"] == 1 else "all threads"
-            labels.append(f"{name}: {r['case']} vs {r['reference']} on {threads}")
+            labels.append(f"{name}: {r['case']}, {threads}, vs {r['reference']}")
             ratios.append(r["ratio"])
             colours.append(palette(k % 10))
     if not ratios:

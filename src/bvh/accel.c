@@ -4,8 +4,9 @@
  *   instances  world boxes (the mesh's bounds through objToWorld) -> TLAS keys of the non-empty ones -> radix sort
  *              -> sweep or Karras tree
  * The sorts are rto_fast_radix_sort's (run by a team): real keys are unique, so any correct sort gives the canonical
- * network's bytes (§4). The stages run on threads with static partitions (below; docs/bvh.md "Building"). An instance of an empty BLAS has an empty world box and gets no key and no leaf; an empty mesh gets an
- * empty BLAS (§5). Building validates nothing beyond its inputs; rto_accel_check runs the tree validators. */
+ * network's bytes (§4). The stages run on threads with static partitions (below; docs/bvh.md "Building"). An
+ * instance of an empty BLAS has an empty world box and gets no key and no leaf; an empty mesh gets an empty BLAS
+ * (§5). Building validates nothing beyond its inputs; rto_accel_check runs the tree validators. */
 #include "internal.h"
 
 #include <math.h>

@@ -316,7 +316,8 @@ rto_status rto__karras_plan(rto__karras *k, uint32_t workers, rto_msg *msg)
         return RTO_OK;
     /* Subtrees of at most `target` leaves, several per worker; a tree too deep to cut (adversarial keys) stops at
      * cap top nodes and leaves bigger subtrees. */
-    const size_t target = k->workers == 1 ? n : (n / (8 * (size_t)k->workers) > 1024 ? n / (8 * (size_t)k->workers) : 1024);
+    const size_t share = n / (8 * (size_t)k->workers);
+    const size_t target = k->workers == 1 ? n : (share > 1024 ? share : 1024);
     const size_t cap = k->workers == 1 ? 0 : 64 * (size_t)k->workers;
     /* Depth-first, left child first: jobs come out in leaf order. todo holds (node, lo, hi, parent, top, side). */
     struct todo {
