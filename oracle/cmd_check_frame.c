@@ -14,7 +14,7 @@ static const char check_frame_usage[] =
     "accum.npy or accum.exr, image.png) with the bundle written by `rtoracle render`, in pipeline order:\n"
     "per queue its emit count and counters, PREP's indirect args (exact), the queue as a multiset keyed by\n"
     "(pixel, kind, payloadSlot), the payloads and hits of matching rays (check-hits rules), then accum\n"
-    "(1e-4 relative + 1e-6; + 1e-4 for `triangle`) and the 8-bit image (+-1 per channel, at most 0.1 %% of the pixels over).\n"
+    "(1e-4 relative + 1e-6; + 2e-4 for `triangle`) and the 8-bit image (+-1 per channel, at most 0.1 %% of the pixels over).\n"
     "Pixels the bundle marks not comparable (conflicts, drops) are left out and counted; from a queue that\n"
     "dropped rays on, queues compare by their counts only. A file the dump lacks is reported as not dumped.\n"
     "On a fault the report (check-frame.json) and, for accum / image, a diff image and a listing of the\n"

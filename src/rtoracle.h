@@ -1639,7 +1639,7 @@ const char *rto_frame_artifact_name(uint32_t artifact);
  * dump layout"): per queue d its emit count and FrameCounters row, PREP's indirect args (exact), the queue as a
  * multiset keyed by (pixel, kind, payloadSlot) (integers exact, floats within the documented tolerance), the
  * payloads of matching rays, the hits of matching rays with rto_hits_check's rules; then accum (1e-4 relative +
- * 1e-6 absolute per channel; 1e-4 absolute for `triangle`, whose colours are barycentrics) and the 8-bit image (±1 per channel, at most image_fail_percent % of the pixels over).
+ * 1e-6 absolute per channel; 2e-4 absolute for `triangle`, whose colours are barycentrics) and the 8-bit image (±1 per channel, at most image_fail_percent % of the pixels over).
  * Pixels the bundle marks not comparable (conflicts, drops) are left out of accum and image and counted; from the
  * first queue with drops on, queues are compared by their counts only. A file absent from the dump is "not
  * dumped", not a fault. The primary fault is the first divergence in pipeline order (report->code an

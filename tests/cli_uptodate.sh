@@ -120,4 +120,14 @@ same_as_before trace "trace with a user's file"
 run 2 "$RTO" trace triangle --width 32 --height 26 -o trace && has "not listed in its manifest.json" err
 [ -f trace/NOTES.txt ] || fail "trace: the user's file was deleted"
 
+# An input modified while a command runs (here: dated after the command started) leaves its bundle unstamped, so
+# the next run writes it again rather than trusting outputs made from what it read before the change.
+touch -d '+1 hour' box/glTF/Box.gltf
+run 0 "$RTO" build box/glTF/Box.gltf -o build2 && snap build2 >build2.snap
+touch -d '-1 hour' box/glTF/Box.gltf
+run 0 "$RTO" build box/glTF/Box.gltf -o build2
+grep -q "up to date" "$T/out" && fail "build: a bundle made while its input changed was trusted"
+changed_since build2 "build, input changed during the run"
+run 0 "$RTO" build box/glTF/Box.gltf -o build2 && has "up to date" out
+
 finish "cli_uptodate: second runs write nothing; changed parameters, inputs and bundle files are written again"

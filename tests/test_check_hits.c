@@ -788,6 +788,14 @@ static void test_grazing(void **state)
     assert_int_equal(fact(&r, "grazing"), 0);
     f.gpu[2] = rto_hit_record_miss(f.rays[2].t_max);
     expect_fault(&f, f.gpu, 4, RTO_HIT_MISS_FLAG, 2, &r);
+    /* an expected miss where the GPU names the triangle the ray hits solidly: no edge is involved, so it is not
+     * grazing (the expected record is not the closest hit) */
+    const rto_hit_record solid_hit = f.expected[2];
+    f.expected[2] = rto_hit_record_miss(f.rays[2].t_max);
+    f.gpu[2] = solid_hit;
+    expect_fault(&f, f.gpu, 4, RTO_HIT_MISS_FLAG, 2, &r);
+    assert_int_equal(fact(&r, "grazing"), 0);
+    f.expected[2] = solid_hit;
     fixture_free(&f);
 }
 

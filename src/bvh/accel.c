@@ -131,6 +131,9 @@ static void blas_stages(build_ctx *c, blas_work *W, rto__team *team, uint32_t w,
     if (!rto__key_bounds_ok(&all, n)) {
         if (w == 0)
             W->status = RTO_ERR_INVALID_ARGUMENT;
+        /* Every worker merged the same parts and comes here: none may reuse c->parts (the next mesh) before all
+         * have read them. */
+        rto__team_sync(team);
         return;
     }
     if (w == 0)

@@ -323,6 +323,11 @@ rto_status rto_program_validate(const rto_program *p, rto_msg *msg)
                         RTO_PROGRAM_ABI_VERSION);
     if (!name_ok(p->name, "-"))
         return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program name must be 1-48 characters of a-z, 0-9 and '-'");
+    /* A bundle names its program: another program under a built-in's name would be taken for it (check-frame holds
+     * `triangle`'s accum to the barycentric rule, for one). */
+    const rto_program *b = rto_program_builtin(p->name);
+    if (b && b != p)
+        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program name %s is taken by the built-in program", p->name);
     if (p->payload_size % 4 || p->payload_size > RTO_PAYLOAD_MAX)
         return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s: payload size %u is not a multiple of 4 up to %d",
                         p->name, p->payload_size, RTO_PAYLOAD_MAX);

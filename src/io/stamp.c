@@ -17,7 +17,10 @@
  * A bundle is current when all of that still holds: same build, same request, every source file hashing as before,
  * and no listed file replaced, resized, rewritten or removed since. Checking costs a stat per file and a hash of the
  * (small) source files, never a read of the bundle's arrays. A write that restores a file's mtime, size and inode
- * is not seen; `--force` rewrites regardless. */
+ * is not seen; `--force` rewrites regardless. An input file modified while the command ran leaves the bundle
+ * unstamped (the next run writes it again). The build identity covers the program, its link-time libraries and the
+ * image module's file, not the libraries the module loads (OpenImageIO, libpng): after an upgrade of those alone,
+ * `--force` rewrites textured scenes' bundles. */
 #define _GNU_SOURCE
 #include "internal.h"
 
@@ -74,6 +77,9 @@ static void sha_text(const char *text, size_t len, char hex[65])
 /* Build identity                                                                                                   */
 
 static char g_build[65];
+/* When this process started (CLOCK_REALTIME, ns): an input file changed since may have been read half old, half new,
+ * or after the hash a stamp would record, so such a bundle goes unstamped. */
+static long long g_start_ns;
 
 /* The GNU build-id note of a loaded object, or 0 bytes when it has none. */
 static size_t build_id_of(const struct dl_phdr_info *info, const unsigned char **id)
@@ -139,6 +145,9 @@ static int add_object(struct dl_phdr_info *info, size_t size, void *data)
  * its file (it is loaded only when a texture needs it). */
 __attribute__((constructor)) static void build_identity_init(void)
 {
+    struct timespec now;
+    if (clock_gettime(CLOCK_REALTIME, &now) == 0)
+        g_start_ns = (long long)now.tv_sec * 1000000000LL + now.tv_nsec;
     EVP_MD_CTX *ctx = EVP_MD_CTX_new();
     if (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1) {
         EVP_MD_CTX_free(ctx);
@@ -354,6 +363,14 @@ rto_status rto__stamp_head(const char *request, const char *const *sources, size
     for (size_t i = 0; i < count; i++) {
         /* A name the one-line text cannot hold, or more than fits: the bundle goes unstamped (rewritten each run). */
         if (!sources[i] || strchr(sources[i], '\n')) {
+            free(text);
+            return RTO_OK;
+        }
+        /* An input changed while this command ran: the bundle may not be what the recorded hash would give. */
+        struct stat st;
+        if (stat(sources[i], &st) == 0 &&
+            ((long long)st.st_mtim.tv_sec * 1000000000LL + st.st_mtim.tv_nsec >= g_start_ns ||
+             (long long)st.st_ctim.tv_sec * 1000000000LL + st.st_ctim.tv_nsec >= g_start_ns)) {
             free(text);
             return RTO_OK;
         }

@@ -370,6 +370,10 @@ static int grazing(hcheck *c, size_t i, const rto_wf_ray *ray, const rto_hit_rec
     /* where the GPU's answer lies: its triangle's own t when the oracle's arithmetic hits it (a wrong t in the
      * record is then a t fault, below) */
     const float end = !g_hit ? ray->t_max : k == CLAIM_HIT ? th.t : g->t;
+    /* A claim the oracle's arithmetic hits solidly is explained only as what lies behind a grazed oracle hit: nearer
+     * than the oracle's record, or where the oracle misses, it says the expected record is not the closest hit. */
+    if (!any_hit && g_hit && k == CLAIM_HIT && !(e_hit && end > e->t && !t_close(end, e->t)))
+        return 0;
     /* both hit a TERMINATE_ON_FIRST_HIT ray (any_hit): any hit will do, so only the claim's own triangle is judged */
     if (!any_hit && e_hit && end > e->t && !t_close(end, e->t) && !xc_grazing_hit(&c->scene, ray, e, 0, &rel))
         return 0;
