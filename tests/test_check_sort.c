@@ -13,14 +13,6 @@ typedef struct fixture {
     uint64_t sentinel;
 } fixture;
 
-static int cmp_pair(const void *a, const void *b)
-{
-    const uint64_t *x = a, *y = b;
-    if (x[0] != y[0])
-        return (x[0] > y[0]) - (x[0] < y[0]);
-    return (x[1] > y[1]) - (x[1] < y[1]);
-}
-
 static void fixture_make(fixture *fx, const char *dist, rto_key_format f, size_t n, int padded, uint32_t seed)
 {
     memset(fx, 0, sizeof *fx);
@@ -34,17 +26,7 @@ static void fixture_make(fixture *fx, const char *dist, rto_key_format f, size_t
     fx->expect = tu_qsorted(f, fx->input, n);
     fx->gpu = malloc((fx->gn + 1) * fx->ksz);
     fx->values = malloc((fx->gn + 1) * 4);
-    uint64_t *pairs = malloc((fx->gn + 1) * 16);
-    for (size_t i = 0; i < fx->gn; i++) {
-        pairs[2 * i] = i < n ? tu_get(f, fx->input, i) : fx->sentinel;
-        pairs[2 * i + 1] = i;
-    }
-    qsort(pairs, fx->gn, 16, cmp_pair);
-    for (size_t i = 0; i < fx->gn; i++) {
-        tu_put(f, fx->gpu, i, pairs[2 * i]);
-        fx->values[i] = (uint32_t)pairs[2 * i + 1];
-    }
-    free(pairs);
+    tu_stable_dump(f, fx->input, n, fx->gn, fx->sentinel, fx->gpu, fx->values);
 }
 
 static void fixture_free(fixture *fx)

@@ -33,14 +33,6 @@ typedef struct dump {
     uint32_t *values;
 } dump;
 
-static int cmp_pair(const void *a, const void *b)
-{
-    const uint64_t *x = a, *y = b;
-    if (x[0] != y[0])
-        return (x[0] > y[0]) - (x[0] < y[0]);
-    return (x[1] > y[1]) - (x[1] < y[1]);
-}
-
 /* A correct key/value dump of gn slots made by qsort of (key, index) pairs: stable, padding p carrying n + p. */
 static void dump_make(dump *dp, const char *dist, rto_key_format f, size_t n, int padded, uint32_t seed)
 {
@@ -53,20 +45,11 @@ static void dump_make(dump *dp, const char *dist, rto_key_format f, size_t n, in
     dp->gpu = malloc(dp->gn * ksz);
     dp->expected = malloc(n * ksz);
     dp->values = malloc(dp->gn * 4);
-    uint64_t *pairs = malloc(dp->gn * 16), *sorted = tu_qsorted(f, dp->input, n);
-    assert_true(dp->gpu && dp->expected && dp->values && pairs);
+    uint64_t *sorted = tu_qsorted(f, dp->input, n);
+    assert_true(dp->gpu && dp->expected && dp->values);
     for (size_t i = 0; i < n; i++)
         tu_put(f, dp->expected, i, sorted[i]);
-    for (size_t i = 0; i < dp->gn; i++) {
-        pairs[2 * i] = i < n ? tu_get(f, dp->input, i) : sentinel;
-        pairs[2 * i + 1] = i;
-    }
-    qsort(pairs, dp->gn, 16, cmp_pair);
-    for (size_t i = 0; i < dp->gn; i++) {
-        tu_put(f, dp->gpu, i, pairs[2 * i]);
-        dp->values[i] = (uint32_t)pairs[2 * i + 1];
-    }
-    free(pairs);
+    tu_stable_dump(f, dp->input, n, dp->gn, sentinel, dp->gpu, dp->values);
     free(sorted);
 }
 

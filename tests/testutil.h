@@ -47,6 +47,33 @@ static inline uint64_t *tu_qsorted(rto_key_format f, const void *keys, size_t n)
     return e;
 }
 
+static inline int tu_cmp_pair(const void *a, const void *b)
+{
+    const uint64_t *x = a, *y = b;
+    if (x[0] != y[0])
+        return (x[0] > y[0]) - (x[0] < y[0]);
+    return (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+/* The correct stable key/value dump of gn slots (gn >= n), by qsort of (key, source index) pairs: the input's n keys,
+ * then sentinels whose padding slot p carries n + p; keys into out (format f), indices into values. */
+static inline void tu_stable_dump(rto_key_format f, const void *input, size_t n, size_t gn, uint64_t sentinel,
+                                  void *out, uint32_t *values)
+{
+    uint64_t *pairs = malloc((gn ? gn : 1) * 16);
+    assert_non_null(pairs);
+    for (size_t i = 0; i < gn; i++) {
+        pairs[2 * i] = i < n ? tu_get(f, input, i) : sentinel;
+        pairs[2 * i + 1] = i;
+    }
+    qsort(pairs, gn, 16, tu_cmp_pair);
+    for (size_t i = 0; i < gn; i++) {
+        tu_put(f, out, i, pairs[2 * i]);
+        values[i] = (uint32_t)pairs[2 * i + 1];
+    }
+    free(pairs);
+}
+
 /* Generates keys or fails the test with the library's message. */
 static inline void *tu_keys(const char *dist, rto_key_format f, uint32_t seed, size_t n)
 {

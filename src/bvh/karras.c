@@ -80,18 +80,28 @@ static void box_set(float *mn, float *mx, const rto_aabb *b)
     mx[2] = b->max.z;
 }
 
-rto_status rto__karras_build_scalar(rto_key_format f, const void *sorted_keys, size_t n, const rto_aabb *prim_boxes,
-                                   rto_bvh_node *nodes, rto_msg *msg)
+/* What both builders require: at most INT32_MAX leaves, the arrays (from 2 leaves on), a known format, sorted keys. */
+static rto_status karras_args(rto_key_format f, const void *sorted_keys, size_t n, const rto_aabb *prim_boxes,
+                              const rto_bvh_node *nodes, rto_msg *msg)
 {
     if (n > (size_t)INT32_MAX)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu leaves: too many for a Karras tree", n);
     if (n >= 2 && (!sorted_keys || !prim_boxes || !nodes))
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys, boxes or nodes");
-    if (n < 2)
-        return RTO_OK; /* no internal nodes: for n = 1 the root is leaf 0 */
+    if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
     for (size_t i = 1; i < n; i++)
         if (rto_key_get(f, sorted_keys, i - 1) > rto_key_get(f, sorted_keys, i))
             return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys are not sorted at %zu", i);
+    return RTO_OK;
+}
+
+rto_status rto__karras_build_scalar(rto_key_format f, const void *sorted_keys, size_t n, const rto_aabb *prim_boxes,
+                                   rto_bvh_node *nodes, rto_msg *msg)
+{
+    rto_status bad = karras_args(f, sorted_keys, n, prim_boxes, nodes, msg);
+    if (bad || n < 2)
+        return bad; /* n < 2: no internal nodes (for n = 1 the root is leaf 0) */
     keyset k = {f, sorted_keys, (int64_t)n};
     for (int64_t i = 0; i < (int64_t)n - 1; i++) {
         /* Direction of the range: towards the neighbour sharing the longer prefix. */
@@ -421,15 +431,9 @@ void rto__karras_finish(rto__karras *k)
 rto_status rto_karras_build(rto_key_format f, const void *sorted_keys, size_t n, const rto_aabb *prim_boxes,
                             rto_bvh_node *nodes, rto_msg *msg)
 {
-    if (n > (size_t)INT32_MAX)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu leaves: too many for a Karras tree", n);
-    if (n >= 2 && (!sorted_keys || !prim_boxes || !nodes))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys, boxes or nodes");
-    if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
-    for (size_t i = 1; i < n; i++)
-        if (rto_key_get(f, sorted_keys, i - 1) > rto_key_get(f, sorted_keys, i))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys are not sorted at %zu", i);
+    rto_status s = karras_args(f, sorted_keys, n, prim_boxes, nodes, msg);
+    if (s)
+        return s;
     rto__karras k;
     memset(&k, 0, sizeof k);
     k.f = f;
@@ -437,7 +441,7 @@ rto_status rto_karras_build(rto_key_format f, const void *sorted_keys, size_t n,
     k.n = n;
     k.boxes = prim_boxes;
     k.nodes = nodes;
-    rto_status s = rto__karras_plan(&k, 1, msg);
+    s = rto__karras_plan(&k, 1, msg);
     if (s)
         return s;
     rto__karras_run(&k, 0, 1);
