@@ -5,7 +5,8 @@
  *     (rtcSetSceneBuildQuality, which selects the two-level builder) and the geometry (rtcSetGeometryBuildQuality,
  *     which selects Morton for that geometry) ask for RTC_BUILD_QUALITY_LOW;
  *   - MEDIUM: its default binned-SAH builder;
- * each on a device with "threads=1" and on one with the default thread count (every hardware thread).
+ * each on a device with "threads=1" and on one with the default thread count (every hardware thread), one device
+ * alive at a time (all the one-thread rows first, then all the all-thread rows; runs interleaved within each).
  * Cases: the BLAS of every mesh of the bunny and of 2CylinderEngine (one Embree scene per mesh, as the oracle builds
  * one BLAS per mesh; vertex and index buffers are filled before the clock starts, as the oracle's scene is loaded
  * before it), and the TLAS of instances:uniform:65536, where Embree's timed region includes creating the 65,536
@@ -66,6 +67,17 @@ static emb_device *new_device(uint32_t threads)
     if (emb_device_create(threads, getenv("RTO_BENCH_EMBREE_CONFIG"), &d, &msg))
         die("Embree device", &msg);
     return d;
+}
+
+/* Device d (0: threads=1, 1: every thread), the only one alive while its rows are measured: Embree runs every
+ * device's builds in a task arena of the largest thread count among the devices alive (its getMaxNumThreads), so
+ * with both alive, the threads=1 device would build on every thread. */
+static void open_device(int d) { devices[d] = new_device(d ? 0u : 1u); }
+
+static void close_device(int d)
+{
+    emb_device_destroy(devices[d]);
+    devices[d] = NULL;
 }
 
 /* The oracle: the whole build the command and the tracer run, on one thread (dev 0) or every thread (dev 1).
@@ -212,11 +224,15 @@ static void bench_blas(const char *path)
     for (uint32_t m = 0; m < s->mesh_count; m++)
         tris += s->meshes[m].triangle_count;
     double to[2][RUNS], te[NCONF][RUNS], me[NCONF];
-    for (int r = 0; r < RUNS; r++) {
-        for (int d = 0; d < 2; d++)
+    for (int d = 0; d < 2; d++) {
+        open_device(d);
+        for (int r = 0; r < RUNS; r++) {
             to[d][r] = oracle_build(s, d);
-        for (size_t c = 0; c < NCONF; c++)
-            te[c][r] = embree_blas(s, &confs[c]);
+            for (size_t c = 0; c < NCONF; c++)
+                if (confs[c].dev == d)
+                    te[c][r] = embree_blas(s, &confs[c]);
+        }
+        close_device(d);
     }
     for (size_t c = 0; c < NCONF; c++)
         me[c] = median(te[c]);
@@ -234,21 +250,24 @@ static void bench_tlas(const char *spec)
     rto_scene *s = NULL;
     if (rto_scene_load(spec, &s, &msg))
         die(spec, &msg);
-    RTCScene blas[2];
-    for (int d = 0; d < 2; d++) {
-        blas[d] = embree_mesh_scene(devices[d], &s->meshes[0], EMB_QUALITY_MEDIUM);
-        rtcCommitScene(blas[d]);
-        check(devices[d], "BLAS commit");
-    }
     user_tlas u = {s, rto_mesh_aabb(&s->meshes[0])};
     double to[2][RUNS], te[NCONF][RUNS], tc[NCONF][RUNS], tu[NCONF][RUNS], me[NCONF], mc[NCONF], mu[NCONF];
-    for (int r = 0; r < RUNS; r++) {
-        for (int d = 0; d < 2; d++)
+    for (int d = 0; d < 2; d++) {
+        open_device(d);
+        RTCScene blas = embree_mesh_scene(devices[d], &s->meshes[0], EMB_QUALITY_MEDIUM);
+        rtcCommitScene(blas);
+        check(devices[d], "BLAS commit");
+        for (int r = 0; r < RUNS; r++) {
             to[d][r] = oracle_build(s, d);
-        for (size_t c = 0; c < NCONF; c++) {
-            te[c][r] = embree_tlas(s, blas[confs[c].dev], &confs[c], &tc[c][r]);
-            tu[c][r] = embree_user_tlas(&u, &confs[c]);
+            for (size_t c = 0; c < NCONF; c++) {
+                if (confs[c].dev != d)
+                    continue;
+                te[c][r] = embree_tlas(s, blas, &confs[c], &tc[c][r]);
+                tu[c][r] = embree_user_tlas(&u, &confs[c]);
+            }
         }
+        rtcReleaseScene(blas);
+        close_device(d);
     }
     for (size_t c = 0; c < NCONF; c++) {
         me[c] = median(te[c]);
@@ -260,8 +279,6 @@ static void bench_tlas(const char *spec)
     const double o[2] = {median(to[0]), median(to[1])};
     print_rows(label, label, s->instance_count, o, me, " inst", mc);
     print_rows(NULL, label, s->instance_count, o, mu, " user", NULL);
-    for (int d = 0; d < 2; d++)
-        rtcReleaseScene(blas[d]);
     rto_scene_destroy(s);
 }
 
@@ -270,8 +287,6 @@ int main(int argc, char **argv)
     bench_init(&argc, argv);
     cpu_set_t set;
     hw_threads = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 0;
-    devices[0] = new_device(1);
-    devices[1] = new_device(0);
     print_load("before");
     printf("%-36s %8s  %-24s %7s %9s %9s %12s\n", "case", "prims", "builder", "threads", "ms", "Mprims/s",
            "oracle/this");
@@ -283,7 +298,5 @@ int main(int argc, char **argv)
            RUNS, RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH);
     print_load("after");
     bench_finish("bvh", RUNS, NULL);
-    emb_device_destroy(devices[0]);
-    emb_device_destroy(devices[1]);
     return 0;
 }

@@ -57,12 +57,12 @@ static rto_aabb union_box(rto_aabb a, rto_aabb b)
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* The build: one team of threads for the whole accel (DESIGN.md §2: static partitions, bytes independent of the    */
-/* thread count). Meshes of fewer than BIG_PER_WORKER triangles per worker are built whole by one worker each,       */
+/* thread count). Meshes of fewer than BIG_MESH triangles are built whole by one worker each,                        */
 /* assigned before any work starts (largest first, each to the least loaded worker); bigger ones by the whole team,  */
 /* one after the other, every stage split into static ranges: triangle boxes and keys, the radix sort, the leaf      */
 /* order, the Karras subtrees. Then the TLAS: instance boxes in ranges, keys (worker 0), the team's sort, the tree.  */
 
-#define BIG_PER_WORKER 8192u
+#define BIG_MESH 16384u
 #define SOLO UINT32_MAX
 
 typedef struct blas_work {
@@ -151,7 +151,9 @@ static void blas_stages(build_ctx *c, blas_work *W, rto__team *team, uint32_t w,
         W->k.n = n;
         W->k.boxes = W->boxes;
         W->k.nodes = W->nodes;
-        W->k.areas = NULL;
+        /* Each node's SAH term is computed as the sweep closes it (by the team, while the node is in cache) into the
+         * sort's scratch, which is free now; the statistics only add them up in index order. */
+        W->k.areas = (double *)(void *)W->tmp;
         W->status = rto__karras_plan(&W->k, t, NULL);
     }
     rto__team_sync(team);
@@ -166,7 +168,7 @@ static void blas_stages(build_ctx *c, blas_work *W, rto__team *team, uint32_t w,
     }
 }
 
-/* Which worker builds which mesh, fixed before any work: meshes of at least BIG_PER_WORKER * t triangles go to the
+/* Which worker builds which mesh, fixed before any work: meshes of at least BIG_MESH triangles go to the
  * team (SOLO); the others, largest first (then by index), each to the worker with the fewest triangles so far (then
  * the lowest). */
 static int cmp_u64(const void *x, const void *y)
@@ -186,7 +188,7 @@ static void assign_meshes(build_ctx *c, uint32_t t)
         c->load[v] = 0;
     for (uint32_t k = 0; k < mc; k++) {
         const uint32_t m = (uint32_t)c->by_size[k];
-        if (t > 1 && c->work[m].n >= (size_t)BIG_PER_WORKER * t) {
+        if (t > 1 && c->work[m].n >= BIG_MESH) {
             c->owner[m] = SOLO;
             continue;
         }
