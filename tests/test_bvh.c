@@ -1328,6 +1328,54 @@ static void test_accel_contract(void **state)
     rto_scene_destroy(sc);
 }
 
+/* Instances whose keys are refused (a non-finite centroid): every thread count refuses the build with the message of
+ * the sequential key function over the same world boxes, which names the first such instance. */
+static void test_accel_tlas_key_refusals(void **state)
+{
+    (void)state;
+    rto_scene *sc = NULL;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_scene_load("instances:uniform:5000", &sc, &msg), RTO_OK);
+    for (int fault = 0; fault < 2; fault++) {
+        rto_mat34 saved[2] = {sc->instances[3001].obj_to_world, sc->instances[4998].obj_to_world};
+        /* an infinite translation: a non-finite centroid in a middle worker's range, or two, the first and last */
+        if (fault == 0) {
+            sc->instances[3001].obj_to_world.m[1][3] = INFINITY;
+        } else {
+            sc->instances[4998].obj_to_world.m[0][3] = -INFINITY;
+            sc->instances[3001].obj_to_world.m[2][3] = INFINITY;
+        }
+        /* the expected message: the sequential keys of the instances' world boxes */
+        rto_aabb *boxes = calloc(sc->instance_count, sizeof *boxes);
+        uint32_t *keys = calloc(sc->instance_count, sizeof *keys);
+        assert_non_null(boxes);
+        assert_non_null(keys);
+        rto_aabb mesh = rto_mesh_aabb(&sc->meshes[0]);
+        for (uint32_t i = 0; i < sc->instance_count; i++)
+            boxes[i] = rto_aabb_transform(&sc->instances[i].obj_to_world, &mesh);
+        size_t m = 0;
+        rto_msg want = {{0}};
+        assert_int_equal(rto_tlas_keys_from_boxes(boxes, sc->instance_count, keys, &m, &want),
+                         RTO_ERR_INVALID_ARGUMENT);
+        if (!strstr(want.text, "centroid 3001 has a non-finite coordinate"))
+            fail_msg("fault %d: the sequential keys say \"%s\"", fault, want.text);
+        static const uint32_t threads[] = {1, 2, 3, 8};
+        for (size_t t = 0; t < sizeof threads / sizeof threads[0]; t++) {
+            rto_accel_desc d = {RTO_TLAS_SWEEP, threads[t]};
+            rto_accel *acc = (rto_accel *)&acc;
+            assert_int_equal(rto_accel_build(sc, &d, &acc, &msg), RTO_ERR_INVALID_ARGUMENT);
+            assert_null(acc);
+            if (strcmp(msg.text, want.text) != 0)
+                fail_msg("fault %d, %u threads: \"%s\", expected \"%s\"", fault, threads[t], msg.text, want.text);
+        }
+        free(boxes);
+        free(keys);
+        sc->instances[3001].obj_to_world = saved[0];
+        sc->instances[4998].obj_to_world = saved[1];
+    }
+    rto_scene_destroy(sc);
+}
+
 /* rto_accel_check names the tree and the fault of a damaged accel. The views are const for readers; the test casts
  * that away on purpose to damage one tree at a time. */
 static void test_accel_check_names_the_tree(void **state)
@@ -1406,6 +1454,7 @@ int main(void)
         cmocka_unit_test(test_empty_mesh_builds_an_empty_blas),
         cmocka_unit_test(test_tlas_keys_skip_empty_boxes),
         cmocka_unit_test(test_accel_contract),
+        cmocka_unit_test(test_accel_tlas_key_refusals),
         cmocka_unit_test(test_accel_check_names_the_tree),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -64,6 +64,8 @@ static rto_aabb union_box(rto_aabb a, rto_aabb b)
 
 #define BIG_MESH 16384u
 #define SOLO UINT32_MAX
+/* A level of the sweep TLAS is split between the team while it has this many nodes per worker. */
+#define SWEEP_LEVEL_PER_WORKER 1024u
 
 typedef struct blas_work {
     const rto_mesh *mesh;
@@ -89,6 +91,7 @@ typedef struct build_ctx {
     uint64_t *diff;
     uint8_t *ordered;
     uint64_t *load;
+    size_t *keyed; /* per worker: keyed instances of its range */
     uint32_t *owner; /* per mesh: its worker, or SOLO for the team */
     uint64_t *by_size;
     /* the TLAS */
@@ -210,31 +213,63 @@ static void tlas_stages(build_ctx *c, rto__team *team, uint32_t w, uint32_t t)
     rto_aabb *boxes = (rto_aabb *)(uintptr_t)tl->instance_aabbs;
     uint32_t *keys = (uint32_t *)(uintptr_t)tl->keys, *sorted = (uint32_t *)(uintptr_t)tl->sorted_keys;
     /* The mesh's box through objToWorld, as rto_instance_aabb computes it, but with the mesh's box taken from its
-     * BLAS instead of a scan of the mesh per instance. */
+     * BLAS instead of a scan of the mesh per instance; with each range's centroid bounds and keyed count. */
     size_t b, e;
     rto__part(n, w, t, &b, &e);
-    rto__instance_boxes_part(sc->instances, c->blas_bounds, b, e, boxes);
+    rto__instance_boxes_part(sc->instances, c->blas_bounds, b, e, boxes, &c->parts[w], &c->keyed[w]);
     rto__team_sync(team);
+    rto__key_part all;
+    rto__key_part_init(&all);
+    size_t first = 0, m = 0;
+    for (uint32_t v = 0; v < t; v++) {
+        rto__key_part_merge(&all, &c->parts[v]);
+        first += v < w ? c->keyed[v] : 0;
+        m += c->keyed[v];
+    }
+    if (!rto__key_bounds_ok(&all, m)) {
+        /* Refused: the sequential function finds the same fault and gives its message. */
+        if (w == 0) {
+            size_t none = 0;
+            c->tlas_status = rto_tlas_keys_from_boxes(boxes, n, keys, &none, &c->tlas_msg);
+            if (!c->tlas_status) /* cannot happen: the same centroids */
+                c->tlas_status = rto_fail(&c->tlas_msg, RTO_ERR_INVALID_ARGUMENT, "TLAS keys refused");
+        }
+        return; /* every worker returns here, after the last sync */
+    }
+    rto__tlas_keys_part(boxes, b, e, &all, first, keys);
+    const size_t np = rto_next_pow2(m);
     if (w == 0) {
-        size_t m = 0;
-        c->tlas_status = rto_tlas_keys_from_boxes(boxes, n, keys, &m, &c->tlas_msg);
         tl->key_count = (uint32_t)m;
-        tl->n_padded = (uint32_t)rto_next_pow2(m);
+        tl->n_padded = (uint32_t)np;
     }
     rto__team_sync(team);
-    if (c->tlas_status)
-        return;
-    const size_t m = tl->key_count, np = tl->n_padded;
     rto__radix_team r = radix_of(c, RTO_KEY_U32, keys, m, sorted, c->tlas_tmp, 0);
     rto__radix_team_sort(&r, team, w, t);
-    if (w == 0)
-        for (size_t j = m; j < np; j++)
-            sorted[j] = RTO_SENTINEL_U32;
+    rto__part(np - m, w, t, &b, &e);
+    for (size_t j = m + b; j < m + e; j++)
+        sorted[j] = RTO_SENTINEL_U32;
     if (tl->kind == RTO_TLAS_SWEEP) {
+        /* Level order, bottom-up, no atomics: the leaves in ranges, then each level of internal nodes in ranges
+         * with a sync between levels, until a level is small enough for worker 0 to finish the tree alone. */
+        rto_tlas_node *nodes = (rto_tlas_node *)(uintptr_t)tl->sweep_nodes;
+        if (np == 0) {
+            if (w == 0)
+                c->tlas_status = rto_tlas_build_sweep(sorted, 0, boxes, nodes, &c->tlas_msg);
+        } else {
+            rto__part(np, w, t, &b, &e);
+            rto__tlas_sweep_leaves(sorted, m, np, boxes, nodes, b, e);
+            size_t level = np / 2; /* nodes of the level above: [level - 1, 2 level - 1) */
+            for (; level >= SWEEP_LEVEL_PER_WORKER * t; level /= 2) {
+                rto__team_sync(team);
+                rto__part(level, w, t, &b, &e);
+                rto__tlas_sweep_nodes(nodes, level - 1 + b, level - 1 + e);
+            }
+            rto__team_sync(team);
+            if (w == 0 && level) /* (one leaf: the root is the leaf) */
+                rto__tlas_sweep_nodes(nodes, 0, 2 * level - 1);
+        }
         if (w == 0) {
             tl->node_count = rto_tlas_sweep_node_count(m);
-            rto_tlas_node *nodes = (rto_tlas_node *)(uintptr_t)tl->sweep_nodes;
-            c->tlas_status = rto_tlas_build_sweep(sorted, m, boxes, nodes, &c->tlas_msg);
             if (!c->tlas_status)
                 tl->stats = rto_tlas_stats(nodes, m);
         }
@@ -350,6 +385,7 @@ static void ctx_free(build_ctx *c)
     free(c->diff);
     free(c->ordered);
     free(c->load);
+    free(c->keyed);
     free(c->owner);
     free(c->by_size);
     free(c->blas_bounds);
@@ -432,10 +468,11 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     c.diff = rto_alloc(W, sizeof *c.diff);
     c.ordered = rto_alloc(W, sizeof *c.ordered);
     c.load = rto_alloc(W, sizeof *c.load);
+    c.keyed = rto_alloc(W, sizeof *c.keyed);
     c.owner = rto_alloc(mc, sizeof *c.owner);
     c.by_size = rto_alloc(mc, sizeof *c.by_size);
     c.blas_bounds = rto_alloc(mc, sizeof *c.blas_bounds);
-    rto_status s = a->blas && c.work && c.parts && c.hist && c.first && c.diff && c.ordered && c.load && c.owner &&
+    rto_status s = a->blas && c.work && c.parts && c.hist && c.first && c.diff && c.ordered && c.load && c.keyed && c.owner &&
                            c.by_size && c.blas_bounds
                        ? RTO_OK
                        : oom(msg);

@@ -38,7 +38,15 @@ rto_status rto_tlas_build_sweep(const uint32_t *sorted_keys, size_t n, const rto
         set_empty(&nodes[0]);
         return RTO_OK;
     }
-    for (size_t j = 0; j < np; j++) {
+    rto__tlas_sweep_leaves(sorted_keys, n, np, boxes, nodes, 0, np);
+    rto__tlas_sweep_nodes(nodes, 0, np - 1);
+    return RTO_OK;
+}
+
+void rto__tlas_sweep_leaves(const uint32_t *sorted_keys, size_t n, size_t np, const rto_aabb *boxes,
+                            rto_tlas_node *nodes, size_t begin, size_t end)
+{
+    for (size_t j = begin; j < end; j++) {
         rto_tlas_node *t = &nodes[np - 1 + j];
         if (j >= n) {
             set_empty(t);
@@ -54,7 +62,12 @@ rto_status rto_tlas_build_sweep(const uint32_t *sorted_keys, size_t n, const rto
         t->max[2] = boxes[inst].max.z;
         t->item = inst;
     }
-    for (size_t i = np - 1; i-- > 0;) {
+}
+
+/* Internal nodes from the last down: every child (2i + 1, 2i + 2) is done before its parent. */
+void rto__tlas_sweep_nodes(rto_tlas_node *nodes, size_t begin, size_t end)
+{
+    for (size_t i = end; i-- > begin;) {
         const rto_tlas_node *l = &nodes[2 * i + 1], *r = &nodes[2 * i + 2];
         rto_tlas_node *t = &nodes[i];
         memset(t, 0, sizeof *t);
@@ -64,7 +77,6 @@ rto_status rto_tlas_build_sweep(const uint32_t *sorted_keys, size_t n, const rto
         }
         t->item = (l->item == RTO_TLAS_EMPTY && r->item == RTO_TLAS_EMPTY) ? RTO_TLAS_EMPTY : RTO_TLAS_INTERNAL;
     }
-    return RTO_OK;
 }
 
 rto_bvh_stats rto_tlas_stats(const rto_tlas_node *nodes, size_t n)
@@ -78,14 +90,12 @@ rto_bvh_stats rto_tlas_stats(const rto_tlas_node *nodes, size_t n)
         if (nodes[i].item == RTO_TLAS_EMPTY)
             continue;
         sum += rto_box_area(nodes[i].min, nodes[i].max);
-        if (i >= np - 1) {
+        if (i >= np - 1)
             st.leaves++;
-            uint32_t d = 0;
-            for (size_t k = i; k > 0; k = (k - 1) / 2)
-                d++;
-            st.depth = d > st.depth ? d : st.depth;
-        }
     }
+    /* Every leaf of the heap lies log2(n_padded) levels below the root. */
+    if (st.leaves)
+        st.depth = (uint32_t)__builtin_ctzll((unsigned long long)np);
     st.sah = root > 0 ? sum / root : 0;
     return st;
 }

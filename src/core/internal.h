@@ -110,9 +110,21 @@ int rto__key_bounds_ok(const rto__key_part *all, size_t n);
 /** BLAS keys [begin, end) (rto_blas_keys' bytes) from the centroids and the whole mesh's part. */
 void rto__blas_keys_part(float *const cent[3], size_t begin, size_t end, const rto__key_part *all,
                          uint64_t *keys);
-/** World boxes of instances [begin, end): rto_aabb_transform of their BLAS's bounds. */
+/** World boxes of instances [begin, end): rto_aabb_transform of their BLAS's bounds; with the part of the centroids
+ * of the non-empty ones (part->u is not set) and their number (*keyed). */
 void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bounds, size_t begin, size_t end,
-                              rto_aabb *boxes);
+                              rto_aabb *boxes, rto__key_part *part, size_t *keyed);
+/** TLAS key of centroid c (rto_tlas_keys_indexed's bytes), with centroid bounds lo / hi. */
+uint32_t rto__tlas_key(rto_vec3 c, const float lo[3], const float hi[3], uint32_t index);
+/** TLAS keys of the non-empty boxes among [begin, end) (rto_tlas_keys_from_boxes' bytes), written from keys[first] on,
+ * with the bounds of all the keyed centroids (merged parts of rto__instance_boxes_part). */
+void rto__tlas_keys_part(const rto_aabb *boxes, size_t begin, size_t end, const rto__key_part *all, size_t first,
+                         uint32_t *keys);
+/** The sweep TLAS (rto_tlas_build_sweep's bytes) in parts: leaves [begin, end) of n_padded over n sorted keys, then
+ * each level's internal nodes [begin, end) (node indices), children's level first. */
+void rto__tlas_sweep_leaves(const uint32_t *sorted_keys, size_t n, size_t np, const rto_aabb *boxes,
+                            rto_tlas_node *nodes, size_t begin, size_t end);
+void rto__tlas_sweep_nodes(rto_tlas_node *nodes, size_t begin, size_t end);
 
 /** rto_fast_radix_sort for a team (sort/fast_radix.c): the same bytes. Scratch the caller provides for up to W workers:
  * hist rto__radix_team_hist_words(W) u32, first W * 2048 u32, diff W u64, ordered W bytes; tmp n keys. in and out must

@@ -255,8 +255,11 @@ void rto__blas_keys_part(float *const cent[3], size_t begin, size_t end, const r
 }
 
 void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bounds, size_t begin, size_t end,
-                              rto_aabb *boxes)
+                              rto_aabb *boxes, rto__key_part *part, size_t *keyed)
 {
+    rto__key_part p;
+    rto__key_part_init(&p);
+    size_t k = 0;
     for (size_t i = begin; i < end; i++) {
         const rto_aabb *box = &blas_bounds[inst[i].blas];
         rto_aabb w = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
@@ -278,5 +281,25 @@ void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bou
             }
         }
         boxes[i] = w;
+        if (rto_aabb_is_empty(&w))
+            continue; /* no key (rto_tlas_keys_from_boxes) */
+        k++;
+        const rto_vec3 cv = rto_aabb_centroid(&w);
+        const float c[3] = {cv.x, cv.y, cv.z};
+        for (int a = 0; a < 3; a++) {
+            p.bad |= !isfinite(c[a]);
+            p.lo[a] = c[a] < p.lo[a] ? c[a] : p.lo[a];
+            p.hi[a] = c[a] > p.hi[a] ? c[a] : p.hi[a];
+        }
     }
+    *part = p;
+    *keyed = k;
+}
+
+void rto__tlas_keys_part(const rto_aabb *boxes, size_t begin, size_t end, const rto__key_part *all, size_t first,
+                         uint32_t *keys)
+{
+    for (size_t i = begin; i < end; i++)
+        if (!rto_aabb_is_empty(&boxes[i]))
+            keys[first++] = rto__tlas_key(rto_aabb_centroid(&boxes[i]), all->lo, all->hi, (uint32_t)i);
 }

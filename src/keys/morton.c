@@ -53,6 +53,14 @@ static uint32_t quantise(float c, float lo, float hi, uint32_t cells)
     return q < cells - 1 ? q : cells - 1;
 }
 
+uint32_t rto__tlas_key(rto_vec3 c, const float lo[3], const float hi[3], uint32_t index)
+{
+    uint32_t q[3];
+    for (int a = 0; a < 3; a++)
+        q[a] = quantise(axis(&c, a), lo[a], hi[a], 32);
+    return (rto_morton15(q[0], q[1], q[2]) << 16) | index;
+}
+
 rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *index, size_t n, uint32_t *keys,
                                  rto_msg *msg)
 {
@@ -69,12 +77,8 @@ rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *inde
     rto_status s = centroid_bounds(centroids, index, n, lo, hi, msg);
     if (s)
         return s;
-    for (size_t i = 0; i < n; i++) {
-        uint32_t q[3];
-        for (int a = 0; a < 3; a++)
-            q[a] = quantise(axis(&centroids[i], a), lo[a], hi[a], 32);
-        keys[i] = (rto_morton15(q[0], q[1], q[2]) << 16) | (index ? index[i] : (uint32_t)i);
-    }
+    for (size_t i = 0; i < n; i++)
+        keys[i] = rto__tlas_key(centroids[i], lo, hi, index ? index[i] : (uint32_t)i);
     return RTO_OK;
 }
 
