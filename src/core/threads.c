@@ -4,6 +4,7 @@
 #include "internal.h"
 
 #include <pthread.h>
+#include <sched.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,7 +33,8 @@ typedef struct waitpoint {
     _Atomic uint64_t value;
 } waitpoint;
 
-#define SPIN_ROUNDS 200000
+#define SPIN_ROUNDS 16384
+#define YIELD_EVERY 512
 
 static inline void cpu_relax(void)
 {
@@ -51,10 +53,14 @@ static void wp_init(waitpoint *p)
 /* Returns once p->value differs from old. */
 static void wp_wait(waitpoint *p, uint64_t old)
 {
-    for (int i = 0; i < SPIN_ROUNDS; i++) {
+    for (int i = 1; i <= SPIN_ROUNDS; i++) {
         if (atomic_load_explicit(&p->value, memory_order_acquire) != old)
             return;
-        cpu_relax();
+        /* On a machine with more runnable threads than cores, the thread waited for may need this core. */
+        if (i % YIELD_EVERY == 0)
+            sched_yield();
+        else
+            cpu_relax();
     }
     pthread_mutex_lock(&p->lock);
     atomic_fetch_add(&p->sleepers, 1);
