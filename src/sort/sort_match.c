@@ -21,12 +21,24 @@
 #include <string.h>
 
 #define MAX_BITS 11u                 /* widest digit: 2048 counters, within L1 */
+#define ROOT_BITS 16u                /* widest top digit of a small input on one thread */
 #define LEAF 24u                     /* runs this short are insertion-sorted */
 #define FEW 16u                      /* buckets of at most this many keys: their whole range is insertion-sorted */
 #define LOCAL_KEYS 8192u             /* a top bucket up to this size is partitioned in the worker's own scratch */
 #define PATH_COUNTERS (6u << MAX_BITS) /* counters along one path of nested digits (widths add up to <= 64 bits) */
 
 static uint32_t bitlen64(uint64_t v) { return v ? 64u - (uint32_t)__builtin_clzll(v) : 0u; }
+
+/* The top digit's width: alone and below RTO__SORT_MATCH_TEAM_FROM keys, up to ROOT_BITS (the keys and counters
+ * stay in L2, and one digit leaves buckets of about two keys); for a team, or more keys, digit_bits. */
+static uint32_t digit_bits(size_t m);
+static uint32_t root_bits(size_t n, uint32_t workers)
+{
+    const uint32_t b = bitlen64((uint64_t)n);
+    if (workers > 1 || n >= RTO__SORT_MATCH_TEAM_FROM)
+        return digit_bits(n);
+    return b - 1 > ROOT_BITS ? ROOT_BITS : b - 1;
+}
 
 /* Digit width for m keys: about one key per two buckets, at most MAX_BITS. */
 static uint32_t digit_bits(size_t m)
@@ -195,9 +207,9 @@ typedef struct match {
         }                                                                                                              \
         const uint32_t hi = bitlen64(span);                                                                            \
         const KEY above = hi >= (BITS) ? 0 : (KEY)(~(KEY)0 << hi);                                                     \
-        const uint32_t db = digit_bits(n), width = hi < db ? hi : db, shift = hi - width, radix = 1u << width;        \
+        const uint32_t db = root_bits(n, t), width = hi < db ? hi : db, shift = hi - width, radix = 1u << width;      \
         const KEY mask = (KEY)(radix - 1);                                                                             \
-        uint32_t *hist = r->hist + (size_t)w * (1u << MAX_BITS);                                                       \
+        uint32_t *hist = r->hist + ((size_t)w << db);                                                                  \
         memset(hist, 0, radix * sizeof *hist);                                                                         \
         KEY outside = 0;                                                                                               \
         for (size_t i = b; i < e; i++) {                                                                               \
@@ -217,30 +229,69 @@ typedef struct match {
             return;                                                                                                    \
         }                                                                                                              \
         /* This worker's first slot per digit: the keys of smaller digits and those of the same digit in lower       \
-         * workers' ranges. end[] (the worker's counters) keeps it; the bucket starts go into its upper half. */    \
-        uint32_t *first = s->counts, *start = s->counts + (1u << MAX_BITS);                                            \
-        uint32_t run = 0;                                                                                              \
-        for (uint32_t d = 0; d < radix; d++) {                                                                         \
-            uint32_t before = 0, all = 0;                                                                              \
-            for (uint32_t v = 0; v < t; v++) {                                                                         \
-                const uint32_t c = r->hist[(size_t)v * (1u << MAX_BITS) + d];                                          \
-                before += v < w ? c : 0;                                                                               \
-                all += c;                                                                                              \
+         * workers' ranges; ends[d], where bucket d ends. Alone, the counters become both in place. */              \
+        uint32_t *first = hist, *ends = hist, run = 0, top = 0;                                                        \
+        if (t == 1) {                                                                                                  \
+            for (uint32_t d = 0; d < radix; d++) {                                                                     \
+                const uint32_t c = hist[d];                                                                            \
+                hist[d] = run;                                                                                         \
+                run += c;                                                                                              \
+                top = c > top ? c : top;                                                                               \
             }                                                                                                          \
-            first[d] = run + before;                                                                                   \
-            start[d] = run;                                                                                            \
-            run += all;                                                                                                \
+        } else {                                                                                                       \
+            first = s->counts;                                                                                         \
+            ends = s->counts + (1u << MAX_BITS);                                                                       \
+            for (uint32_t d = 0; d < radix; d++) {                                                                     \
+                uint32_t before = 0, all = 0;                                                                          \
+                for (uint32_t v = 0; v < t; v++) {                                                                     \
+                    const uint32_t c = r->hist[((size_t)v << db) + d];                                                 \
+                    before += v < w ? c : 0;                                                                           \
+                    all += c;                                                                                          \
+                }                                                                                                      \
+                first[d] = run + before;                                                                               \
+                run += all;                                                                                            \
+                ends[d] = run;                                                                                         \
+            }                                                                                                          \
         }                                                                                                              \
         for (size_t i = b; i < e; i++)                                                                                 \
             a[first[(in[i] >> shift) & mask]++] = in[i];                                                               \
         rto__team_sync(team);                                                                                          \
-        /* Buckets by their first slot: those starting in [b, e) are this worker's. */                              \
-        s->used = 2u << MAX_BITS;                                                                                      \
-        for (uint32_t d = 0; d < radix && !s->state; d++) {                                                            \
-            const size_t from = start[d], to = d + 1 < radix ? start[d + 1] : n;                                       \
-            if (from >= b && from < e && to > from)                                                                    \
-                node_##NAME(s, a + from, to - from, from, NULL, shift);                                                \
+        if (t == 1 && top <= FEW) { /* alone, every bucket a few keys: one insertion sort of the whole array */       \
+            leaf_##NAME(s, a, n, 0);                                                                                   \
+            return;                                                                                                    \
         }                                                                                                              \
+        /* Buckets by their first slot: those starting in [b, e) are this worker's, slots [s0, s1) together. */     \
+        s->used = 2u << MAX_BITS;                                                                                      \
+        size_t s0 = n, s1 = 0, most = 0;                                                                               \
+        for (uint32_t d = 0; d < radix; d++) {                                                                         \
+            const size_t from = d ? ends[d - 1] : 0, to = ends[d];                                                     \
+            if (from >= b && from < e && to > from) {                                                                  \
+                s0 = s0 < from ? s0 : from;                                                                            \
+                s1 = to;                                                                                               \
+                most = to - from > most ? to - from : most;                                                            \
+            }                                                                                                          \
+        }                                                                                                              \
+        if (s1 <= s0)                                                                                                  \
+            return;                                                                                                    \
+        if (most <= FEW) { /* every bucket a few keys: one insertion sort of the whole range */                       \
+            leaf_##NAME(s, a + s0, s1 - s0, s0);                                                                       \
+            return;                                                                                                    \
+        }                                                                                                              \
+        size_t stretch = s0;                                                                                           \
+        for (uint32_t d = 0; d < radix && !s->state; d++) {                                                            \
+            const size_t from = d ? ends[d - 1] : 0, to = ends[d];                                                     \
+            if (from < b || from >= e || to <= from)                                                                   \
+                continue;                                                                                              \
+            if (to - from > LEAF) {                                                                                    \
+                emit_##NAME(s, a + stretch, from - stretch, stretch);                                                  \
+                node_##NAME(s, a + from, to - from, from, NULL, shift);                                                \
+                stretch = to;                                                                                          \
+            } else if (to - from > 1) {                                                                                \
+                small_sort_##NAME(a + from, to - from);                                                                \
+            }                                                                                                          \
+        }                                                                                                              \
+        if (!s->state)                                                                                                 \
+            emit_##NAME(s, a + stretch, s1 - stretch, stretch);                                                        \
     }
 
 DEFINE_MATCH(uint32_t, u32, 32u)
@@ -290,7 +341,7 @@ int rto__sort_match(rto_key_format f, const void *keys, size_t n, const void *wa
     uint32_t t = n >= RTO__SORT_MATCH_TEAM_FROM ? rto__thread_count(threads) : 1;
     match r = {f, keys, want, out, n, NULL, NULL, NULL, NULL};
     r.a = rto__alloc_large(n, ksz);
-    r.hist = malloc((size_t)t * (1u << MAX_BITS) * sizeof *r.hist);
+    r.hist = malloc(((size_t)t << root_bits(n, t)) * sizeof *r.hist);
     r.diff = malloc(t * sizeof *r.diff);
     r.state = calloc(t, sizeof *r.state); /* 0 also for workers the team could not start */
     int result = -1;
