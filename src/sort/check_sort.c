@@ -291,11 +291,13 @@ static keyed *stable_reference(const rto_sort_check_desc *d)
 }
 
 /* The validator. The keys' verdict comes first from a direct comparison of the dump with the sorted input (the
- * caller's expected_keys, once shown to be the input in ascending order, or the input sorted here by a radix sort):
- * equal real range and a sentinel tail is a pass, in one pass over memory. Only when they differ does the full
- * analysis run (multiset merge of the sorted dump against the sorted input, order, tail), which names the fault and
- * its first bad slot; it is the only path of the reference (reference = 1: qsort, no comparison), which the tests
- * hold the fast path to report for report. */
+ * caller's expected_keys, once shown to be the input in ascending order, in one pass over memory; or, with the input
+ * alone, rto__sort_match: the input sorted bucket by bucket by an MSD radix partition and each bucket compared with
+ * its slots, in about two passes, on d->threads workers): equal real range and a sentinel tail is a pass. Only when
+ * they differ does the full analysis run (the input sorted by rto_fast_radix_sort, multiset merge of the sorted dump
+ * against it, order, tail), single-threaded, which names the fault and its first bad slot; it is the only path of the
+ * reference (reference = 1: qsort, no comparison), which the tests hold the fast path to report for report. The
+ * thread count thus changes neither the verdict nor a byte of the report. */
 static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_msg *msg, int reference)
 {
     if (!d || !r)

@@ -24,7 +24,7 @@
 #define ROOT_BITS 16u                /* widest top digit of a small input on one thread */
 #define LEAF 24u                     /* runs this short are insertion-sorted */
 #define FEW 16u                      /* buckets of at most this many keys: their whole range is insertion-sorted */
-#define LOCAL_KEYS 8192u             /* a top bucket up to this size is partitioned in the worker's own scratch */
+#define LOCAL_KEYS 4096u             /* a top bucket up to this size is partitioned in the worker's own scratch */
 #define PATH_COUNTERS (6u << MAX_BITS) /* counters along one path of nested digits (widths add up to <= 64 bits) */
 
 static uint32_t bitlen64(uint64_t v) { return v ? 64u - (uint32_t)__builtin_clzll(v) : 0u; }
