@@ -2,9 +2,11 @@
  * qsort on the same keys in the same process, as a ratio (median of RUNS runs). Absolute times drift on a shared
  * machine; the ratio is the figure to compare. Embree has no sort, so qsort is the yardstick here.
  *
- * check-sort is timed on a correct dump (the case a CI loop meets) four ways: with only the input (sorted inside by
- * a radix sort), with expected_keys (a bundle's sorted.npy), with expected_keys and stable carried values, and the
- * full analysis that every call ran before the fast path (qsort of input and dump), as the before figure.
+ * check-sort is timed on a correct dump (the case a CI loop meets) five ways: with only the input (matched inside by
+ * an MSD radix partition) on one thread and on every hardware thread (rto_sort_check_desc.threads 1 and 0), with
+ * expected_keys (a bundle's sorted.npy), with expected_keys and stable carried values, and the full analysis that
+ * every call ran before the fast path (qsort of input and dump), as the before figure. Every check but "all threads"
+ * runs on one thread.
  * `bench_sort WORD` runs only the oracles whose name contains WORD (e.g. check; "paths" runs only the table of
  * bitonic paths, each beside qsort and a plain LSD radix sort). --json: bench_util.h. */
 #include "rtoracle.h"
@@ -35,6 +37,7 @@ typedef enum {
     WORK_BITONIC,
     WORK_RADIX,
     WORK_CHECK_INPUT,
+    WORK_CHECK_INPUT_ALL, /* the same with every hardware thread */
     WORK_CHECK_EXPECTED,
     WORK_CHECK_VALUES,
     WORK_CHECK_FULL,
@@ -107,6 +110,7 @@ static void run(work w, const job *j)
         break;
     case WORK_RADIX: s = rto_radix_sort(j->f, j->keys, j->n, 8, 256, j->scratch, j->perm, NULL, NULL); break;
     case WORK_CHECK_INPUT:
+    case WORK_CHECK_INPUT_ALL:
     case WORK_CHECK_EXPECTED:
     case WORK_CHECK_VALUES:
     case WORK_CHECK_FULL: {
@@ -117,6 +121,7 @@ static void run(work w, const job *j)
         d.n = j->n;
         d.gpu_keys = j->sorted;
         d.gpu_n = j->n;
+        d.threads = w == WORK_CHECK_INPUT_ALL ? 0 : 1;
         if (w == WORK_CHECK_EXPECTED || w == WORK_CHECK_VALUES)
             d.expected_keys = j->sorted;
         if (w == WORK_CHECK_VALUES) {
@@ -220,6 +225,7 @@ int main(int argc, char **argv)
     } works[] = {{WORK_BITONIC, "bitonic"},
                  {WORK_RADIX, "radix-8/256"},
                  {WORK_CHECK_INPUT, "check --input"},
+                 {WORK_CHECK_INPUT_ALL, "check --input (all threads)"},
                  {WORK_CHECK_EXPECTED, "check --expected"},
                  {WORK_CHECK_VALUES, "check --expected +values,stable"},
                  {WORK_CHECK_FULL, "check full analysis (before)"}};
@@ -259,7 +265,8 @@ int main(int argc, char **argv)
                    (double)n / to * 1e-6, tq * 1e3, to / tq);
             char kase[80];
             snprintf(kase, sizeof kase, "%s %s n=%zu", works[w].name, fmt, n);
-            bench_row("sort", kase, "qsort", 1, to, tq);
+            bench_row("sort", kase, works[w].w == WORK_CHECK_INPUT_ALL ? "qsort (1 thread)" : "qsort",
+                      works[w].w == WORK_CHECK_INPUT_ALL ? 0 : 1, to, tq);
         }
         free(keys);
         free(scratch);

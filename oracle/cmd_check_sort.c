@@ -8,7 +8,7 @@
 static const char check_usage[] =
     "usage: rtoracle check-sort --input keys.npy --gpu gpu_sorted.npy [--gpu-values values.npy] [--stable]\n"
     "                           [--expected OUTDIR] [--gpu-passes passes.npy] [--algo bitonic|radix]\n"
-    "                           [--radix-bits 4|8] [--tile T] [--json] [--no-artifacts]\n\n"
+    "                           [--radix-bits 4|8] [--tile T] [--threads N] [--json] [--no-artifacts]\n\n"
     "Checks that the GPU's buffer is sorted, is a permutation of the input and (with values) that every\n"
     "value names a source slot holding its key (padding element p carries n + p, which may appear in the\n"
     "first n slots where keys equal the sentinel) and, with --stable, that equal keys keep input order.\n"
@@ -17,8 +17,9 @@ static const char check_usage[] =
     "first checkpoint pass (k, j) and slot where the GPU diverges from the oracle's schedule.\n"
     "--expected OUTDIR takes the input, algorithm, digit width and tile from a sort bundle (its input is\n"
     "verified by sha256); a radix bundle implies --stable when the dump carries values. The dump is compared\n"
-    "with the bundle's sorted.npy directly (with --input alone, with the input radix-sorted), and analysed\n"
-    "further only where it differs.\n";
+    "with the bundle's sorted.npy directly (with --input alone, with the input as a radix partition sorts it,\n"
+    "bucket by bucket in cache: --threads workers from 131072 keys), and analysed further only where it\n"
+    "differs. The verdict and the report do not depend on --threads.\n";
 
 static const char check_epilog[] =
     "Fault classes: size, lost-key, corrupt-key, duplicate-key, order, tail, value, stability, pass.\n"
@@ -141,6 +142,7 @@ int cmd_check_sort(int argc, char **argv)
         OPT_ENUM("algo", &d.algo, cli_algo_names, "A", "the algorithm the GPU ran", "bitonic"),
         OPT_CHOICE("radix-bits", &d.radix_bits, cli_radix_bits_names, "B", "radix digit width", "8"),
         OPT_UINT("tile", &d.radix_tile, 1, CLI_TILE_MAX, "T", "radix tile size in keys", "256"),
+        OPT_UINT("threads", &d.threads, 0, 256, "N", "threads (0: one per CPU); the report is the same", "0"),
         OPT_FLAG("json", &json, "print the report as JSON"),
         OPT_FLAG("no-artifacts", &no_artifacts, "do not write the report next to the GPU dump"),
         OPT_END,

@@ -419,6 +419,7 @@ typedef struct rto_sort_check_desc {
      * directly instead of with the input sorted here. Refused (RTO_ERR_INVALID_ARGUMENT) unless they ascend and hold
      * the input's keys (compared by a multiset hash). */
     const void *expected_keys;
+    uint32_t threads; /* 0: one per online CPU; the verdict and the report never depend on it */
 } rto_sort_check_desc;
 
 /**
@@ -426,8 +427,10 @@ typedef struct rto_sort_check_desc {
  * which: code is an rto_fault; checks "sorted", "permutation", "tail", "values", "stable", "passes"; location
  * "slot" and, for a checkpoint fault, "pass" with "k" / "j" (bitonic) or "digit_bit" (radix)), other statuses for
  * unusable input (msg says why). Independent of rto_bitonic_sort and rto_radix_sort for the final array: the dump is
- * compared with expected_keys or with the input sorted by rto_fast_radix_sort, a pass over memory; only a dump that
- * differs is analysed further (sorted and merged against the input) to name the fault and its first bad slot.
+ * compared with expected_keys (a pass over memory) or, with only the input, with the input as an MSD radix partition
+ * sorts it bucket by bucket in cache (about two passes over memory; desc->threads workers from 2^17 keys); only a
+ * dump that differs is analysed further (sorted and merged against the input) to name the fault and its first bad
+ * slot.
  * Carried values are checked in one pass without sorting. report->what is left empty for the caller (e.g. the case
  * id).
  */

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # check-sort --expected compares the dump with the bundle's sorted.npy: the verdicts and named faults equal those of
 # --input (which sorts the input itself); a sorted.npy that is not the input sorted, or has the wrong shape, is
-# refused with status 2 and one line; a bundle without sorted.npy is still checked from its input.
+# refused with status 2 and one line; a bundle without sorted.npy is still checked from its input. --threads does not
+# change a verdict or a report.
 set -u
 RTO=$1
 MUT=$2
@@ -39,4 +40,22 @@ for fmt in u32 u64; do
     run 1 "$RTO" check-sort --expected "$T/e" --gpu "$T/g.npy" --no-artifacts && has "^FAIL order" out
 done
 
-finish "check-sort --expected checks passed"
+# --threads: above the size where the input's matcher starts workers (2^17 keys), 1, 3 and every thread give the
+# same verdict and, on a fault, the same report; a count past 256 is refused with status 2.
+run 0 "$RTO" keys --dist random --n 140001 --format u64 --seed 3 -o "$T/big.npy"
+run 0 "$RTO" sort "$T/big.npy" -o "$T/bb"
+for t in 1 3 0; do
+    run 0 "$RTO" check-sort --input "$T/big.npy" --gpu "$T/bb/sorted.npy" --threads $t && has "^PASS" out
+done
+for m in swap-adjacent flip-bit; do
+    "$MUT" "$m" "$T/bb/sorted.npy" "$T/g.npy" >/dev/null || { fail "npy_mutate $m"; continue; }
+    run 1 "$RTO" check-sort --input "$T/big.npy" --gpu "$T/g.npy" --threads 1 --json --no-artifacts &&
+        cp "$T/out" "$T/want"
+    for t in 3 0; do
+        run 1 "$RTO" check-sort --input "$T/big.npy" --gpu "$T/g.npy" --threads $t --json --no-artifacts
+        cmp -s "$T/want" "$T/out" || fail "$m: the report with --threads $t differs from --threads 1"
+    done
+done
+run 2 "$RTO" check-sort --input "$T/big.npy" --gpu "$T/bb/sorted.npy" --threads 257
+
+finish "check-sort --expected and --threads checks passed"

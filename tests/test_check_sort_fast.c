@@ -2,8 +2,10 @@
  * only on a mismatch) and the full analysis it replaced (rto__sort_check_reference: qsort of input and dump, every
  * check run) give the same status and the same report, text and JSON byte for byte, for correct dumps and for many
  * mutated ones (swap, flip a bit, duplicate, drop, reorder equal keys, wrong value, tail) across distributions, both
- * formats, dumps of n and n_padded slots and sizes 1, 2, 3, 255..257 and 4095..4097. The fast path runs twice: with
- * the input sorted inside and with expected_keys (made here by qsort, as a bundle's sorted.npy would hold them). */
+ * formats, dumps of n and n_padded slots and sizes 1, 2, 3, 255..257 and 4095..4097, and on a smaller grid above the
+ * size where threads start. The fast path runs with the input matched inside (threads 1, 2, 3 and all) and with
+ * expected_keys (made here by qsort, as a bundle's sorted.npy would hold them). The matcher under it
+ * (rto__sort_match) is held to qsort on its own: its sort gives qsort's bytes, and its verdict is qsort's memcmp. */
 #include "testutil.h"
 
 #include "core/internal.h"
@@ -127,7 +129,7 @@ typedef struct outcome {
     char text[TEXT_CAP], json[TEXT_CAP];
 } outcome;
 
-static void run(const dump *dp, int values, int stable, int way, outcome *o)
+static void run_threads(const dump *dp, int values, int stable, int way, uint32_t threads, outcome *o)
 {
     rto_sort_check_desc d;
     memset(&d, 0, sizeof d);
@@ -139,6 +141,7 @@ static void run(const dump *dp, int values, int stable, int way, outcome *o)
     d.gpu_values = values ? dp->values : NULL;
     d.require_stable = stable;
     d.expected_keys = way == 2 ? dp->expected : NULL;
+    d.threads = threads;
     rto_report r;
     rto_msg msg = {{0}};
     o->status = way == 0 ? rto__sort_check_reference(&d, &r, &msg) : rto_sort_check(&d, &r, &msg);
@@ -147,6 +150,17 @@ static void run(const dump *dp, int values, int stable, int way, outcome *o)
     size_t len = 0;
     assert_int_equal(rto_report_text(&r, o->text, TEXT_CAP, &len), RTO_OK);
     assert_int_equal(rto_report_json(&r, o->json, TEXT_CAP, &len, NULL), RTO_OK);
+}
+
+static void run(const dump *dp, int values, int stable, int way, outcome *o) { run_threads(dp, values, stable, way, 1, o); }
+
+static void expect_same(const dump *dp, const char *dist, const char *mut_name, uint32_t seed, int kind, int way,
+                        uint32_t threads, const outcome *fast, const outcome *ref)
+{
+    if (fast->status != ref->status || strcmp(fast->text, ref->text) || strcmp(fast->json, ref->json))
+        fail_msg("%s %s n=%zu gn=%zu mutation %s seed %u kind %d way %d threads %u: fast path\n%s\nfull analysis\n%s",
+                 dist, dp->f == RTO_KEY_U64 ? "u64" : "u32", dp->n, dp->gn, mut_name, seed, kind, way, threads,
+                 fast->text, ref->text);
 }
 
 static const char *const dists[] = {"random",   "few-unique", "clustered", "sentinel-heavy", "all-equal",
@@ -180,12 +194,7 @@ static void test_fast_path_agrees_with_full_analysis(void **state)
                                 faults += ref.status == RTO_ERR_MISMATCH;
                                 for (int way = 1; way <= 2; way++) {
                                     run(&dp, kind > 0, kind > 1, way, &fast);
-                                    if (fast.status != ref.status || strcmp(fast.text, ref.text) ||
-                                        strcmp(fast.json, ref.json))
-                                        fail_msg("%s %s n=%zu gn=%zu mutation %s seed %u kind %d way %d: fast "
-                                                 "path\n%s\nfull analysis\n%s",
-                                                 dists[di], fi ? "u64" : "u32", dp.n, dp.gn, mutation_names[m], seed,
-                                                 kind, way, fast.text, ref.text);
+                                    expect_same(&dp, dists[di], mutation_names[m], seed, kind, way, 1, &fast, &ref);
                                 }
                                 cases++;
                             }
@@ -238,10 +247,134 @@ static void test_wrong_expected_keys_refused(void **state)
     }
 }
 
+/* Above the size where the matcher starts threads: the same agreement with 1, 2, 3 and all threads, on a grid cut
+ * to fit the time (keys only; every mutation of the keys once). */
+static void test_fast_path_threads_agree(void **state)
+{
+    (void)state;
+    static outcome ref, fast;
+    static const char *const big_dists[] = {"random", "all-equal", "one-bucket", "clustered", "sorted", "reversed",
+                                            "few-unique", "entropy-9"};
+    static const mutation muts[] = {MUT_NONE, MUT_SWAP, MUT_SWAP_NEXT, MUT_FLIP, MUT_DUPLICATE, MUT_DROP, MUT_TAIL};
+    static const uint32_t threads[] = {1, 2, 3, 0};
+    const size_t big[] = {RTO__SORT_MATCH_TEAM_FROM + 1};
+    size_t faults = 0, cases = 0;
+    for (size_t di = 0; di < sizeof big_dists / sizeof big_dists[0]; di++)
+        for (size_t zi = 0; zi < sizeof big / sizeof big[0]; zi++)
+            for (int fi = 0; fi < 2; fi++)
+                for (size_t mi = 0; mi < sizeof muts / sizeof muts[0]; mi++) {
+                    if (!tu_dist_applies(rto_dist_find(big_dists[di]), fi ? RTO_KEY_U64 : RTO_KEY_U32, big[zi]))
+                        continue;
+                    const uint32_t seed = (uint32_t)(((di * 4 + zi) * 2 + (size_t)fi) * 16 + mi) + 7000;
+                    uint64_t rng = seed;
+                    dump dp;
+                    dump_make(&dp, big_dists[di], fi ? RTO_KEY_U64 : RTO_KEY_U32, big[zi], muts[mi] == MUT_TAIL, seed);
+                    if (!mutate(&dp, muts[mi], &rng)) {
+                        dump_free(&dp);
+                        continue;
+                    }
+                    run(&dp, 0, 0, 0, &ref);
+                    faults += ref.status == RTO_ERR_MISMATCH;
+                    cases++;
+                    for (size_t ti = 0; ti < sizeof threads / sizeof threads[0]; ti++) {
+                        run_threads(&dp, 0, 0, 1, threads[ti], &fast);
+                        expect_same(&dp, big_dists[di], mutation_names[muts[mi]], seed, 0, 1, threads[ti], &fast, &ref);
+                    }
+                    dump_free(&dp);
+                }
+    assert_true(faults > cases / 2);
+}
+
+/* rto__sort_match alone, on keys from many distributions and sizes around its thresholds (the run length of its
+ * insertion sort, the worker scratch, the team) with 1, 2, 3 and all threads: sorting gives qsort's bytes; matching a
+ * dump gives 1 exactly when the dump is qsort's order, also for dumps made to mislead the digit choice (first or last
+ * slot changed, keys from another range, a reversed dump). */
+static void test_sort_match_against_qsort(void **state)
+{
+    (void)state;
+    static const char *const mdists[] = {"random",    "uniform",  "all-equal", "one-bucket", "clustered",
+                                         "sorted",    "reversed", "few-unique", "entropy-9", "entropy-15",
+                                         "sentinel-heavy", "digit-7-one-bucket", "tile-overflow"};
+    const size_t sizes_m[] = {0,    1,    2,     3,     23,    24,    25,    63,    255,  257,
+                              4097, 8191, 8193,  16385, 65535, 65537, RTO__SORT_MATCH_TEAM_FROM - 1,
+                              RTO__SORT_MATCH_TEAM_FROM, RTO__SORT_MATCH_TEAM_FROM + 3, (size_t)1 << 18};
+    static const uint32_t threads[] = {1, 2, 3, 0};
+    size_t checked = 0;
+    for (size_t di = 0; di < sizeof mdists / sizeof mdists[0]; di++)
+        for (int fi = 0; fi < 2; fi++) {
+            const rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+            const rto_dist_info *info = rto_dist_find(mdists[di]);
+            assert_non_null(info);
+            for (size_t zi = 0; zi < sizeof sizes_m / sizeof sizes_m[0]; zi++) {
+                const size_t n = sizes_m[zi], ksz = fi ? 8 : 4;
+                if (!tu_dist_applies(info, f, n))
+                    continue;
+                const uint32_t seed = (uint32_t)((di * 2 + (size_t)fi) * 32 + zi) + 9000;
+                void *keys = tu_keys(mdists[di], f, seed, n);
+                uint64_t *wide = tu_qsorted(f, keys, n);
+                void *want = malloc(n ? n * ksz : 1), *out = malloc(n ? n * ksz : 1);
+                assert_true(want && out);
+                for (size_t i = 0; i < n; i++)
+                    tu_put(f, want, i, wide[i]);
+                for (size_t ti = 0; ti < sizeof threads / sizeof threads[0]; ti++) {
+                    /* sorted: qsort's bytes */
+                    memset(out, 0xA5, n * ksz);
+                    assert_int_equal(rto__sort_match(f, keys, n, NULL, out, threads[ti]), 1);
+                    if (memcmp(out, want, n * ksz))
+                        fail_msg("sort %s %s n=%zu threads %u differs from qsort", mdists[di], fi ? "u64" : "u32", n,
+                                 threads[ti]);
+                    assert_int_equal(rto__sort_match(f, keys, n, want, NULL, threads[ti]), 1);
+                    if (n == 0)
+                        continue;
+                    /* misleading dumps: the verdict is qsort's memcmp */
+                    uint64_t rng = seed * 31u + (uint32_t)ti;
+                    for (int m = 0; m < 8; m++) {
+                        memcpy(out, want, n * ksz);
+                        const size_t i = (size_t)(tu_rng_next(&rng) % n), j = (size_t)(tu_rng_next(&rng) % n);
+                        const uint64_t bit = UINT64_C(1) << (tu_rng_next(&rng) % (ksz * 8));
+                        switch (m) {
+                        case 0: tu_put(f, out, 0, tu_get(f, out, 0) ^ bit); break;         /* first slot */
+                        case 1: tu_put(f, out, n - 1, tu_get(f, out, n - 1) ^ bit); break; /* last slot */
+                        case 2: tu_put(f, out, n - 1, tu_get(f, out, 0)); break;           /* span collapsed */
+                        case 3: tu_put(f, out, 0, 0); tu_put(f, out, n - 1, ~UINT64_C(0)); break; /* span widened */
+                        case 4: tu_put(f, out, i, tu_get(f, out, i) ^ bit); break;
+                        case 5: { /* two slots exchanged */
+                            const uint64_t a = tu_get(f, out, i);
+                            tu_put(f, out, i, tu_get(f, out, j));
+                            tu_put(f, out, j, a);
+                            break;
+                        }
+                        case 6: tu_put(f, out, i, tu_get(f, out, j)); break; /* a duplicate */
+                        default: /* reversed */
+                            for (size_t s = 0; s < n / 2; s++) {
+                                const uint64_t a = tu_get(f, out, s);
+                                tu_put(f, out, s, tu_get(f, out, n - 1 - s));
+                                tu_put(f, out, n - 1 - s, a);
+                            }
+                        }
+                        const int truth = memcmp(out, want, n * ksz) == 0;
+                        const int got = rto__sort_match(f, keys, n, out, NULL, threads[ti]);
+                        if (got != truth)
+                            fail_msg("match %s %s n=%zu threads %u misleading dump %d: %d, qsort says %d", mdists[di],
+                                     fi ? "u64" : "u32", n, threads[ti], m, got, truth);
+                        checked++;
+                    }
+                }
+                free(keys);
+                free(wide);
+                free(want);
+                free(out);
+            }
+        }
+    assert_true(checked > 1000);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sort_match_against_qsort),
         cmocka_unit_test(test_fast_path_agrees_with_full_analysis),
+        cmocka_unit_test(test_fast_path_threads_agree),
         cmocka_unit_test(test_wrong_expected_keys_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

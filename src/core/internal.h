@@ -142,6 +142,13 @@ typedef struct rto__radix_team {
 size_t rto__radix_team_hist_words(uint32_t workers);
 void rto__radix_team_sort(rto__radix_team *r, rto__team *team, uint32_t worker, uint32_t workers);
 
+/** check-sort's fast verdict (sort/sort_match.c): 1 when keys[0..n) in ascending order equal want[0..n) bit for bit,
+ * 0 when they differ, -1 when out of memory. With want NULL it sorts keys into out instead (n keys, apart from keys)
+ * and returns 1 or -1: the same partition, which the tests hold to qsort. threads: 0 = one per online CPU, used from
+ * RTO__SORT_MATCH_TEAM_FROM keys on; the answer does not depend on it. */
+#define RTO__SORT_MATCH_TEAM_FROM ((size_t)1 << 17)
+int rto__sort_match(rto_key_format f, const void *keys, size_t n, const void *want, void *out, uint32_t threads);
+
 /* The Karras builder in stages (bvh/karras.c), for a team: plan (one worker), run (every worker, between syncs),
  * finish (one worker). rto_karras_build runs them with one worker. */
 typedef struct rto__karras_job {
