@@ -6,7 +6,8 @@
  *     which selects Morton for that geometry) ask for RTC_BUILD_QUALITY_LOW;
  *   - MEDIUM: its default binned-SAH builder;
  * each on a device with "threads=1" and on one with the default thread count (every hardware thread), one device
- * alive at a time (all the one-thread rows first, then all the all-thread rows; runs interleaved within each).
+ * alive at a time (all the one-thread rows first, then all the all-thread rows; runs interleaved within each), and
+ * every timed build after a 20 ms pause (settle), so that neither side's idle threads are still spinning.
  * Cases: the BLAS of every mesh of the bunny and of 2CylinderEngine (one Embree scene per mesh, as the oracle builds
  * one BLAS per mesh; vertex and index buffers are filled before the clock starts, as the oracle's scene is loaded
  * before it), and the TLAS of instances:uniform:65536, where Embree's timed region includes creating the 65,536
@@ -87,6 +88,7 @@ static double oracle_build(const rto_scene *s, int dev)
     rto_msg msg = {{0}};
     rto_accel *acc = NULL;
     rto_accel_desc d = {RTO_TLAS_SWEEP, dev ? 0u : 1u};
+    settle();
     double t0 = now();
     if (rto_accel_build(s, &d, &acc, &msg))
         die("rto_accel_build", &msg);
@@ -113,6 +115,7 @@ static double embree_blas(const rto_scene *s, const econf *c)
         if (!s->meshes[m].triangle_count)
             continue;
         RTCScene sc = embree_mesh_scene(devices[c->dev], &s->meshes[m], c->q);
+        settle();
         double t0 = now();
         rtcCommitScene(sc);
         total += now() - t0;
@@ -127,6 +130,7 @@ static double embree_blas(const rto_scene *s, const econf *c)
 static double embree_tlas(const rto_scene *s, RTCScene blas, const econf *c, double *commit)
 {
     emb_device *dev = devices[c->dev];
+    settle();
     double t0 = now();
     RTCScene top = rtcNewScene(emb_device_rtc(dev));
     rtcSetSceneBuildQuality(top, emb_quality_rtc(c->q));
@@ -163,6 +167,7 @@ static void user_bounds(const struct RTCBoundsFunctionArguments *args)
 static double embree_user_tlas(const user_tlas *u, const econf *c)
 {
     RTCDevice dev = emb_device_rtc(devices[c->dev]);
+    settle();
     double t0 = now();
     RTCScene top = rtcNewScene(dev);
     rtcSetSceneBuildQuality(top, emb_quality_rtc(c->q));

@@ -19,6 +19,15 @@ static inline double now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* A pause before a timed build, so that both sides start from idle threads: the oracle's pool and Embree's TBB
+ * workers spin for a while after a job, and a spinning pool of one builder would slow the other's build when runs are
+ * interleaved (on 16 cores, Embree's Morton builder ran 3-4x slower right after an oracle build). */
+static inline void settle(void)
+{
+    const struct timespec t = {0, 20 * 1000 * 1000};
+    nanosleep(&t, NULL);
+}
+
 static inline int cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;

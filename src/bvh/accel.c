@@ -142,6 +142,13 @@ static void blas_stages(build_ctx *c, blas_work *W, rto__team *team, uint32_t w,
     if (w == 0)
         W->b->bounds = all.u;
     rto__blas_keys_part(cent, b, e, &all, W->keys);
+    if (team) {
+        /* First touches of the fresh node array, spread over the team: the plan below writes the top nodes, which lie
+         * all over the array, and one worker taking every page fault there cost more than the rest of the plan. */
+        size_t nb, ne;
+        rto__part(n - 1, w, t, &nb, &ne);
+        memset(W->nodes + nb, 0, (ne - nb) * sizeof *W->nodes);
+    }
     rto__team_sync(team);
     rto__radix_team r = radix_of(c, RTO_KEY_U64, W->keys, n, W->sorted, W->tmp, slot);
     rto__radix_team_sort(&r, team, w, t);

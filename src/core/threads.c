@@ -8,6 +8,7 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 uint32_t rto__thread_count(uint32_t requested)
@@ -33,8 +34,20 @@ typedef struct waitpoint {
     _Atomic uint64_t value;
 } waitpoint;
 
-#define SPIN_ROUNDS 16384
-#define YIELD_EVERY 512
+/* How long a waiting thread spins before it sleeps: a stage of a build lasts micro- to milliseconds, and waking a
+ * sleeper costs a system call and, on a virtual machine whose idle cores halt, up to milliseconds before it runs. After
+ * the first YIELD_AFTER_NS the spinning thread yields between checks: on a machine with more runnable threads than
+ * cores, the thread it waits for may need this core. */
+#define SPIN_NS 2000000
+#define YIELD_AFTER_NS 50000
+#define CHECK_EVERY 64
+
+static int64_t now_ns(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
 
 static inline void cpu_relax(void)
 {
@@ -53,14 +66,22 @@ static void wp_init(waitpoint *p)
 /* Returns once p->value differs from old. */
 static void wp_wait(waitpoint *p, uint64_t old)
 {
-    for (int i = 1; i <= SPIN_ROUNDS; i++) {
+    int64_t start = -1;
+    for (uint32_t i = 0;; i++) {
         if (atomic_load_explicit(&p->value, memory_order_acquire) != old)
             return;
-        /* On a machine with more runnable threads than cores, the thread waited for may need this core. */
-        if (i % YIELD_EVERY == 0)
-            sched_yield();
-        else
-            cpu_relax();
+        if (i % CHECK_EVERY == 0) {
+            const int64_t t = now_ns();
+            if (start < 0) {
+                start = t;
+            } else if (t - start > SPIN_NS) {
+                break;
+            } else if (t - start > YIELD_AFTER_NS) {
+                sched_yield();
+                continue;
+            }
+        }
+        cpu_relax();
     }
     pthread_mutex_lock(&p->lock);
     atomic_fetch_add(&p->sleepers, 1);
