@@ -1,7 +1,6 @@
 /* rtoracle suite sort: the distribution x size x format x algorithm matrix as bundles, the set a GPU harness runs
  * (DESIGN.md §3, §4). One suite directory holds a manifest listing every case and one sort bundle per case. */
 #include "cli.h"
-#include "core/internal.h" /* rto__share: identical arrays of the cases stored once */
 
 #include <stdlib.h>
 #include <string.h>
@@ -138,16 +137,16 @@ int cmd_suite(int argc, char **argv)
     }
     rto_msg msg = {{0}};
     rto_bundle *suite = NULL;
-    rto__share *share = NULL;
+    rto_bundle_share *share = NULL;
     rto_status s = rto_bundle_begin(out, "suite", &suite, &msg);
-    if (!s && !no_share && !(share = rto__share_new()))
+    if (!s && !no_share && !(share = rto_bundle_share_create()))
         s = rto_msg_set(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     if (!s && request)
         s = rto_bundle_set_request(suite, request, NULL, 0, &msg);
     if (s) {
         rto_bundle_abort(suite);
         free(request);
-        rto__share_free(share);
+        rto_bundle_share_destroy(share);
         return cli_status("suite", s, &msg);
     }
     rto_bundle_set_str(suite, "", "suite", "sort");
@@ -209,7 +208,7 @@ int cmd_suite(int argc, char **argv)
     }
     free(keys);
     free(request);
-    rto__share_free(share); /* the cases are committed: their files stay as they are */
+    rto_bundle_share_destroy(share); /* the cases are committed: their files stay as they are */
     if (s) {
         rto_bundle_abort(suite);
         return cli_status("suite", s, &msg);

@@ -1,7 +1,6 @@
 /* Bundles: atomic replacement, refusal to clobber, sha256 verification, version refusal, determinism; what -o may
  * replace, temporaries removed on a signal, JSON that is valid whatever the values, every jansson failure reported. */
 #include "testutil.h"
-#include "core/internal.h" /* rto__share: shared arrays */
 
 #include <errno.h>
 #include <jansson.h>
@@ -493,11 +492,11 @@ static void test_file_write(void **state)
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
-/* Shared arrays (rto__share)                                                                                       */
+/* Shared arrays (rto_bundle_share)                                                                                 */
 
 /* A bundle of three arrays, the first two given by seeds: a.npy from sa, b.npy from sb, c.npy from sa again (the
  * same bytes as a.npy); with table t (NULL: none). */
-static void write_shared(const char *dir, rto__share *t, uint32_t sa, uint32_t sb)
+static void write_shared(const char *dir, rto_bundle_share *t, uint32_t sa, uint32_t sb)
 {
     uint32_t x[64], y[64];
     for (uint32_t i = 0; i < 64; i++) {
@@ -507,7 +506,7 @@ static void write_shared(const char *dir, rto__share *t, uint32_t sa, uint32_t s
     rto_bundle *b = NULL;
     rto_msg msg = {{0}};
     assert_int_equal(rto_bundle_begin(dir, "test", &b, &msg), RTO_OK);
-    rto__bundle_set_share(b, t);
+    rto_bundle_set_share(b, t);
     rto_npy_desc d = rto_npy_desc_keys(RTO_KEY_U32, 64);
     assert_int_equal(rto_bundle_add_npy(b, "a.npy", "a", NULL, &d, x, &msg), RTO_OK);
     assert_int_equal(rto_bundle_add_npy(b, "b.npy", "b", NULL, &d, y, &msg), RTO_OK);
@@ -567,12 +566,12 @@ static void test_share_links_identical_arrays(void **state)
     snprintf(q1, sizeof q1, "%s/q1", root);
     snprintf(q2, sizeof q2, "%s/q2", root);
     snprintf(q3, sizeof q3, "%s/q3", root);
-    rto__share *t = rto__share_new();
+    rto_bundle_share *t = rto_bundle_share_create();
     assert_non_null(t);
     write_shared(p1, t, 1, 2);
     write_shared(p2, t, 1, 3); /* a.npy and c.npy as p1's, b.npy not */
     write_shared(p3, t, 3, 1); /* a.npy and c.npy as p2's b.npy, b.npy as p1's a.npy */
-    rto__share_free(t);
+    rto_bundle_share_destroy(t);
     write_shared(q1, NULL, 1, 2);
     write_shared(q2, NULL, 1, 3);
     write_shared(q3, NULL, 3, 1);
@@ -607,7 +606,7 @@ static void test_share_links_identical_arrays(void **state)
     diff_r(p3, q3, 1);
     assert_bundle_reads(p2);
     assert_bundle_reads(p3);
-    rto__share_free(NULL);
+    rto_bundle_share_destroy(NULL);
 }
 
 /* A registered file changed after its bundle was committed is not linked to: the next bundle writes its own copy
@@ -625,7 +624,7 @@ static void test_share_skips_changed_files(void **state)
         snprintf(p3, sizeof p3, "%s/c%d_3", root, k);
         snprintf(file, sizeof file, "%s/b.npy", p1);
         snprintf(copy, sizeof copy, "%s/b.copy", root);
-        rto__share *t = rto__share_new();
+        rto_bundle_share *t = rto_bundle_share_create();
         assert_non_null(t);
         write_shared(p1, t, 1, 2);
         struct stat was = stat_of(p1, "b.npy");
@@ -662,7 +661,7 @@ static void test_share_skips_changed_files(void **state)
         write_shared(p3, t, 1, 2); /* links to p2's copy, now the registered one */
         assert_true(same_file(p2, "b.npy", p3, "b.npy"));
         assert_bundle_reads(p3);
-        rto__share_free(t);
+        rto_bundle_share_destroy(t);
     }
 }
 
@@ -680,10 +679,10 @@ static void test_share_falls_back_to_writing(void **state)
     }
     snprintf(p1, sizeof p1, "%s/p1", other);
     snprintf(p2, sizeof p2, "%s/p2", root);
-    rto__share *t = rto__share_new();
+    rto_bundle_share *t = rto_bundle_share_create();
     write_shared(p1, t, 1, 2);
     write_shared(p2, t, 1, 2);
-    rto__share_free(t);
+    rto_bundle_share_destroy(t);
     assert_int_equal(stat_of(p2, "a.npy").st_nlink, 2); /* its own a.npy and c.npy: one file */
     assert_int_equal(stat_of(p2, "b.npy").st_nlink, 1);
     diff_r(p1, p2, 1);

@@ -262,22 +262,6 @@ rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, con
 rto_status rto__npy_hash(const char *name, const rto_npy_desc *desc, const void *data, char hex[65],
                          uint64_t *file_bytes, rto_msg *msg);
 
-/* Shared arrays (io/bundle.c): bundles written in one run may hold the same array (a suite's bitonic and radix cases
- * of one input have the same keys.npy and sorted.npy). With a share table attached, a bundle hashes each array in
- * memory first, and where an earlier bundle of the table committed a file with the same sha256 and size (or the
- * bundle itself wrote one already), the new name is a hard link to that file instead of a second copy. Manifests
- * are the same bytes either way; each bundle stays a complete directory of its own. A registered file is linked to
- * only while its inode, size and mtime are as when it was registered; any link failure (EXDEV, EMLINK, a file
- * system without hard links) writes the file instead. */
-typedef struct rto__share rto__share;
-/** An empty table (NULL when out of memory). */
-rto__share *rto__share_new(void);
-/** Frees the table (NULL is fine); the files it lists are left as they are. */
-void rto__share_free(rto__share *t);
-/** Attaches t (NULL: none) to b: b's arrays are linked where the table allows, and at rto_bundle_commit the arrays
- * b wrote itself are registered in t under their final paths. t must outlive b's commit or abort. */
-void rto__bundle_set_share(rto_bundle *b, rto__share *t);
-
 /* Input files. */
 
 /**

@@ -31,9 +31,9 @@ struct rto_bundle {
     /* The first failure of a setter, kept so that rto_bundle_commit fails with it even when the caller ignored it. */
     rto_status err;
     rto_msg err_msg;
-    /* Shared arrays (rto__bundle_set_share): the table, and the arrays this bundle wrote itself (not linked), which
+    /* Shared arrays (rto_bundle_set_share): the table, and the arrays this bundle wrote itself (not linked), which
      * other arrays of the bundle may link to and which commit registers in the table. */
-    rto__share *share;
+    rto_bundle_share *share;
     struct share_file *own;
     size_t own_count, own_cap;
 };
@@ -317,7 +317,7 @@ static rto_status keep_error(rto_bundle *b, rto_status s, const rto_msg *why, co
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
-/* Shared arrays (internal.h, rto__share)                                                                           */
+/* Shared arrays (rtoracle.h, rto_bundle_share)                                                                     */
 
 /* A file a bundle wrote: its content (sha256 and size) and where it is, with the inode, size and mtime it had when
  * recorded. A file that no longer has them was changed or replaced by someone else and is not linked to. */
@@ -332,14 +332,14 @@ typedef struct share_file {
 } share_file;
 
 /* Open addressing on the sha256's first 64 bits, linear probing, at most half full. */
-struct rto__share {
+struct rto_bundle_share {
     share_file *slot; /* path NULL: empty */
     size_t cap, used;
 };
 
-rto__share *rto__share_new(void)
+rto_bundle_share *rto_bundle_share_create(void)
 {
-    rto__share *t = calloc(1, sizeof *t);
+    rto_bundle_share *t = calloc(1, sizeof *t);
     if (t && !(t->slot = calloc(t->cap = 1024, sizeof *t->slot))) {
         free(t);
         t = NULL;
@@ -347,7 +347,7 @@ rto__share *rto__share_new(void)
     return t;
 }
 
-void rto__share_free(rto__share *t)
+void rto_bundle_share_destroy(rto_bundle_share *t)
 {
     if (!t)
         return;
@@ -357,13 +357,13 @@ void rto__share_free(rto__share *t)
     free(t);
 }
 
-void rto__bundle_set_share(rto_bundle *b, rto__share *t)
+void rto_bundle_set_share(rto_bundle *b, rto_bundle_share *t)
 {
     if (b)
         b->share = t;
 }
 
-static size_t share_home(const rto__share *t, const char *hex)
+static size_t share_home(const rto_bundle_share *t, const char *hex)
 {
     uint64_t h = 0;
     for (int i = 0; i < 16; i++)
@@ -372,7 +372,7 @@ static size_t share_home(const rto__share *t, const char *hex)
 }
 
 /* The slot of (hex, bytes), or the empty slot where it would go. */
-static share_file *share_slot(rto__share *t, const char *hex, uint64_t bytes)
+static share_file *share_slot(rto_bundle_share *t, const char *hex, uint64_t bytes)
 {
     for (size_t i = share_home(t, hex);; i = (i + 1) & (t->cap - 1)) {
         share_file *e = &t->slot[i];
@@ -404,7 +404,7 @@ static bool share_record(share_file *e, const char *path)
 
 /* Registers a file the bundle wrote, now at path (final), replacing what the table had for the same content (a file
  * found changed, or one a link to failed): the newest copy is the one to link to. Out of memory: not registered. */
-static void share_register(rto__share *t, const share_file *own, const char *path)
+static void share_register(rto_bundle_share *t, const share_file *own, const char *path)
 {
     if (t->used + 1 > t->cap / 2) {
         share_file *old = t->slot;
