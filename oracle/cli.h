@@ -126,9 +126,10 @@ typedef struct key_origin {
     const char *request; /* the up-to-date record's request (rto_bundle_set_request), or NULL for none */
 } key_origin;
 
-/** Sorts keys with p and writes a sort bundle to outdir (atomically). */
+/** Sorts keys with p and writes a sort bundle to outdir (atomically). share: NULL, or the table of shared arrays
+ * (rto_bundle_set_share) the bundle links identical arrays of earlier bundles from. */
 rto_status sort_bundle_write(const char *outdir, rto_key_format f, const void *keys, size_t n, const sort_params *p,
-                             const key_origin *origin, rto_msg *msg);
+                             const key_origin *origin, rto_bundle_share *share, rto_msg *msg);
 
 int cmd_keys(int argc, char **argv);
 int cmd_sort(int argc, char **argv);

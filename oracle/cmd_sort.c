@@ -62,7 +62,7 @@ int cmd_sort(int argc, char **argv)
     if (p.algo == RTO_SORT_RADIX)
         p.checkpoints = true;
     key_origin origin = {NULL, NULL, 0, in, request};
-    s = sort_bundle_write(out, f, npy.data, n, &p, &origin, &msg);
+    s = sort_bundle_write(out, f, npy.data, n, &p, &origin, NULL, &msg);
     rto_npy_free(&npy);
     free(request);
     return cli_status("sort", s, &msg);

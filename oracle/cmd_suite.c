@@ -7,7 +7,8 @@
 
 static const char suite_usage[] =
     "usage: rtoracle suite sort [--sizes LIST] [--dists LIST] [--formats LIST] [--algos LIST] [--seed S]\n"
-    "                           [--radix-bits 4|8] [--tile T] [--checkpoint-max N] [--force] -o DIR\n\n"
+    "                           [--radix-bits 4|8] [--tile T] [--checkpoint-max N] [--force] [--no-share]\n"
+    "                           -o DIR\n\n"
     "Writes one sort bundle per case into DIR/<algo>-<fmt>-<dist>-n<N>/ and DIR/manifest.json listing\n"
     "them with case ids such as sort:bitonic:fmt=u32:dist=clustered:n=4097. Written atomically.\n"
     "Combinations that do not exist are skipped (digit-4..7 need u64; centroid distributions give TLAS\n"
@@ -15,7 +16,9 @@ static const char suite_usage[] =
     "A LIST is comma-separated; a name given twice (or also through all / centroid / raw) makes one case.\n"
     "Sizes run in ascending order, the other lists in the order first given.\n"
     "A DIR that already holds this very suite (same options and rtoracle build, no file changed since) is left\n"
-    "as it is, in one line; --force writes it again.\n";
+    "as it is, in one line; --force writes it again.\n"
+    "An array identical to one an earlier case wrote (bitonic and radix cases of one input share keys.npy and\n"
+    "sorted.npy) is a hard link to that file rather than a second copy; --no-share writes every file.\n";
 
 static int cmp_size(const void *a, const void *b)
 {
@@ -42,7 +45,7 @@ int cmd_suite(int argc, char **argv)
     uint32_t seed = 1;
     uint64_t checkpoint_max = 1024;
     sort_params base = {RTO_SORT_BITONIC, 8, 256, false};
-    bool force = false;
+    bool force = false, no_share = false;
     sizes_opt.count = dists_opt.count = formats_opt.count = algos_opt.count = 0;
     const opt_spec opts[] = {
         OPT_LIST("sizes", &sizes_opt, NULL, "size classes (tiny, tile, pow2, large, all) and/or numbers", "all"),
@@ -55,6 +58,7 @@ int cmd_suite(int argc, char **argv)
         OPT_UINT("checkpoint-max", &checkpoint_max, 0, RTO_MAX_KEYS, "N",
                  "write bitonic passes / radix intermediates for cases with n_padded <= N, none for 0", "1024"),
         OPT_FLAG("force", &force, "write the suite even when DIR is up to date"),
+        OPT_FLAG("no-share", &no_share, "write every array, none as a hard link to an identical earlier one"),
         OPT_PATH("output", 'o', &out, "DIR", "output directory"),
         OPT_END,
     };
@@ -124,7 +128,8 @@ int cmd_suite(int argc, char **argv)
     for (size_t i = 0; i < algos_opt.count; i++)
         algos[i] = (rto_sort_algo)algos_opt.value[i];
 
-    static const char *const not_inputs[] = {"output", "force", NULL};
+    /* --no-share changes how the files are stored, not what they hold. */
+    static const char *const not_inputs[] = {"output", "force", "no-share", NULL};
     char *request = opts_request(&cmd, &args, not_inputs);
     if (cli_up_to_date("suite sort", out, request, force)) {
         free(request);
@@ -132,12 +137,16 @@ int cmd_suite(int argc, char **argv)
     }
     rto_msg msg = {{0}};
     rto_bundle *suite = NULL;
+    rto_bundle_share *share = NULL;
     rto_status s = rto_bundle_begin(out, "suite", &suite, &msg);
+    if (!s && !no_share && !(share = rto_bundle_share_create()))
+        s = rto_msg_set(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     if (!s && request)
         s = rto_bundle_set_request(suite, request, NULL, 0, &msg);
     if (s) {
         rto_bundle_abort(suite);
         free(request);
+        rto_bundle_share_destroy(share);
         return cli_status("suite", s, &msg);
     }
     rto_bundle_set_str(suite, "", "suite", "sort");
@@ -187,7 +196,7 @@ int cmd_suite(int argc, char **argv)
                         sprintf(case_request, "%scase %s\n", request, id);
                     key_origin origin = {id, dist->name, seed, NULL, case_request};
                     if (!s)
-                        s = sort_bundle_write(path, f, keys, n, &p, &origin, &msg);
+                        s = sort_bundle_write(path, f, keys, n, &p, &origin, share, &msg);
                     free(path);
                     free(case_request);
                     if (!s)
@@ -199,6 +208,7 @@ int cmd_suite(int argc, char **argv)
     }
     free(keys);
     free(request);
+    rto_bundle_share_destroy(share); /* the cases are committed: their files stay as they are */
     if (s) {
         rto_bundle_abort(suite);
         return cli_status("suite", s, &msg);

@@ -143,12 +143,13 @@ static rto_status write_radix(rto_bundle *b, rto_key_format f, const void *keys,
 }
 
 rto_status sort_bundle_write(const char *outdir, rto_key_format f, const void *keys, size_t n, const sort_params *p,
-                             const key_origin *origin, rto_msg *msg)
+                             const key_origin *origin, rto_bundle_share *share, rto_msg *msg)
 {
     rto_bundle *b = NULL;
     rto_status s = rto_bundle_begin(outdir, "sort", &b, msg);
     if (s)
         return s;
+    rto_bundle_set_share(b, share);
     if (origin->request) {
         const char *src[1] = {origin->file};
         s = rto_bundle_set_request(b, origin->request, src, origin->file ? 1 : 0, msg);

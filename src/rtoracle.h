@@ -967,6 +967,26 @@ rto_bundle_state rto_bundle_check(const char *outdir, const char *request, rto_m
 rto_status rto_bundle_set_request(rto_bundle *b, const char *request, const char *const *sources, size_t count,
                                   rto_msg *msg);
 
+/**
+ * Shared arrays. Bundles written together often hold the same array (a suite's bitonic and radix cases of one input
+ * have the same keys.npy and sorted.npy). With a share table attached (rto_bundle_set_share), rto_bundle_add_npy
+ * hashes the array's file bytes in memory first and, where the bundle itself or an earlier bundle committed with the
+ * same table wrote a file of the same sha256 and size, makes the new name a hard link (link(2)) to that file instead
+ * of a second copy. Manifests and bytes are exactly those of separate copies, and each bundle stays a complete
+ * directory of its own. A file is linked to only while it keeps the inode, size and mtime it had when its bundle
+ * was committed (a file changed since is left alone and the array written); any link failure (another file system,
+ * too many links, no hard links) writes the file. At rto_bundle_commit a bundle registers the arrays it wrote in
+ * the table under their final paths. Bundles never write into an existing file, so replacing one bundle later never
+ * changes another's linked file; an in-place edit from outside changes every name of it.
+ */
+typedef struct rto_bundle_share rto_bundle_share;
+/** An empty table; NULL when out of memory. */
+rto_bundle_share *rto_bundle_share_create(void);
+/** Frees the table (NULL is fine); the files it lists are left as they are. */
+void rto_bundle_share_destroy(rto_bundle_share *t);
+/** Attaches t (NULL: none) to b, before b's arrays are added; t must outlive b's commit or abort. */
+void rto_bundle_set_share(rto_bundle *b, rto_bundle_share *t);
+
 /** A bundle opened for reading: manifest parsed, version checked. */
 typedef struct rto_bundle_reader rto_bundle_reader;
 rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *msg);

@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <jansson.h>
 #include <math.h>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -490,6 +491,205 @@ static void test_file_write(void **state)
     assert_int_equal(tu_dir_entries(root), 3); /* report.json, link.json, fifo.json: no temporaries */
 }
 
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Shared arrays (rto_bundle_share)                                                                                 */
+
+/* A bundle of three arrays, the first two given by seeds: a.npy from sa, b.npy from sb, c.npy from sa again (the
+ * same bytes as a.npy); with table t (NULL: none). */
+static void write_shared(const char *dir, rto_bundle_share *t, uint32_t sa, uint32_t sb)
+{
+    uint32_t x[64], y[64];
+    for (uint32_t i = 0; i < 64; i++) {
+        x[i] = sa * 2654435761u + i;
+        y[i] = sb * 2654435761u + i;
+    }
+    rto_bundle *b = NULL;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_bundle_begin(dir, "test", &b, &msg), RTO_OK);
+    rto_bundle_set_share(b, t);
+    rto_npy_desc d = rto_npy_desc_keys(RTO_KEY_U32, 64);
+    assert_int_equal(rto_bundle_add_npy(b, "a.npy", "a", NULL, &d, x, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_add_npy(b, "b.npy", "b", NULL, &d, y, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_add_npy(b, "c.npy", "c", NULL, &d, x, &msg), RTO_OK);
+    assert_int_equal(rto_bundle_commit(b, &msg), RTO_OK);
+}
+
+static struct stat stat_of(const char *dir, const char *name)
+{
+    char path[400];
+    struct stat st;
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    assert_int_equal(lstat(path, &st), 0);
+    return st;
+}
+
+/* 1 when dir/x and dir2/y are the same file (one inode). */
+static int same_file(const char *dir, const char *x, const char *dir2, const char *y)
+{
+    struct stat a = stat_of(dir, x), b = stat_of(dir2, y);
+    return a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
+/* Every array of the bundle reads back through its manifest's sha256. */
+static void assert_bundle_reads(const char *dir)
+{
+    static const char *const names[] = {"a.npy", "b.npy", "c.npy"};
+    rto_bundle_reader *r = NULL;
+    assert_int_equal(rto_bundle_open(dir, &r, NULL), RTO_OK);
+    for (int i = 0; i < 3; i++) {
+        rto_npy a = {0};
+        rto_msg msg = {{0}};
+        rto_status s = rto_bundle_read_name(r, names[i], &a, &msg);
+        if (s)
+            fail_msg("%s/%s: %s", dir, names[i], msg.text);
+        rto_npy_free(&a);
+    }
+    rto_bundle_close(r);
+}
+
+static void diff_r(const char *a, const char *b, int want)
+{
+    char cmd[800];
+    snprintf(cmd, sizeof cmd, "diff -r '%s' '%s' >/dev/null", a, b);
+    assert_int_equal(system(cmd) == 0, want);
+}
+
+/* Identical arrays are one file exactly where their bytes are the same, within a bundle and across bundles, and the
+ * bundles are byte for byte those written without a table. */
+static void test_share_links_identical_arrays(void **state)
+{
+    (void)state;
+    char p1[300], p2[300], p3[300], q1[300], q2[300], q3[300];
+    snprintf(p1, sizeof p1, "%s/p1", root);
+    snprintf(p2, sizeof p2, "%s/p2", root);
+    snprintf(p3, sizeof p3, "%s/p3", root);
+    snprintf(q1, sizeof q1, "%s/q1", root);
+    snprintf(q2, sizeof q2, "%s/q2", root);
+    snprintf(q3, sizeof q3, "%s/q3", root);
+    rto_bundle_share *t = rto_bundle_share_create();
+    assert_non_null(t);
+    write_shared(p1, t, 1, 2);
+    write_shared(p2, t, 1, 3); /* a.npy and c.npy as p1's, b.npy not */
+    write_shared(p3, t, 3, 1); /* a.npy and c.npy as p2's b.npy, b.npy as p1's a.npy */
+    rto_bundle_share_destroy(t);
+    write_shared(q1, NULL, 1, 2);
+    write_shared(q2, NULL, 1, 3);
+    write_shared(q3, NULL, 3, 1);
+    diff_r(p1, q1, 1);
+    diff_r(p2, q2, 1);
+    diff_r(p3, q3, 1);
+    diff_r(p1, p2, 0); /* control: b.npy differs */
+
+    /* within a bundle */
+    assert_true(same_file(p1, "a.npy", p1, "c.npy"));
+    assert_false(same_file(p1, "a.npy", p1, "b.npy"));
+    assert_false(same_file(q1, "a.npy", q1, "c.npy")); /* without a table: copies */
+    /* across bundles */
+    assert_true(same_file(p1, "a.npy", p2, "a.npy"));
+    assert_true(same_file(p1, "a.npy", p2, "c.npy"));
+    assert_false(same_file(p1, "b.npy", p2, "b.npy"));
+    assert_true(same_file(p2, "b.npy", p3, "a.npy"));
+    assert_true(same_file(p2, "b.npy", p3, "c.npy"));
+    assert_true(same_file(p1, "a.npy", p3, "b.npy"));
+    assert_int_equal(stat_of(p1, "a.npy").st_nlink, 5); /* p1 a, c; p2 a, c; p3 b */
+    assert_int_equal(stat_of(p1, "b.npy").st_nlink, 1);
+    assert_int_equal(stat_of(q1, "a.npy").st_nlink, 1);
+
+    /* Rewriting one bundle (a new directory renamed into place) leaves the others' linked files as they were. */
+    struct stat before = stat_of(p2, "a.npy");
+    write_shared(p1, NULL, 7, 8);
+    struct stat after = stat_of(p2, "a.npy");
+    assert_int_equal(before.st_ino, after.st_ino);
+    assert_int_equal(after.st_nlink, 3); /* p2's a.npy and c.npy, p3's b.npy: p1's two names went with the old one */
+    assert_true(before.st_mtim.tv_sec == after.st_mtim.tv_sec && before.st_mtim.tv_nsec == after.st_mtim.tv_nsec);
+    diff_r(p2, q2, 1);
+    diff_r(p3, q3, 1);
+    assert_bundle_reads(p2);
+    assert_bundle_reads(p3);
+    rto_bundle_share_destroy(NULL);
+}
+
+/* A registered file changed after its bundle was committed is not linked to: the next bundle writes its own copy
+ * (and that copy is what later bundles link to). Each way a file can change, each seen by one attribute alone:
+ * rewritten in place (same inode and size, later mtime), replaced by a copy (new inode; same size and mtime),
+ * truncated (smaller; same inode and mtime), removed. */
+static void test_share_skips_changed_files(void **state)
+{
+    (void)state;
+    static const char *const how[] = {"in place", "replaced", "truncated", "removed"};
+    for (int k = 0; k < 4; k++) {
+        char p1[300], p2[300], p3[300], file[320], copy[340];
+        snprintf(p1, sizeof p1, "%s/c%d_1", root, k);
+        snprintf(p2, sizeof p2, "%s/c%d_2", root, k);
+        snprintf(p3, sizeof p3, "%s/c%d_3", root, k);
+        snprintf(file, sizeof file, "%s/b.npy", p1);
+        snprintf(copy, sizeof copy, "%s/b.copy", root);
+        rto_bundle_share *t = rto_bundle_share_create();
+        assert_non_null(t);
+        write_shared(p1, t, 1, 2);
+        struct stat was = stat_of(p1, "b.npy");
+        if (k == 0) {
+            /* one byte of the data rewritten, the file's size kept; its mtime set one second on, so that the change
+             * shows whatever the clock's grain */
+            int fd = open(file, O_WRONLY);
+            assert_true(fd >= 0);
+            assert_int_equal(pwrite(fd, "\x55", 1, 200), 1);
+            struct timespec ts[2] = {{0, UTIME_OMIT}, {was.st_mtim.tv_sec + 1, was.st_mtim.tv_nsec}};
+            assert_int_equal(futimens(fd, ts), 0);
+            close(fd);
+        } else if (k == 1) {
+            char cmd[1400];
+            snprintf(cmd, sizeof cmd, "cp '%s' '%s' && mv '%s' '%s'", file, copy, copy, file);
+            assert_int_equal(system(cmd), 0);
+            assert_int_not_equal(stat_of(p1, "b.npy").st_ino, was.st_ino);
+        } else if (k == 2) {
+            assert_int_equal(truncate(file, 100), 0);
+        } else {
+            assert_int_equal(unlink(file), 0);
+        }
+        if (k == 1 || k == 2) {
+            /* the old mtime back (touch -r): each change is seen by the one attribute it alters */
+            struct timespec ts[2] = {{0, UTIME_OMIT}, was.st_mtim};
+            assert_int_equal(utimensat(AT_FDCWD, file, ts, 0), 0);
+        }
+        write_shared(p2, t, 1, 2);
+        if (k != 3 && same_file(p1, "b.npy", p2, "b.npy"))
+            fail_msg("%s: a changed file was linked to", how[k]);
+        assert_int_equal(stat_of(p2, "b.npy").st_nlink, 1);
+        assert_true(same_file(p1, "a.npy", p2, "a.npy")); /* control: the unchanged file is linked */
+        assert_bundle_reads(p2);
+        write_shared(p3, t, 1, 2); /* links to p2's copy, now the registered one */
+        assert_true(same_file(p2, "b.npy", p3, "b.npy"));
+        assert_bundle_reads(p3);
+        rto_bundle_share_destroy(t);
+    }
+}
+
+/* A link that fails (here across file systems: EXDEV) writes the file instead; the bundle is complete. */
+static void test_share_falls_back_to_writing(void **state)
+{
+    (void)state;
+    char other[64] = "/dev/shm/rto_share_XXXXXX", p1[300], p2[300];
+    struct stat a, b;
+    if (!mkdtemp(other))
+        skip();
+    if (stat(other, &a) != 0 || stat(root, &b) != 0 || a.st_dev == b.st_dev) {
+        tu_tmpdir_remove(other);
+        skip(); /* one file system: no EXDEV to provoke */
+    }
+    snprintf(p1, sizeof p1, "%s/p1", other);
+    snprintf(p2, sizeof p2, "%s/p2", root);
+    rto_bundle_share *t = rto_bundle_share_create();
+    write_shared(p1, t, 1, 2);
+    write_shared(p2, t, 1, 2);
+    rto_bundle_share_destroy(t);
+    assert_int_equal(stat_of(p2, "a.npy").st_nlink, 2); /* its own a.npy and c.npy: one file */
+    assert_int_equal(stat_of(p2, "b.npy").st_nlink, 1);
+    diff_r(p1, p2, 1);
+    assert_bundle_reads(p2);
+    tu_tmpdir_remove(other);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -504,6 +704,9 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_refuses_foreign_directory_and_versions, setup, teardown),
         cmocka_unit_test_setup_teardown(test_reader_refuses_special_files, setup, teardown),
         cmocka_unit_test_setup_teardown(test_same_input_same_bytes, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_share_links_identical_arrays, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_share_skips_changed_files, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_share_falls_back_to_writing, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -272,9 +272,14 @@ void rto__stamp_write(const char *dir, const char *head);
 /** The image module file rtoracle would load (scene/image_module_load.c), or NULL when there is none. */
 const char *rto__image_module_path(void);
 /** Writes an .npy file that does not exist yet (O_EXCL; inside a bundle's temporary directory, which is itself what
- * is made atomic) and its SHA-256, hashed from memory while writing: no second read of the file. */
+ * is made atomic) and, unless hex is NULL, its SHA-256, hashed from memory while writing: no second read of the file.
+ * Never opens an existing file for writing. */
 rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, const void *data, char hex[65],
                                  rto_msg *msg);
+/** The SHA-256 and size of the .npy file rto__npy_write_hashed would write for desc and data, from memory (the same
+ * preamble, built by the same code); name is only for messages. */
+rto_status rto__npy_hash(const char *name, const rto_npy_desc *desc, const void *data, char hex[65],
+                         uint64_t *file_bytes, rto_msg *msg);
 
 /* Input files. */
 

@@ -31,6 +31,11 @@ struct rto_bundle {
     /* The first failure of a setter, kept so that rto_bundle_commit fails with it even when the caller ignored it. */
     rto_status err;
     rto_msg err_msg;
+    /* Shared arrays (rto_bundle_set_share): the table, and the arrays this bundle wrote itself (not linked), which
+     * other arrays of the bundle may link to and which commit registers in the table. */
+    rto_bundle_share *share;
+    struct share_file *own;
+    size_t own_count, own_cap;
 };
 
 struct rto_bundle_reader {
@@ -311,6 +316,173 @@ static rto_status keep_error(rto_bundle *b, rto_status s, const rto_msg *why, co
     return s;
 }
 
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Shared arrays (rtoracle.h, rto_bundle_share)                                                                     */
+
+/* A file a bundle wrote: its content (sha256 and size) and where it is, with the inode, size and mtime it had when
+ * recorded. A file that no longer has them was changed or replaced by someone else and is not linked to. */
+typedef struct share_file {
+    char hex[65];
+    uint64_t bytes;
+    char *path; /* the bundle's own files: the name in its temporary directory; the table's: the final path */
+    dev_t dev;
+    ino_t ino;
+    off_t size;
+    struct timespec mtime;
+} share_file;
+
+/* Open addressing on the sha256's first 64 bits, linear probing, at most half full. */
+struct rto_bundle_share {
+    share_file *slot; /* path NULL: empty */
+    size_t cap, used;
+};
+
+rto_bundle_share *rto_bundle_share_create(void)
+{
+    rto_bundle_share *t = calloc(1, sizeof *t);
+    if (t && !(t->slot = calloc(t->cap = 1024, sizeof *t->slot))) {
+        free(t);
+        t = NULL;
+    }
+    return t;
+}
+
+void rto_bundle_share_destroy(rto_bundle_share *t)
+{
+    if (!t)
+        return;
+    for (size_t i = 0; i < t->cap; i++)
+        free(t->slot[i].path);
+    free(t->slot);
+    free(t);
+}
+
+void rto_bundle_set_share(rto_bundle *b, rto_bundle_share *t)
+{
+    if (b)
+        b->share = t;
+}
+
+static size_t share_home(const rto_bundle_share *t, const char *hex)
+{
+    uint64_t h = 0;
+    for (int i = 0; i < 16; i++)
+        h = h << 4 | (uint64_t)(hex[i] <= '9' ? hex[i] - '0' : hex[i] - 'a' + 10);
+    return (size_t)(h & (t->cap - 1));
+}
+
+/* The slot of (hex, bytes), or the empty slot where it would go. */
+static share_file *share_slot(rto_bundle_share *t, const char *hex, uint64_t bytes)
+{
+    for (size_t i = share_home(t, hex);; i = (i + 1) & (t->cap - 1)) {
+        share_file *e = &t->slot[i];
+        if (!e->path || (e->bytes == bytes && !memcmp(e->hex, hex, 64)))
+            return e;
+    }
+}
+
+/* Whether path is still the file recorded in e: a regular file with the same inode, size and mtime. */
+static bool share_unchanged(const share_file *e, const char *path)
+{
+    struct stat st;
+    return lstat(path, &st) == 0 && S_ISREG(st.st_mode) && st.st_dev == e->dev && st.st_ino == e->ino &&
+           st.st_size == e->size && (uint64_t)st.st_size == e->bytes && st.st_mtim.tv_sec == e->mtime.tv_sec &&
+           st.st_mtim.tv_nsec == e->mtime.tv_nsec;
+}
+
+static bool share_record(share_file *e, const char *path)
+{
+    struct stat st;
+    if (lstat(path, &st) != 0 || !S_ISREG(st.st_mode))
+        return false;
+    e->dev = st.st_dev;
+    e->ino = st.st_ino;
+    e->size = st.st_size;
+    e->mtime = st.st_mtim;
+    return true;
+}
+
+/* Registers a file the bundle wrote, now at path (final), replacing what the table had for the same content (a file
+ * found changed, or one a link to failed): the newest copy is the one to link to. Out of memory: not registered. */
+static void share_register(rto_bundle_share *t, const share_file *own, const char *path)
+{
+    if (t->used + 1 > t->cap / 2) {
+        share_file *old = t->slot;
+        size_t old_cap = t->cap;
+        share_file *grown = calloc(old_cap * 2, sizeof *grown);
+        if (!grown)
+            return;
+        t->slot = grown;
+        t->cap = old_cap * 2;
+        for (size_t i = 0; i < old_cap; i++)
+            if (old[i].path)
+                *share_slot(t, old[i].hex, old[i].bytes) = old[i];
+        free(old);
+    }
+    share_file rec = *own;
+    char *copy = strdup(path);
+    if (!copy || !share_record(&rec, path)) {
+        free(copy);
+        return;
+    }
+    rec.path = copy;
+    share_file *e = share_slot(t, own->hex, own->bytes);
+    if (e->path)
+        free(e->path);
+    else
+        t->used++;
+    *e = rec;
+}
+
+/* Links path to an identical file the bundle wrote already or the table lists, if one is still as recorded.
+ * true: linked. */
+static bool share_link(rto_bundle *b, const char *hex, uint64_t bytes, const char *path)
+{
+    for (size_t i = 0; i < b->own_count; i++) {
+        const share_file *e = &b->own[i];
+        if (e->bytes != bytes || memcmp(e->hex, hex, 64) != 0)
+            continue;
+        char *src = rto__path_join(b->tmpdir, e->path);
+        bool ok = src && share_unchanged(e, src) && link(src, path) == 0;
+        free(src);
+        if (ok)
+            return true;
+    }
+    const share_file *e = share_slot(b->share, hex, bytes);
+    return e->path && share_unchanged(e, e->path) && link(e->path, path) == 0;
+}
+
+/* Remembers a file the bundle wrote (name in its temporary directory) for links within the bundle and for commit.
+ * Out of memory: it is just not shared. */
+static void share_own(rto_bundle *b, const char *name, const char *hex, uint64_t bytes, const char *path)
+{
+    if (b->own_count == b->own_cap) {
+        size_t cap = b->own_cap ? 2 * b->own_cap : 8;
+        share_file *grown = realloc(b->own, cap * sizeof *grown);
+        if (!grown)
+            return;
+        b->own = grown;
+        b->own_cap = cap;
+    }
+    share_file *e = &b->own[b->own_count];
+    memcpy(e->hex, hex, 65);
+    e->bytes = bytes;
+    if (!share_record(e, path) || !(e->path = strdup(name)))
+        return;
+    b->own_count++;
+}
+
+/* At commit, once the bundle is at outdir: its own files go into the table under their final paths. */
+static void share_commit(rto_bundle *b)
+{
+    for (size_t i = 0; i < b->own_count; i++) {
+        char *path = rto__path_join(b->outdir, b->own[i].path);
+        if (path)
+            share_register(b->share, &b->own[i], path);
+        free(path);
+    }
+}
+
 rto_status rto_bundle_begin(const char *outdir, const char *kind, rto_bundle **out, rto_msg *msg)
 {
     *out = NULL;
@@ -427,10 +599,23 @@ rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role,
     rto_msg why = {{0}};
     char hex[65], descr[1024];
     char *path = b && plain_name(name) && role && desc ? rto__path_join(b->tmpdir, name) : NULL;
-    rto_status s = path ? rto__npy_write_hashed(path, desc, data, hex, &why)
+    rto_status s = path ? RTO_OK
                  : b && plain_name(name) && role && desc
                      ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
                      : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
+    if (!s && b->share) {
+        /* The file's bytes hashed in memory first: an identical file already written is linked to, else this one
+         * is written (without hashing it again) and remembered. */
+        uint64_t bytes = 0;
+        s = rto__npy_hash(name, desc, data, hex, &bytes, &why);
+        if (!s && !share_link(b, hex, bytes, path)) {
+            s = rto__npy_write_hashed(path, desc, data, NULL, &why);
+            if (!s)
+                share_own(b, name, hex, bytes, path);
+        }
+    } else if (!s) {
+        s = rto__npy_write_hashed(path, desc, data, hex, &why);
+    }
     if (!s)
         s = rto_npy_descr(desc, descr, sizeof descr);
     free(path);
@@ -534,6 +719,9 @@ void rto_bundle_abort(rto_bundle *b)
     }
     json_decref(b->root);
     json_decref(b->files);
+    for (size_t i = 0; i < b->own_count; i++)
+        free(b->own[i].path);
+    free(b->own);
     free(b->stamp);
     free(b->name);
     free(b->outdir);
@@ -626,6 +814,8 @@ rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg)
         rto__stamp_write(b->tmpdir, b->stamp);
     if (!s)
         s = install(b, msg);
+    if (!s && b->share)
+        share_commit(b);
     rto_bundle_abort(b);
     return s;
 }

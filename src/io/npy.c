@@ -865,7 +865,8 @@ static size_t build_preamble(const rto_npy_desc *d, unsigned char *out)
     return pre + total;
 }
 
-/* What both writers check and build first: the description, the data's size (*nbytes) and the header (pre, *plen). */
+/* What the writers and the hasher check and build first: the description, the data's size (*nbytes) and the header
+ * (pre, *plen). The one place a file's preamble is made, so a hash from memory is the hash of the file written. */
 static rto_status npy_prepare(const char *path, const rto_npy_desc *desc, const void *data, unsigned char *pre,
                               size_t *plen, size_t *nbytes, rto_msg *msg)
 {
@@ -915,18 +916,47 @@ rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void 
     return rto_atomic_close(&f, msg);
 }
 
+/* The file's bytes are the preamble then the data: both writers and the hasher go through these two parts. */
+static void hex_digest(const unsigned char md[32], char hex[65])
+{
+    for (unsigned i = 0; i < 32; i++)
+        snprintf(hex + 2 * i, 3, "%02x", md[i]);
+}
+
+rto_status rto__npy_hash(const char *name, const rto_npy_desc *desc, const void *data, char hex[65],
+                         uint64_t *file_bytes, rto_msg *msg)
+{
+    if (!hex || !file_bytes)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hex or size");
+    unsigned char pre[NPY_HEADER_CAP];
+    size_t plen = 0, nbytes = 0;
+    rto_status s = npy_prepare(name, desc, data, pre, &plen, &nbytes, msg);
+    if (s != RTO_OK)
+        return s;
+    EVP_MD_CTX *ctx = EVP_MD_CTX_new();
+    unsigned char md[EVP_MAX_MD_SIZE];
+    unsigned int mdlen = 0;
+    int ok = ctx && EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) == 1 && EVP_DigestUpdate(ctx, pre, plen) == 1 &&
+             (!nbytes || EVP_DigestUpdate(ctx, data, nbytes) == 1) && EVP_DigestFinal_ex(ctx, md, &mdlen) == 1 &&
+             mdlen == 32;
+    EVP_MD_CTX_free(ctx);
+    if (!ok)
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot compute SHA-256");
+    hex_digest(md, hex);
+    *file_bytes = (uint64_t)plen + nbytes;
+    return RTO_OK;
+}
+
 rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, const void *data, char hex[65],
                                  rto_msg *msg)
 {
-    if (!hex)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hex");
     unsigned char pre[NPY_HEADER_CAP];
     size_t plen = 0, nbytes = 0;
     rto_status s = npy_prepare(path, desc, data, pre, &plen, &nbytes, msg);
     if (s != RTO_OK)
         return s;
-    EVP_MD_CTX *ctx = EVP_MD_CTX_new();
-    if (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1) {
+    EVP_MD_CTX *ctx = hex ? EVP_MD_CTX_new() : NULL;
+    if (hex && (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1)) {
         EVP_MD_CTX_free(ctx);
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot start SHA-256");
     }
@@ -949,7 +979,8 @@ rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, con
                 err = w < 0 ? errno : EIO;
                 break;
             }
-            EVP_DigestUpdate(ctx, parts[k] + at, (size_t)w);
+            if (ctx)
+                EVP_DigestUpdate(ctx, parts[k] + at, (size_t)w);
             at += (size_t)w;
         }
     }
@@ -957,15 +988,15 @@ rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, con
         err = errno;
     unsigned char md[EVP_MAX_MD_SIZE];
     unsigned int mdlen = 0;
-    if (!err && (EVP_DigestFinal_ex(ctx, md, &mdlen) != 1 || mdlen != 32))
+    if (!err && ctx && (EVP_DigestFinal_ex(ctx, md, &mdlen) != 1 || mdlen != 32))
         err = ENOMEM;
     EVP_MD_CTX_free(ctx);
     if (err) {
         unlink(path); /* ours: created above with O_EXCL */
         return rto_fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(err));
     }
-    for (unsigned i = 0; i < 32; i++)
-        snprintf(hex + 2 * i, 3, "%02x", md[i]);
+    if (hex)
+        hex_digest(md, hex);
     return RTO_OK;
 }
 
