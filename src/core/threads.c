@@ -185,7 +185,7 @@ static uint32_t pool_grow(uint32_t want)
 {
     pthread_attr_t attr;
     if (pthread_attr_init(&attr))
-        return pool.made + 1;
+        return pool.made + 1 < want ? pool.made + 1 : want;
     pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
     while (pool.made + 1 < want) {
         pool_start *st = malloc(sizeof *st);

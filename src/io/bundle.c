@@ -434,6 +434,16 @@ static void share_register(rto_bundle_share *t, const share_file *own, const cha
     *e = rec;
 }
 
+/* The link just made at path (in the bundle's temporary directory) is the recorded file: the file was not replaced
+ * between the check and link(). Otherwise the new name is removed again (it is the bundle's own) and not used. */
+static bool linked_as_recorded(const share_file *e, const char *path)
+{
+    if (share_unchanged(e, path))
+        return true;
+    unlink(path);
+    return false;
+}
+
 /* Links path to an identical file the bundle wrote already or the table lists, if one is still as recorded.
  * true: linked. */
 static bool share_link(rto_bundle *b, const char *hex, uint64_t bytes, const char *path)
@@ -443,13 +453,13 @@ static bool share_link(rto_bundle *b, const char *hex, uint64_t bytes, const cha
         if (e->bytes != bytes || memcmp(e->hex, hex, 64) != 0)
             continue;
         char *src = rto__path_join(b->tmpdir, e->path);
-        bool ok = src && share_unchanged(e, src) && link(src, path) == 0;
+        bool ok = src && share_unchanged(e, src) && link(src, path) == 0 && linked_as_recorded(e, path);
         free(src);
         if (ok)
             return true;
     }
     const share_file *e = share_slot(b->share, hex, bytes);
-    return e->path && share_unchanged(e, e->path) && link(e->path, path) == 0;
+    return e->path && share_unchanged(e, e->path) && link(e->path, path) == 0 && linked_as_recorded(e, path);
 }
 
 /* Remembers a file the bundle wrote (name in its temporary directory) for links within the bundle and for commit.

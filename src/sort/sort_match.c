@@ -64,7 +64,8 @@ typedef struct match {
     void *a;         /* n keys: the top buckets */
     uint32_t *hist;  /* [worker][1 << MAX_BITS] */
     uint64_t *diff;  /* [worker]: sorting, the keys' differing bits */
-    int *state;      /* [worker] */
+    int *state;      /* [worker]: the top level's checks, read by every worker after a sync */
+    int *verdict;    /* [worker]: the final state (apart from state: a worker may finish while others still read it) */
 } match;
 
 #define DEFINE_MATCH(KEY, NAME, BITS)                                                                                  \
@@ -316,7 +317,7 @@ static void match_team(void *ctx, rto__team *team, uint32_t w, uint32_t t)
         root_u64(r, team, &s, w, t);
     /* A worker that stopped early still reaches the syncs it owes: root returns only after the last one it shares
      * with the others, or before the first where every worker stops. */
-    r->state[w] = s.state;
+    r->verdict[w] = s.state;
     free(mem);
 }
 
@@ -339,27 +340,29 @@ int rto__sort_match(rto_key_format f, const void *keys, size_t n, const void *wa
         return s.state ? 0 : 1;
     }
     uint32_t t = n >= RTO__SORT_MATCH_TEAM_FROM ? rto__thread_count(threads) : 1;
-    match r = {f, keys, want, out, n, NULL, NULL, NULL, NULL};
+    match r = {f, keys, want, out, n, NULL, NULL, NULL, NULL, NULL};
     r.a = rto__alloc_large(n, ksz);
     r.hist = malloc(((size_t)t << root_bits(n, t)) * sizeof *r.hist);
     r.diff = malloc(t * sizeof *r.diff);
-    r.state = calloc(t, sizeof *r.state); /* 0 also for workers the team could not start */
+    r.state = calloc(t, sizeof *r.state);
+    r.verdict = calloc(t, sizeof *r.verdict); /* 0 also for workers the team could not start */
     int result = -1;
-    if (r.a && r.hist && r.diff && r.state) {
+    if (r.a && r.hist && r.diff && r.state && r.verdict) {
         if (t > 1)
             rto__team_run(t, match_team, &r);
         else
             match_team(&r, NULL, 0, 1);
         result = 1;
         for (uint32_t v = 0; v < t; v++)
-            if (r.state[v] < 0)
+            if (r.verdict[v] < 0)
                 result = -1;
-            else if (r.state[v] > 0 && result > 0)
+            else if (r.verdict[v] > 0 && result > 0)
                 result = 0;
     }
     free(r.a);
     free(r.hist);
     free(r.diff);
     free(r.state);
+    free(r.verdict);
     return result;
 }
