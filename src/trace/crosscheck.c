@@ -253,17 +253,29 @@ static int share_vertex(const rto_scene *sc, const rto_hit_record *a, const rto_
     return 0;
 }
 
-/* Both triangles in one plane, and the hit point inside (or within the grazing distance of) both. */
-static int coplanar(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_record *b,
-                    char *why, size_t cap)
+/* The world triangles of hits a and b, and a's hit point p on the ray; returns their scale max(1, |coordinate|) over
+ * both triangles' vertices (p not included). */
+static double hit_pair(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_record *b,
+                       dvec t[2][3], dvec *p)
 {
-    dvec t[2][3];
     world_tri(sc, a->instance_id, a->prim_id, t[0]);
     world_tri(sc, b->instance_id, b->prim_id, t[1]);
+    const double th = a->t;
+    for (int k = 0; k < 3; k++)
+        p->x[k] = ray->origin[k] + th * ray->dir[k];
     double s = 1;
     for (int i = 0; i < 2; i++)
         for (int k = 0; k < 3; k++)
             s = fmax(s, maxabs(t[i][k]));
+    return s;
+}
+
+/* Both triangles in one plane, and the hit point inside (or within the grazing distance of) both. */
+static int coplanar(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_record *b,
+                    char *why, size_t cap)
+{
+    dvec t[2][3], p;
+    double s = hit_pair(sc, ray, a, b, t, &p);
     for (int i = 0; i < 2; i++) {
         dvec n = cross(sub(t[i][1], t[i][0]), sub(t[i][2], t[i][0]));
         double nl = len(n);
@@ -273,8 +285,6 @@ static int coplanar(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_re
             if (fabs(dot(n, sub(t[1 - i][k], t[i][0]))) / nl > XC_PLANE_REL * s)
                 return 0;
     }
-    double th = a->t;
-    dvec p = {{ray->origin[0] + th * ray->dir[0], ray->origin[1] + th * ray->dir[1], ray->origin[2] + th * ray->dir[2]}};
     s = fmax(s, maxabs(p));
     for (int i = 0; i < 2; i++) {
         int degenerate;
@@ -291,15 +301,8 @@ static int coplanar(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_re
 static int crossing(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_record *b,
                     char *why, size_t cap)
 {
-    dvec t[2][3];
-    world_tri(sc, a->instance_id, a->prim_id, t[0]);
-    world_tri(sc, b->instance_id, b->prim_id, t[1]);
-    double th = a->t;
-    dvec p = {{ray->origin[0] + th * ray->dir[0], ray->origin[1] + th * ray->dir[1], ray->origin[2] + th * ray->dir[2]}};
-    double s = fmax(1, maxabs(p));
-    for (int i = 0; i < 2; i++)
-        for (int k = 0; k < 3; k++)
-            s = fmax(s, maxabs(t[i][k]));
+    dvec t[2][3], p;
+    double s = fmax(hit_pair(sc, ray, a, b, t, &p), maxabs(p));
     s = fmax(s, fmax(fabs(ray->origin[0]), fmax(fabs(ray->origin[1]), fabs(ray->origin[2]))));
     for (int i = 0; i < 2; i++) {
         int degenerate;
