@@ -800,6 +800,14 @@ static void test_leaf_order_permutation(void **state)
 /* ------------------------------------------------------------------------------------------------------------------ */
 /* Trees of real scenes: every fixture, rtstress:1..40, instances:DIST:N                                               */
 
+/* The TLAS statistics the accel computed in its stages, against the public functions over the reference tree. */
+static void expect_stats(const rto_bvh_stats *got, rto_bvh_stats want, const char *spec)
+{
+    if (got->depth != want.depth || got->leaves != want.leaves || memcmp(&got->sah, &want.sah, sizeof want.sah))
+        fail_msg("%s: TLAS stats depth %u leaves %u sah %.17g, the reference's %u %u %.17g", spec, got->depth,
+                 got->leaves, got->sah, want.depth, want.leaves, want.sah);
+}
+
 /* The pipeline written out step by step with the canonical bitonic network, as the builds ran it before they sorted
  * with rto_fast_radix_sort: the accel must give the same bytes (§4: real keys are unique). */
 static void reference_tlas(const rto_scene *sc, rto_tlas_kind kind, const rto_accel_tlas *t, const char *spec)
@@ -827,6 +835,7 @@ static void reference_tlas(const rto_scene *sc, rto_tlas_kind kind, const rto_ac
         assert_null(t->karras_nodes);
         if (memcmp(t->sweep_nodes, nodes, t->node_count * sizeof *nodes))
             fail_msg("%s: sweep TLAS differs from the step-by-step pipeline", spec);
+        expect_stats(&t->stats, rto_tlas_stats(nodes, n), spec);
         free(nodes);
     } else {
         rto_bvh_node *nodes = malloc((n ? n : 1) * sizeof *nodes);
@@ -835,6 +844,8 @@ static void reference_tlas(const rto_scene *sc, rto_tlas_kind kind, const rto_ac
         assert_null(t->sweep_nodes);
         if (memcmp(t->karras_nodes, nodes, t->node_count * sizeof *nodes))
             fail_msg("%s: Karras TLAS differs from the step-by-step pipeline", spec);
+        const rto_aabb root = rto_scene_aabb(sc); /* the union of the instances' world boxes */
+        expect_stats(&t->stats, rto_karras_stats(nodes, n, &root), spec);
         free(nodes);
     }
     free(boxes);

@@ -43,18 +43,6 @@ void rto_accel_destroy(rto_accel *a)
     free(a);
 }
 
-/* Union with min / max keeping the later operand when equal (rto_minf / rto_maxf). */
-static rto_aabb union_box(rto_aabb a, rto_aabb b)
-{
-    a.min.x = rto_minf(a.min.x, b.min.x);
-    a.min.y = rto_minf(a.min.y, b.min.y);
-    a.min.z = rto_minf(a.min.z, b.min.z);
-    a.max.x = rto_maxf(a.max.x, b.max.x);
-    a.max.y = rto_maxf(a.max.y, b.max.y);
-    a.max.z = rto_maxf(a.max.z, b.max.z);
-    return a;
-}
-
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* The build: one team of threads for the whole accel (DESIGN.md §2: static partitions, bytes independent of the    */
 /* thread count). Meshes of fewer than BIG_MESH triangles are built whole by one worker each,                        */
@@ -300,12 +288,9 @@ static void tlas_stages(build_ctx *c, rto__team *team, uint32_t w, uint32_t t)
     rto__team_sync(team);
     if (w == 0) {
         rto__karras_finish(&c->tk);
-        /* The root box of the statistics: the union of the keyed instances' boxes (rto_scene_aabb's value). */
-        rto_aabb root = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-        for (size_t i = 0; i < n; i++)
-            if (!rto_aabb_is_empty(&boxes[i]))
-                root = union_box(root, boxes[i]);
-        tl->stats = rto__karras_stats_depth(nodes, m, &root, c->tk.depth, NULL);
+        /* The root box of the statistics: the union of the keyed instances' boxes (rto_scene_aabb's value), merged
+         * from the ranges' parts. */
+        tl->stats = rto__karras_stats_depth(nodes, m, &all.u, c->tk.depth, NULL);
         rto__karras_free(&c->tk);
     }
 }

@@ -110,8 +110,8 @@ int rto__key_bounds_ok(const rto__key_part *all, size_t n);
 /** BLAS keys [begin, end) (rto_blas_keys' bytes) from the centroids and the whole mesh's part. */
 void rto__blas_keys_part(float *const cent[3], size_t begin, size_t end, const rto__key_part *all,
                          uint64_t *keys);
-/** World boxes of instances [begin, end): rto_aabb_transform of their BLAS's bounds; with the part of the centroids
- * of the non-empty ones (part->u is not set) and their number (*keyed). */
+/** World boxes of instances [begin, end): rto_aabb_transform of their BLAS's bounds; with the part of the non-empty
+ * ones (their union and centroid bounds) and their number (*keyed). */
 void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bounds, size_t begin, size_t end,
                               rto_aabb *boxes, rto__key_part *part, size_t *keyed);
 /** TLAS key of centroid c (rto_tlas_keys_indexed's bytes), with centroid bounds lo / hi. */

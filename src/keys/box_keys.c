@@ -284,6 +284,12 @@ void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bou
         if (rto_aabb_is_empty(&w))
             continue; /* no key (rto_tlas_keys_from_boxes) */
         k++;
+        p.u.min.x = rto_minf(p.u.min.x, w.min.x);
+        p.u.min.y = rto_minf(p.u.min.y, w.min.y);
+        p.u.min.z = rto_minf(p.u.min.z, w.min.z);
+        p.u.max.x = rto_maxf(p.u.max.x, w.max.x);
+        p.u.max.y = rto_maxf(p.u.max.y, w.max.y);
+        p.u.max.z = rto_maxf(p.u.max.z, w.max.z);
         const rto_vec3 cv = rto_aabb_centroid(&w);
         const float c[3] = {cv.x, cv.y, cv.z};
         for (int a = 0; a < 3; a++) {
