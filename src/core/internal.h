@@ -78,6 +78,9 @@ rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *inde
  * largest finite magnitude among the bounds' coordinates and the camera position (trace/ray.c). */
 float rto__ray_offset(const rto_aabb *bounds, const rto_camera_uniforms *u);
 
+/** Bits needed to write v: 0 for 0, else 1 + the index of its highest set bit. */
+static inline uint32_t rto__bitlen64(uint64_t v) { return v ? 64u - (uint32_t)__builtin_clzll(v) : 0u; }
+
 /** Spreads the low 10 bits of v so that bit b lands on bit 3b (keys/morton.c's Morton codes). */
 static inline uint32_t rto__spread3(uint32_t v)
 {
@@ -196,8 +199,9 @@ rto_bvh_stats rto__karras_stats_depth(const rto_bvh_node *nodes, size_t n, const
 typedef void (*rto_range_fn)(void *ctx, uint32_t worker, size_t begin, size_t end);
 /** requested, or the number of online CPUs for 0; at most RTO_THREADS_MAX. */
 uint32_t rto__thread_count(uint32_t requested);
-/** Splits n items into rto__thread_count(threads) contiguous ranges of equal size (+-1) and runs fn on each in
- * its own thread; returns when all are done. A thread that cannot be created has its range run by the caller. */
+/** Splits n items into rto__thread_count(threads) contiguous ranges of equal size (+-1) (at most n) and runs fn on
+ * each, range r as worker r, on a team (rto__team_run); returns when all are done. A team smaller than the ranges
+ * (threads that could not be created) runs several ranges per worker: the same ranges, the same results. */
 void rto__parallel_ranges(size_t n, uint32_t threads, rto_range_fn fn, void *ctx);
 /** A team of threads for a job of several stages (core/threads.c): fn runs once on every worker, which meet at
  * rto__team_sync between stages. team is NULL when the team has one worker (then syncs do nothing). */

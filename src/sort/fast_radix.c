@@ -23,7 +23,6 @@ typedef struct plan {
     uint32_t (*hist)[1u << MAX_DIGIT_BITS];
 } plan;
 
-static uint32_t bitlen64(uint64_t v) { return v ? 64u - (uint32_t)__builtin_clzll(v) : 0u; }
 static uint32_t ctz64(uint64_t v) { return v ? (uint32_t)__builtin_ctzll(v) : 64u; }
 
 /* Generates the sort for one key type: KEY the C type, NAME the suffix, IDX_BITS the width of the index field. */
@@ -37,7 +36,7 @@ static uint32_t ctz64(uint64_t v) { return v ? (uint32_t)__builtin_ctzll(v) : 64
             diff |= k[i] ^ k[0];                                                                                       \
             ordered_index &= (k[i] & idx_mask) >= (k[i - 1] & idx_mask);                                               \
         }                                                                                                              \
-        uint32_t lo = ctz64(diff), hi = bitlen64(diff);                                                                \
+        uint32_t lo = ctz64(diff), hi = rto__bitlen64(diff);                                                           \
         if (ordered_index && lo < (IDX_BITS))                                                                          \
             lo = (IDX_BITS);                                                                                           \
         p->lo = lo;                                                                                                    \
@@ -154,7 +153,7 @@ size_t rto__radix_team_hist_words(uint32_t workers) { return (size_t)workers * M
             diff |= r->diff[v];                                                                                        \
             ordered &= r->ordered[v];                                                                                  \
         }                                                                                                              \
-        uint32_t lo = ctz64(diff), hi = bitlen64(diff);                                                                \
+        uint32_t lo = ctz64(diff), hi = rto__bitlen64(diff);                                                           \
         if (ordered && lo < (IDX_BITS))                                                                                \
             lo = (IDX_BITS);                                                                                           \
         const uint32_t passes = lo < hi ? (hi - lo + MAX_DIGIT_BITS - 1) / MAX_DIGIT_BITS : 0;                         \

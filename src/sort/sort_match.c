@@ -27,14 +27,13 @@
 #define LOCAL_KEYS 4096u             /* a top bucket up to this size is partitioned in the worker's own scratch */
 #define PATH_COUNTERS (6u << MAX_BITS) /* counters along one path of nested digits (widths add up to <= 64 bits) */
 
-static uint32_t bitlen64(uint64_t v) { return v ? 64u - (uint32_t)__builtin_clzll(v) : 0u; }
 
 /* The top digit's width: alone and below RTO__SORT_MATCH_TEAM_FROM keys, up to ROOT_BITS (the keys and counters
  * stay in L2, and one digit leaves buckets of about two keys); for a team, or more keys, digit_bits. */
 static uint32_t digit_bits(size_t m);
 static uint32_t root_bits(size_t n, uint32_t workers)
 {
-    const uint32_t b = bitlen64((uint64_t)n);
+    const uint32_t b = rto__bitlen64((uint64_t)n);
     if (workers > 1 || n >= RTO__SORT_MATCH_TEAM_FROM)
         return digit_bits(n);
     return b - 1 > ROOT_BITS ? ROOT_BITS : b - 1;
@@ -43,7 +42,7 @@ static uint32_t root_bits(size_t n, uint32_t workers)
 /* Digit width for m keys: about one key per two buckets, at most MAX_BITS. */
 static uint32_t digit_bits(size_t m)
 {
-    const uint32_t b = bitlen64((uint64_t)m);
+    const uint32_t b = rto__bitlen64((uint64_t)m);
     return b <= 2 ? 1u : b > MAX_BITS ? MAX_BITS : b;
 }
 
@@ -118,7 +117,7 @@ typedef struct match {
             for (size_t i = 1; i < m; i++)                                                                             \
                 span |= src[i] ^ pre;                                                                                  \
         }                                                                                                              \
-        uint32_t hi = bitlen64(span);                                                                                  \
+        uint32_t hi = rto__bitlen64(span);                                                                             \
         if (hi > limit)                                                                                                \
             hi = limit;                                                                                                \
         const KEY above = hi >= (BITS) ? 0 : (KEY)(~(KEY)0 << hi);                                                     \
@@ -206,7 +205,7 @@ typedef struct match {
             for (uint32_t v = 0; v < t; v++)                                                                           \
                 span |= (KEY)r->diff[v];                                                                               \
         }                                                                                                              \
-        const uint32_t hi = bitlen64(span);                                                                            \
+        const uint32_t hi = rto__bitlen64(span);                                                                       \
         const KEY above = hi >= (BITS) ? 0 : (KEY)(~(KEY)0 << hi);                                                     \
         const uint32_t db = root_bits(n, t), width = hi < db ? hi : db, shift = hi - width, radix = 1u << width;      \
         const KEY mask = (KEY)(radix - 1);                                                                             \
