@@ -222,9 +222,18 @@ static uint64_t shaped_key(int shape, rto_key_format f, uint32_t seed, size_t i,
     case 5: return (f == RTO_KEY_U32 ? 0xFFFF0000u : UINT64_C(0xFFFFFFFF00000000)) | (r & 0x3FFu); /* high ones */
     case 6: return (r << 32) | r2;                                                  /* every bit random */
     case 7: return (r & 1u) << (f == RTO_KEY_U32 ? 31 : 63);                        /* only the top bit differs */
-    default: return r & 1u;                                                         /* only bit 0 differs */
+    case 8: return r & 1u;                                                          /* only bit 0 differs */
+    case 9: /* one key in 64 has high bits, the rest share their top digit: too skewed to deal out by it */
+        return ((i % 64 ? r & 0xFFu : r & (f == RTO_KEY_U32 ? 0x7FFFu : 0x3FFFFFFFu)) << w) | idx;
+    default: /* two clusters, one at each end of the key range: two top digits, half the keys each */
+        return ((((uint64_t)(i & 1u) << (f == RTO_KEY_U32 ? 14 : 29)) | (r & 0xFFu)) << w) | idx;
     }
 }
+
+#define SHAPES 10
+
+/* Shapes whose index field is the position, which 16 bits hold only up to 65,536 keys. */
+static int index_shape(int shape) { return shape == 0 || shape == 3 || shape == 4 || shape == 9 || shape == 10; }
 
 static void test_fast_radix_sort_paths(void **state)
 {
@@ -234,10 +243,10 @@ static void test_fast_radix_sort_paths(void **state)
     for (int fi = 0; fi < 2; fi++) {
         rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
         const size_t ksz = rto_key_size(f);
-        for (int shape = 0; shape <= 8; shape++)
+        for (int shape = 0; shape <= SHAPES; shape++)
             for (size_t z = 0; z < sizeof sizes / sizeof sizes[0]; z++) {
                 size_t n = sizes[z];
-                if (f == RTO_KEY_U32 && (shape == 0 || shape == 4 || shape == 3) && n > 65536)
+                if (f == RTO_KEY_U32 && index_shape(shape) && n > 65536)
                     continue; /* a 16-bit index field holds 65,536 positions */
                 uint32_t seed = (uint32_t)(77 + 1000 * shape + 10 * z + fi);
                 void *keys = malloc((n ? n : 1) * ksz), *out = malloc((n ? n : 1) * ksz);
@@ -261,6 +270,70 @@ static void test_fast_radix_sort_paths(void **state)
             }
     }
     print_message("fast radix matched qsort and the network on %zu shaped cases\n", cases);
+}
+
+/* The builds' team sort (most significant digit first, or the LSD team sort when the top digit is too skewed) at
+ * several team sizes against qsort, over the same shapes. */
+typedef struct team_job {
+    rto__radix_team r;
+} team_job;
+
+static void team_sort_fn(void *ctx, rto__team *team, uint32_t w, uint32_t t)
+{
+    team_job *j = ctx;
+    rto__radix_team_sort(&j->r, team, w, t);
+}
+
+static void test_team_radix_sort(void **state)
+{
+    (void)state;
+    const size_t sizes[] = {0, 1, 2, 3, 7, 33, 257, 4097, 65536, 100003};
+    const uint32_t teams[] = {1, 2, 3, 8, 33};
+    size_t cases = 0;
+    for (int fi = 0; fi < 2; fi++) {
+        rto_key_format f = fi ? RTO_KEY_U64 : RTO_KEY_U32;
+        const size_t ksz = rto_key_size(f);
+        for (int shape = 0; shape <= SHAPES; shape++)
+            for (size_t z = 0; z < sizeof sizes / sizeof sizes[0]; z++) {
+                const size_t n = sizes[z];
+                if (f == RTO_KEY_U32 && index_shape(shape) && n > 65536)
+                    continue;
+                const uint32_t seed = (uint32_t)(91 + 1000 * shape + 10 * z + fi);
+                void *keys = malloc((n ? n : 1) * ksz), *out = malloc((n ? n : 1) * ksz), *tmp = malloc((n ? n : 1) * ksz);
+                for (size_t i = 0; i < n; i++)
+                    tu_put(f, keys, i, shaped_key(shape, f, seed, i, n));
+                uint64_t *e = tu_qsorted(f, keys, n);
+                for (size_t ti = 0; ti < sizeof teams / sizeof teams[0]; ti++) {
+                    const uint32_t t = teams[ti];
+                    uint32_t *hist = calloc(rto__radix_team_hist_words(t), sizeof *hist);
+                    uint32_t *first = calloc((size_t)t * 2048u, sizeof *first);
+                    uint64_t *diff = calloc(t, sizeof *diff);
+                    uint8_t *ordered = calloc(t, 1);
+                    assert_non_null(hist);
+                    assert_non_null(first);
+                    assert_non_null(diff);
+                    assert_non_null(ordered);
+                    memset(out, 0xA5, (n ? n : 1) * ksz);
+                    team_job j = {{f, keys, n, out, tmp, hist, first, diff, ordered}};
+                    rto__team_run(t, team_sort_fn, &j);
+                    for (size_t i = 0; i < n; i++)
+                        if (tu_get(f, out, i) != e[i])
+                            fail_msg("team sort %s shape %d n=%zu team %u seed=%u: slot %zu is %llx, qsort %llx",
+                                     fi ? "u64" : "u32", shape, n, t, seed, i, (unsigned long long)tu_get(f, out, i),
+                                     (unsigned long long)e[i]);
+                    free(hist);
+                    free(first);
+                    free(diff);
+                    free(ordered);
+                    cases++;
+                }
+                free(keys);
+                free(out);
+                free(tmp);
+                free(e);
+            }
+    }
+    print_message("team radix sort matched qsort on %zu cases\n", cases);
 }
 
 /* The first differing slot of two n-slot arrays of sz-byte elements, or n. */
@@ -445,6 +518,7 @@ int main(void)
         cmocka_unit_test(test_path_selection),
         cmocka_unit_test(test_radix_intermediates),
         cmocka_unit_test(test_fast_radix_sort_paths),
+        cmocka_unit_test(test_team_radix_sort),
         cmocka_unit_test(test_sort_refuses_bad_arguments),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

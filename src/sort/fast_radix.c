@@ -120,66 +120,65 @@ rto_status rto_fast_radix_sort(rto_key_format f, const void *keys, size_t n, voi
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
-/* The same sort for a team (the accel's builds): each worker takes a static range of the array. Per pass, every    */
-/* worker counts the digits of its range, and its first slot per digit is the keys of smaller digits plus those of  */
-/* the same digit in lower workers' ranges: the stable order, so the bytes are the sequential sort's.               */
+/* The same sort for a team (the accel's builds). Each worker takes a static range of the input, and the plan       */
+/* (differing bits, index order) is merged from the ranges'. Then, most significant digit first:                    */
+/*   1. each worker sorts its own range by the top digit alone, into the same range of tmp (a stable counting pass); */
+/*   2. the digits are dealt out as contiguous runs, a worker's run starting with the digit whose first slot falls in */
+/*      its share of the output (rto__part), so a run holds n / workers keys plus at most one digit's worth;         */
+/*   3. each worker gathers its run's keys from every range (lower workers' first, so each digit's keys stay in input */
+/*      order) into its own slice of out, and sorts that slice by the lower digits and then the top one, alone.      */
+/* Every worker writes only its own slices, so no two workers share the cache lines they scatter into (the LSD team */
+/* sort below had 16 workers scatter 69k keys into 16 x 1024 interleaved runs of 4 keys each, and spent 0.1 ms a    */
+/* pass on it). When the top digit is too skewed for that (a run would exceed FAIR_RUNS shares), the LSD team sort    */
+/* runs instead. A stable sort's output is unique, so both give the sequential sort's bytes.                          */
 
 size_t rto__radix_team_hist_words(uint32_t workers) { return (size_t)workers * MAX_PASSES * (1u << MAX_DIGIT_BITS); }
 
+#define FAIR_RUNS 4u
+
 #define DEFINE_TEAM_SORT(KEY, NAME, IDX_BITS)                                                                          \
-    static void team_##NAME(rto__radix_team *r, rto__team *team, uint32_t w, uint32_t t)                               \
+    /* Stable counting pass of src[0, n) by the digit at shift into dst, with counters h (radix words). */             \
+    static void pass_##NAME(const KEY *src, size_t n, KEY *dst, uint32_t *h, uint32_t radix, uint32_t shift, KEY mask) \
+    {                                                                                                                  \
+        uint32_t run = 0;                                                                                              \
+        for (uint32_t d = 0; d < radix; d++) {                                                                         \
+            uint32_t c = h[d];                                                                                         \
+            h[d] = run;                                                                                                \
+            run += c;                                                                                                  \
+        }                                                                                                              \
+        for (size_t i = 0; i < n; i++)                                                                                 \
+            dst[h[(src[i] >> shift) & mask]++] = src[i];                                                               \
+    }                                                                                                                  \
+                                                                                                                       \
+    /* The LSD team sort: every pass scatters every range into the whole array. */                                     \
+    static void lsd_##NAME(rto__radix_team *r, rto__team *team, uint32_t w, uint32_t t, uint32_t lo, uint32_t passes,  \
+                           uint32_t width)                                                                             \
     {                                                                                                                  \
         const KEY *in = r->in;                                                                                         \
         KEY *out = r->out, *tmp = r->tmp;                                                                              \
         const size_t n = r->n;                                                                                         \
         size_t b, e;                                                                                                   \
         rto__part(n, w, t, &b, &e);                                                                                    \
-        /* The plan: differing bits and whether the index field grows along the input. */                             \
-        {                                                                                                              \
-            KEY diff = 0;                                                                                              \
-            int ordered = 1;                                                                                           \
-            const KEY idx_mask = (KEY)((((KEY)1) << (IDX_BITS)) - 1);                                                  \
-            for (size_t i = b > 0 ? b : 1; i < e; i++) {                                                               \
-                diff |= in[i] ^ in[0];                                                                                 \
-                ordered &= (in[i] & idx_mask) >= (in[i - 1] & idx_mask);                                               \
-            }                                                                                                          \
-            r->diff[w] = diff;                                                                                         \
-            r->ordered[w] = (uint8_t)ordered;                                                                          \
-        }                                                                                                              \
-        rto__team_sync(team);                                                                                          \
-        uint64_t diff = 0;                                                                                             \
-        int ordered = 1;                                                                                               \
-        for (uint32_t v = 0; v < t; v++) {                                                                             \
-            diff |= r->diff[v];                                                                                        \
-            ordered &= r->ordered[v];                                                                                  \
-        }                                                                                                              \
-        uint32_t lo = ctz64(diff), hi = rto__bitlen64(diff);                                                           \
-        if (ordered && lo < (IDX_BITS))                                                                                \
-            lo = (IDX_BITS);                                                                                           \
-        const uint32_t passes = lo < hi ? (hi - lo + MAX_DIGIT_BITS - 1) / MAX_DIGIT_BITS : 0;                         \
-        const uint32_t width = passes ? (hi - lo + passes - 1) / passes : 0;                                           \
         const uint32_t radix = 1u << width;                                                                            \
         const KEY mask = (KEY)(radix - 1);                                                                             \
         uint32_t(*hist)[MAX_PASSES][1u << MAX_DIGIT_BITS] = (void *)r->hist; /* [worker][pass][digit] */              \
         uint32_t active[MAX_PASSES], m = 0;                                                                            \
-        if (passes) {                                                                                                  \
+        for (uint32_t q = 0; q < passes; q++)                                                                          \
+            memset(hist[w][q], 0, radix * sizeof hist[w][q][0]);                                                       \
+        for (size_t i = b; i < e; i++)                                                                                 \
             for (uint32_t q = 0; q < passes; q++)                                                                      \
-                memset(hist[w][q], 0, radix * sizeof hist[w][q][0]);                                                   \
-            for (size_t i = b; i < e; i++)                                                                             \
-                for (uint32_t q = 0; q < passes; q++)                                                                  \
-                    hist[w][q][(in[i] >> (lo + q * width)) & mask]++;                                                  \
-            rto__team_sync(team);                                                                                      \
-            for (uint32_t q = 0; q < passes; q++) {                                                                    \
-                int constant = 0;                                                                                      \
-                for (uint32_t d = 0; d < radix && !constant; d++) {                                                    \
-                    size_t total = 0;                                                                                  \
-                    for (uint32_t v = 0; v < t; v++)                                                                   \
-                        total += hist[v][q][d];                                                                        \
-                    constant = total == n;                                                                             \
-                }                                                                                                      \
-                if (!constant)                                                                                         \
-                    active[m++] = q;                                                                                   \
+                hist[w][q][(in[i] >> (lo + q * width)) & mask]++;                                                      \
+        rto__team_sync(team);                                                                                          \
+        for (uint32_t q = 0; q < passes; q++) {                                                                        \
+            int constant = 0;                                                                                          \
+            for (uint32_t d = 0; d < radix && !constant; d++) {                                                        \
+                size_t total = 0;                                                                                      \
+                for (uint32_t v = 0; v < t; v++)                                                                       \
+                    total += hist[v][q][d];                                                                            \
+                constant = total == n;                                                                                 \
             }                                                                                                          \
+            if (!constant)                                                                                             \
+                active[m++] = q;                                                                                       \
         }                                                                                                              \
         if (m == 0) {                                                                                                  \
             memcpy(out + b, in + b, (e - b) * sizeof *in);                                                             \
@@ -212,6 +211,139 @@ size_t rto__radix_team_hist_words(uint32_t workers) { return (size_t)workers * M
             rto__team_sync(team);                                                                                      \
             src = dst;                                                                                                 \
         }                                                                                                              \
+    }                                                                                                                  \
+                                                                                                                       \
+    static void team_##NAME(rto__radix_team *r, rto__team *team, uint32_t w, uint32_t t)                               \
+    {                                                                                                                  \
+        const KEY *in = r->in;                                                                                         \
+        KEY *out = r->out, *tmp = r->tmp;                                                                              \
+        const size_t n = r->n;                                                                                         \
+        size_t b, e;                                                                                                   \
+        rto__part(n, w, t, &b, &e);                                                                                    \
+        /* The plan: differing bits and whether the index field grows along the input. */                             \
+        {                                                                                                              \
+            KEY diff = 0;                                                                                              \
+            int ordered = 1;                                                                                           \
+            const KEY idx_mask = (KEY)((((KEY)1) << (IDX_BITS)) - 1);                                                  \
+            for (size_t i = b > 0 ? b : 1; i < e; i++) {                                                               \
+                diff |= in[i] ^ in[0];                                                                                 \
+                ordered &= (in[i] & idx_mask) >= (in[i - 1] & idx_mask);                                               \
+            }                                                                                                          \
+            r->diff[w] = diff;                                                                                         \
+            r->ordered[w] = (uint8_t)ordered;                                                                          \
+        }                                                                                                              \
+        rto__team_sync(team);                                                                                          \
+        uint64_t diff = 0;                                                                                             \
+        int ordered = 1;                                                                                               \
+        for (uint32_t v = 0; v < t; v++) {                                                                             \
+            diff |= r->diff[v];                                                                                        \
+            ordered &= r->ordered[v];                                                                                  \
+        }                                                                                                              \
+        uint32_t lo = ctz64(diff), hi = rto__bitlen64(diff);                                                           \
+        if (ordered && lo < (IDX_BITS))                                                                                \
+            lo = (IDX_BITS);                                                                                           \
+        const uint32_t passes = lo < hi ? (hi - lo + MAX_DIGIT_BITS - 1) / MAX_DIGIT_BITS : 0;                         \
+        const uint32_t width = passes ? (hi - lo + passes - 1) / passes : 0;                                           \
+        if (passes == 0) {                                                                                             \
+            memcpy(out + b, in + b, (e - b) * sizeof *in);                                                             \
+            rto__team_sync(team);                                                                                      \
+            return;                                                                                                    \
+        }                                                                                                              \
+        if (t < 2) {                                                                                                   \
+            lsd_##NAME(r, team, w, t, lo, passes, width);                                                              \
+            return;                                                                                                    \
+        }                                                                                                              \
+        const uint32_t radix = 1u << width, top = passes - 1, tshift = lo + top * width;                               \
+        const KEY mask = (KEY)(radix - 1);                                                                             \
+        uint32_t(*hist)[MAX_PASSES][1u << MAX_DIGIT_BITS] = (void *)r->hist; /* [worker][pass][digit] */              \
+        uint32_t *const mine = r->first + (size_t)w * (1u << MAX_DIGIT_BITS);                                          \
+        /* 1. This range by the top digit, into the same range of tmp; its counts stay in hist[w][top]. */            \
+        memset(hist[w][top], 0, radix * sizeof hist[w][top][0]);                                                       \
+        for (size_t i = b; i < e; i++)                                                                                 \
+            hist[w][top][(in[i] >> tshift) & mask]++;                                                                  \
+        memcpy(mine, hist[w][top], radix * sizeof *mine);                                                              \
+        pass_##NAME(in + b, e - b, tmp + b, mine, radix, tshift, mask);                                                \
+        rto__team_sync(team);                                                                                          \
+        /* 2. The runs of digits: run v is digits [g[v], g[v + 1]), output slots [at[v], at[v + 1]). */                \
+        uint32_t g[RTO_THREADS_MAX + 1];                                                                               \
+        size_t at[RTO_THREADS_MAX + 1];                                                                                \
+        {                                                                                                              \
+            uint32_t v = 1;                                                                                            \
+            size_t slot = 0, share_b, share_e;                                                                         \
+            g[0] = 0;                                                                                                  \
+            at[0] = 0;                                                                                                 \
+            for (uint32_t d = 0; d < radix; d++) {                                                                     \
+                for (; v < t; v++) { /* digit d starts run v when its first slot is in v's share */                   \
+                    rto__part(n, v, t, &share_b, &share_e);                                                            \
+                    if (slot < share_b)                                                                                \
+                        break;                                                                                         \
+                    g[v] = d;                                                                                          \
+                    at[v] = slot;                                                                                      \
+                }                                                                                                      \
+                for (uint32_t u = 0; u < t; u++)                                                                       \
+                    slot += hist[u][top][d];                                                                           \
+            }                                                                                                          \
+            for (; v < t; v++) {                                                                                       \
+                g[v] = radix;                                                                                          \
+                at[v] = n;                                                                                             \
+            }                                                                                                          \
+            g[t] = radix;                                                                                              \
+            at[t] = n;                                                                                                 \
+        }                                                                                                              \
+        size_t longest = 0;                                                                                            \
+        for (uint32_t v = 0; v < t; v++)                                                                               \
+            if (at[v + 1] - at[v] > longest)                                                                           \
+                longest = at[v + 1] - at[v];                                                                           \
+        if (longest > FAIR_RUNS * ((n + t - 1) / t)) {                                                                 \
+            rto__team_sync(team); /* no worker still reads the top digit's counts, which the LSD sort recounts */      \
+            lsd_##NAME(r, team, w, t, lo, passes, width);                                                              \
+            return;                                                                                                    \
+        }                                                                                                              \
+        /* 3. Gather run w from every range's tmp, lower ranges first. */                                             \
+        KEY *const slice = out + at[w];                                                                                \
+        const size_t len = at[w + 1] - at[w];                                                                          \
+        {                                                                                                              \
+            size_t put = 0;                                                                                            \
+            for (uint32_t v = 0; v < t; v++) {                                                                         \
+                size_t vb, ve, from = 0, to = 0;                                                                       \
+                rto__part(n, v, t, &vb, &ve);                                                                          \
+                for (uint32_t d = 0; d < g[w + 1]; d++) {                                                              \
+                    if (d == g[w])                                                                                     \
+                        from = to;                                                                                     \
+                    to += hist[v][top][d];                                                                             \
+                }                                                                                                      \
+                if (g[w] == g[w + 1])                                                                                  \
+                    from = to;                                                                                         \
+                memcpy(slice + put, tmp + vb + from, (to - from) * sizeof *tmp);                                       \
+                put += to - from;                                                                                      \
+            }                                                                                                          \
+        }                                                                                                              \
+        rto__team_sync(team); /* tmp is free again: every worker has gathered */                                       \
+        /* The slice by the lower digits, then the top one, with tmp's same slots as scratch. */                       \
+        uint32_t active[MAX_PASSES], m = 0;                                                                            \
+        for (uint32_t q = 0; q < passes; q++)                                                                          \
+            memset(hist[w][q], 0, radix * sizeof hist[w][q][0]);                                                       \
+        for (size_t i = 0; i < len; i++)                                                                               \
+            for (uint32_t q = 0; q < passes; q++)                                                                      \
+                hist[w][q][(slice[i] >> (lo + q * width)) & mask]++;                                                   \
+        for (uint32_t q = 0; q < passes; q++) {                                                                        \
+            int constant = len == 0;                                                                                   \
+            for (uint32_t d = 0; d < radix && !constant; d++)                                                          \
+                constant = hist[w][q][d] == len;                                                                       \
+            if (!constant)                                                                                             \
+                active[m++] = q;                                                                                       \
+        }                                                                                                              \
+        KEY *src = slice, *dst = tmp + at[w];                                                                          \
+        for (uint32_t a = 0; a < m; a++) {                                                                             \
+            const uint32_t q = active[a];                                                                              \
+            pass_##NAME(src, len, dst, hist[w][q], radix, lo + q * width, mask);                                       \
+            KEY *x = src;                                                                                              \
+            src = dst;                                                                                                 \
+            dst = x;                                                                                                   \
+        }                                                                                                              \
+        if (src != slice)                                                                                              \
+            memcpy(slice, src, len * sizeof *slice);                                                                   \
+        rto__team_sync(team);                                                                                          \
     }
 
 DEFINE_TEAM_SORT(uint32_t, u32, 16u)
