@@ -1387,6 +1387,53 @@ static void test_accel_tlas_key_refusals(void **state)
     rto_scene_destroy(sc);
 }
 
+/* A triangle naming a vertex the mesh does not have: the build checks indices in its own stages now (each worker its
+ * range, before any box reads a vertex), and must still name the first one in mesh and index order, before any key
+ * refusal, at every thread count; a team-built mesh (sphere:5, 20,480 triangles) and worker-built ones (rtstress). */
+static void test_accel_index_refusals(void **state)
+{
+    (void)state;
+    static const char *const specs[] = {"sphere:5", "rtstress:4"};
+    static const uint32_t threads[] = {1, 2, 3, 8};
+    for (size_t sp = 0; sp < sizeof specs / sizeof specs[0]; sp++) {
+        rto_scene *sc = NULL;
+        rto_msg msg = {{0}};
+        assert_int_equal(rto_scene_load(specs[sp], &sc, &msg), RTO_OK);
+        const uint32_t last = sc->mesh_count - 1;
+        rto_mesh *me = &sc->meshes[last];
+        assert_true(me->triangle_count >= 8);
+        const size_t mid = 3 * (size_t)(me->triangle_count * 7 / 10) + 1, end = 3 * (size_t)me->triangle_count - 1;
+        for (int fault = 0; fault < 3; fault++) {
+            const uint32_t saved_mid = me->indices[mid], saved_end = me->indices[end];
+            const float saved_pos = sc->meshes[0].positions[0];
+            me->indices[mid] = me->vertex_count + (uint32_t)fault; /* just past the end, or further */
+            if (fault >= 1)
+                me->indices[end] = UINT32_MAX; /* a later one too: the first is named */
+            if (fault == 2)
+                sc->meshes[0].positions[0] = NAN; /* a key refusal in the first mesh: the index is still named */
+            char want[sizeof msg.text];
+            snprintf(want, sizeof want, "mesh %u (%s): index %zu is %u, not below %u vertices", last, me->name, mid,
+                     me->vertex_count + (uint32_t)fault, me->vertex_count);
+            for (size_t t = 0; t < sizeof threads / sizeof threads[0]; t++) {
+                rto_accel_desc d = {RTO_TLAS_SWEEP, threads[t]};
+                rto_accel *acc = (rto_accel *)&acc;
+                assert_int_equal(rto_accel_build(sc, &d, &acc, &msg), RTO_ERR_INVALID_ARGUMENT);
+                assert_null(acc);
+                if (strcmp(msg.text, want) != 0)
+                    fail_msg("%s fault %d, %u threads: \"%s\", expected \"%s\"", specs[sp], fault, threads[t], msg.text,
+                             want);
+            }
+            me->indices[mid] = saved_mid;
+            me->indices[end] = saved_end;
+            sc->meshes[0].positions[0] = saved_pos;
+        }
+        rto_accel *acc = NULL;
+        assert_int_equal(rto_accel_build(sc, NULL, &acc, &msg), RTO_OK); /* restored: it builds */
+        rto_accel_destroy(acc);
+        rto_scene_destroy(sc);
+    }
+}
+
 /* rto_accel_check names the tree and the fault of a damaged accel. The views are const for readers; the test casts
  * that away on purpose to damage one tree at a time. */
 static void test_accel_check_names_the_tree(void **state)
@@ -1466,6 +1513,7 @@ int main(void)
         cmocka_unit_test(test_tlas_keys_skip_empty_boxes),
         cmocka_unit_test(test_accel_contract),
         cmocka_unit_test(test_accel_tlas_key_refusals),
+        cmocka_unit_test(test_accel_index_refusals),
         cmocka_unit_test(test_accel_check_names_the_tree),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
