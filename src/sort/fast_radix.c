@@ -44,6 +44,19 @@ static uint32_t ctz64(uint64_t v) { return v ? (uint32_t)__builtin_ctzll(v) : 64
         p->width = p->passes ? (hi - lo + p->passes - 1) / p->passes : 0;                                              \
     }                                                                                                                  \
                                                                                                                        \
+    /* Stable counting pass of src[0, n) by the digit at shift into dst, with counters h (radix words). */             \
+    static void pass_##NAME(const KEY *src, size_t n, KEY *dst, uint32_t *h, uint32_t radix, uint32_t shift, KEY mask) \
+    {                                                                                                                  \
+        uint32_t run = 0;                                                                                              \
+        for (uint32_t d = 0; d < radix; d++) {                                                                         \
+            uint32_t c = h[d];                                                                                         \
+            h[d] = run;                                                                                                \
+            run += c;                                                                                                  \
+        }                                                                                                              \
+        for (size_t i = 0; i < n; i++)                                                                                 \
+            dst[h[(src[i] >> shift) & mask]++] = src[i];                                                               \
+    }                                                                                                                  \
+                                                                                                                       \
     static void sort_##NAME(const KEY *in, size_t n, KEY *out, KEY *tmp, const plan *p)                                \
     {                                                                                                                  \
         const uint32_t radix = 1u << p->width;                                                                         \
@@ -67,15 +80,7 @@ static uint32_t ctz64(uint64_t v) { return v ? (uint32_t)__builtin_ctzll(v) : 64
         const KEY *src = in;                                                                                           \
         for (uint32_t a = 0; a < m; a++) {                                                                             \
             KEY *dst = ((m - 1 - a) % 2 == 0) ? out : tmp;                                                             \
-            uint32_t *h = p->hist[active[a]], run = 0;                                                                 \
-            for (uint32_t d = 0; d < radix; d++) { /* counts become first slots */                                     \
-                uint32_t c = h[d];                                                                                     \
-                h[d] = run;                                                                                            \
-                run += c;                                                                                              \
-            }                                                                                                          \
-            const uint32_t shift = p->lo + active[a] * p->width;                                                       \
-            for (size_t i = 0; i < n; i++)                                                                             \
-                dst[h[(src[i] >> shift) & mask]++] = src[i];                                                           \
+            pass_##NAME(src, n, dst, p->hist[active[a]], radix, p->lo + active[a] * p->width, mask);                   \
             src = dst;                                                                                                 \
         }                                                                                                              \
     }
@@ -137,19 +142,6 @@ size_t rto__radix_team_hist_words(uint32_t workers) { return (size_t)workers * M
 #define FAIR_RUNS 4u
 
 #define DEFINE_TEAM_SORT(KEY, NAME, IDX_BITS)                                                                          \
-    /* Stable counting pass of src[0, n) by the digit at shift into dst, with counters h (radix words). */             \
-    static void pass_##NAME(const KEY *src, size_t n, KEY *dst, uint32_t *h, uint32_t radix, uint32_t shift, KEY mask) \
-    {                                                                                                                  \
-        uint32_t run = 0;                                                                                              \
-        for (uint32_t d = 0; d < radix; d++) {                                                                         \
-            uint32_t c = h[d];                                                                                         \
-            h[d] = run;                                                                                                \
-            run += c;                                                                                                  \
-        }                                                                                                              \
-        for (size_t i = 0; i < n; i++)                                                                                 \
-            dst[h[(src[i] >> shift) & mask]++] = src[i];                                                               \
-    }                                                                                                                  \
-                                                                                                                       \
     /* The LSD team sort: every pass scatters every range into the whole array. */                                     \
     static void lsd_##NAME(rto__radix_team *r, rto__team *team, uint32_t w, uint32_t t, uint32_t lo, uint32_t passes,  \
                            uint32_t width)                                                                             \
