@@ -112,7 +112,15 @@ static size_t first_bad_index(const rto_mesh *me, size_t begin, size_t end)
 }
 
 /* The message of mesh m's first index out of range, if it has one (RTO_OK otherwise). */
-static rto_status index_message(const rto_scene *scene, uint32_t m, rto_msg *msg);
+static rto_status index_message(const rto_scene *scene, uint32_t m, rto_msg *msg)
+{
+    const rto_mesh *me = &scene->meshes[m];
+    const size_t k = first_bad_index(me, 0, me->triangle_count);
+    if (k == SIZE_MAX)
+        return RTO_OK;
+    return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u (%s): index %zu is %u, not below %u vertices", m, me->name,
+                    k, me->indices[k], me->vertex_count);
+}
 
 /* Out of memory before the build: a mesh with an index out of range is still named first, as when the indices were
  * checked before anything was allocated. */
@@ -124,16 +132,6 @@ static rto_status oom_or_index(const rto_scene *scene, rto_msg *msg)
             return s;
     }
     return oom(msg);
-}
-
-static rto_status index_message(const rto_scene *scene, uint32_t m, rto_msg *msg)
-{
-    const rto_mesh *me = &scene->meshes[m];
-    const size_t k = first_bad_index(me, 0, me->triangle_count);
-    if (k == SIZE_MAX)
-        return RTO_OK;
-    return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u (%s): index %zu is %u, not below %u vertices", m, me->name,
-                    k, me->indices[k], me->vertex_count);
 }
 
 /* Radix scratch of worker slot w (a worker building alone) or of the whole team (w = 0). */
@@ -521,8 +519,8 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     c.owner = rto_alloc(mc, sizeof *c.owner);
     c.by_size = rto_alloc(mc, sizeof *c.by_size);
     c.blas_bounds = rto_alloc(mc, sizeof *c.blas_bounds);
-    rto_status s = a->blas && c.work && c.parts && c.bad && c.hist && c.first && c.diff && c.ordered && c.load && c.keyed && c.owner &&
-                           c.by_size && c.blas_bounds
+    rto_status s = a->blas && c.work && c.parts && c.bad && c.hist && c.first && c.diff && c.ordered && c.load &&
+                           c.keyed && c.owner && c.by_size && c.blas_bounds
                        ? RTO_OK
                        : oom_or_index(scene, msg);
     for (uint32_t m = 0; !s && m < mc; m++)
