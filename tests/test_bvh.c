@@ -1434,6 +1434,50 @@ static void test_accel_index_refusals(void **state)
     }
 }
 
+/* An instance naming a BLAS the scene does not have: checked by the build in the instance boxes' ranges now, and
+ * still named first (before an index out of range or a key refusal), at every thread count, for both TLAS kinds. */
+static void test_accel_instance_refusals(void **state)
+{
+    (void)state;
+    static const uint32_t threads[] = {1, 2, 3, 8};
+    rto_scene *sc = NULL;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_scene_load("instances:uniform:5000", &sc, &msg), RTO_OK);
+    assert_int_equal(sc->mesh_count, 1);
+    rto_mesh *me = &sc->meshes[0];
+    for (int fault = 0; fault < 4; fault++) {
+        const rto_instance saved[3] = {sc->instances[100], sc->instances[3001], sc->instances[4998]};
+        const uint32_t saved_index = me->indices[1];
+        sc->instances[3001].blas = 1 + (uint32_t)fault; /* in a middle worker's range */
+        if (fault == 1)
+            sc->instances[4998].blas = 7; /* a later one too: the first is named */
+        if (fault == 2)
+            me->indices[1] = me->vertex_count; /* an index out of range: the instance is still named first */
+        if (fault == 3)
+            sc->instances[100].obj_to_world.m[0][3] = INFINITY; /* a TLAS key refusal, earlier in order */
+        char want[sizeof msg.text];
+        snprintf(want, sizeof want, "instance 3001 names BLAS %u of 1", 1 + (uint32_t)fault);
+        for (int kind = 0; kind < 2; kind++)
+            for (size_t t = 0; t < sizeof threads / sizeof threads[0]; t++) {
+                rto_accel_desc d = {kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, threads[t]};
+                rto_accel *acc = (rto_accel *)&acc;
+                assert_int_equal(rto_accel_build(sc, &d, &acc, &msg), RTO_ERR_INVALID_ARGUMENT);
+                assert_null(acc);
+                if (strcmp(msg.text, want) != 0)
+                    fail_msg("fault %d, kind %d, %u threads: \"%s\", expected \"%s\"", fault, kind, threads[t],
+                             msg.text, want);
+            }
+        sc->instances[100] = saved[0];
+        sc->instances[3001] = saved[1];
+        sc->instances[4998] = saved[2];
+        me->indices[1] = saved_index;
+    }
+    rto_accel *acc = NULL;
+    assert_int_equal(rto_accel_build(sc, NULL, &acc, &msg), RTO_OK); /* restored: it builds */
+    rto_accel_destroy(acc);
+    rto_scene_destroy(sc);
+}
+
 /* rto_accel_check names the tree and the fault of a damaged accel. The views are const for readers; the test casts
  * that away on purpose to damage one tree at a time. */
 static void test_accel_check_names_the_tree(void **state)
@@ -1514,6 +1558,7 @@ int main(void)
         cmocka_unit_test(test_accel_contract),
         cmocka_unit_test(test_accel_tlas_key_refusals),
         cmocka_unit_test(test_accel_index_refusals),
+        cmocka_unit_test(test_accel_instance_refusals),
         cmocka_unit_test(test_accel_check_names_the_tree),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

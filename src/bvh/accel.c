@@ -66,7 +66,6 @@ typedef struct blas_work {
     rto__karras k;
     rto_status status; /* RTO_ERR_INVALID_ARGUMENT: an index out of range or keys refused (the message is made again
                         * afterwards) */
-    uint8_t bad_index; /* a triangle names a vertex the mesh does not have */
 } blas_work;
 
 typedef struct build_ctx {
@@ -122,15 +121,41 @@ static rto_status index_message(const rto_scene *scene, uint32_t m, rto_msg *msg
                     k, me->indices[k], me->vertex_count);
 }
 
-/* Out of memory before the build: a mesh with an index out of range is still named first, as when the indices were
- * checked before anything was allocated. */
-static rto_status oom_or_index(const rto_scene *scene, rto_msg *msg)
+/* The first of instances [begin, end) that names a BLAS the scene does not have, or SIZE_MAX. Checked by the build
+ * itself, in the ranges of the instance boxes, before a box reads its BLAS's bounds. */
+static size_t first_bad_instance(const rto_scene *scene, size_t begin, size_t end)
 {
-    for (uint32_t m = 0; m < scene->mesh_count; m++) {
-        rto_status s = index_message(scene, m, msg);
-        if (s)
-            return s;
-    }
+    for (size_t i = begin; i < end; i++)
+        if (scene->instances[i].blas >= scene->mesh_count)
+            return i;
+    return SIZE_MAX;
+}
+
+/* The message of the first instance naming a BLAS the scene does not have, if there is one (RTO_OK otherwise). */
+static rto_status instance_message(const rto_scene *scene, rto_msg *msg)
+{
+    const size_t i = first_bad_instance(scene, 0, scene->instance_count);
+    if (i == SIZE_MAX)
+        return RTO_OK;
+    return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance %zu names BLAS %u of %u", i, scene->instances[i].blas,
+                    scene->mesh_count);
+}
+
+/* A refusal found before or during the build names what the sequential checks named first: an instance naming a
+ * missing BLAS, then a mesh with an index out of range (both were checked before anything was allocated). */
+static rto_status early_refusal(const rto_scene *scene, rto_msg *msg)
+{
+    rto_status s = instance_message(scene, msg);
+    for (uint32_t m = 0; !s && m < scene->mesh_count; m++)
+        s = index_message(scene, m, msg);
+    return s;
+}
+
+/* Out of memory before the build: an instance or an index out of range is still named first. */
+static rto_status oom_or_refusal(const rto_scene *scene, rto_msg *msg)
+{
+    if (early_refusal(scene, msg))
+        return RTO_ERR_INVALID_ARGUMENT;
     return oom(msg);
 }
 
@@ -170,10 +195,8 @@ static void blas_stages(build_ctx *c, blas_work *W, rto__team *team, uint32_t w,
         }
     }
     if (bad || !rto__key_bounds_ok(&all, n)) {
-        if (w == 0) {
+        if (w == 0)
             W->status = RTO_ERR_INVALID_ARGUMENT;
-            W->bad_index = (uint8_t)bad;
-        }
         /* Every worker merged the same parts and comes here: none may reuse c->parts and c->bad (the next mesh)
          * before all have read them. */
         rto__team_sync(team);
@@ -263,15 +286,29 @@ static void tlas_stages(build_ctx *c, rto__team *team, uint32_t w, uint32_t t)
      * BLAS instead of a scan of the mesh per instance; with each range's centroid bounds and keyed count. */
     size_t b, e;
     rto__part(n, w, t, &b, &e);
-    rto__instance_boxes_part(sc->instances, c->blas_bounds, b, e, boxes, &c->parts[w], &c->keyed[w]);
+    /* This range's BLAS indices first: no box reads the bounds of a BLAS the scene does not have. */
+    c->bad[w] = first_bad_instance(sc, b, e) != SIZE_MAX;
+    if (c->bad[w]) {
+        rto__key_part_init(&c->parts[w]);
+        c->keyed[w] = 0;
+    } else {
+        rto__instance_boxes_part(sc->instances, c->blas_bounds, b, e, boxes, &c->parts[w], &c->keyed[w]);
+    }
     rto__team_sync(team);
     rto__key_part all;
     rto__key_part_init(&all);
     size_t first = 0, m = 0;
+    int bad = 0;
     for (uint32_t v = 0; v < t; v++) {
         rto__key_part_merge(&all, &c->parts[v]);
         first += v < w ? c->keyed[v] : 0;
         m += c->keyed[v];
+        bad |= c->bad[v];
+    }
+    if (bad) {
+        if (w == 0)
+            c->tlas_status = instance_message(sc, &c->tlas_msg);
+        return; /* every worker returns here, after the last sync */
     }
     if (!rto__key_bounds_ok(&all, m)) {
         /* Refused: the sequential function finds the same fault and gives its message. */
@@ -444,15 +481,17 @@ static void ctx_free(build_ctx *c)
  * own message, made again from its boxes), else the TLAS's. */
 static rto_status build_message(build_ctx *c, rto_msg *msg)
 {
+    int early = c->tlas_status != RTO_OK;
     for (uint32_t m = 0; m < c->a->blas_count; m++)
-        if (c->work[m].bad_index)
-            return index_message(c->scene, m, msg);
+        early |= c->work[m].status != RTO_OK;
+    if (early && early_refusal(c->scene, msg)) /* the sequential checks' first refusal, where there is one */
+        return RTO_ERR_INVALID_ARGUMENT;
     for (uint32_t m = 0; m < c->a->blas_count; m++) {
         blas_work *W = &c->work[m];
         if (!W->status)
             continue;
         rto_status s = W->status == RTO_ERR_OUT_OF_MEMORY
-                           ? oom_or_index(c->scene, msg)
+                           ? oom_or_refusal(c->scene, msg)
                            : rto_blas_keys_from_boxes(W->boxes, W->n, W->keys, msg);
         if (!s) /* cannot happen: the same boxes were refused */
             s = rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys refused");
@@ -484,19 +523,19 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     if (scene->instance_count > RTO_TLAS_MAX_INSTANCES)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%u instances: a TLAS key indexes at most %u",
                         scene->instance_count, RTO_TLAS_MAX_INSTANCES);
-    for (uint32_t i = 0; i < scene->instance_count; i++)
-        if (scene->instances[i].blas >= scene->mesh_count)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance %u names BLAS %u of %u", i,
-                            scene->instances[i].blas, scene->mesh_count);
-    /* The indices are checked by the build itself (first_bad_index), in parallel, before any box reads a vertex. */
+    /* Instances' BLAS indices and triangles' vertex indices are checked by the build itself, in parallel, before
+     * anything reads through them (first_bad_instance, first_bad_index). */
     for (uint32_t m = 0; m < scene->mesh_count; m++) {
         const rto_mesh *me = &scene->meshes[m];
-        if ((me->triangle_count && (!me->indices || !me->positions)) || (me->vertex_count && !me->positions))
+        if ((me->triangle_count && (!me->indices || !me->positions)) || (me->vertex_count && !me->positions)) {
+            if (instance_message(scene, msg)) /* named first, as before */
+                return RTO_ERR_INVALID_ARGUMENT;
             return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u (%s): NULL positions or indices", m, me->name);
+        }
     }
     rto_accel *a = calloc(1, sizeof *a);
     if (!a)
-        return oom_or_index(scene, msg);
+        return oom_or_refusal(scene, msg);
     a->scene = scene;
     a->blas_count = scene->mesh_count;
     a->blas = calloc(a->blas_count ? a->blas_count : 1, sizeof *a->blas);
@@ -522,11 +561,11 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     rto_status s = a->blas && c.work && c.parts && c.bad && c.hist && c.first && c.diff && c.ordered && c.load &&
                            c.keyed && c.owner && c.by_size && c.blas_bounds
                        ? RTO_OK
-                       : oom_or_index(scene, msg);
+                       : oom_or_refusal(scene, msg);
     for (uint32_t m = 0; !s && m < mc; m++)
         c.work[m].status = blas_alloc(&c.work[m], &scene->meshes[m], m, &a->blas[m], W);
     if (!s && tlas_alloc(&c))
-        s = oom_or_index(scene, msg);
+        s = oom_or_refusal(scene, msg);
     for (uint32_t m = 0; !s && m < mc; m++)
         if (c.work[m].status)
             s = build_message(&c, msg);
