@@ -16,12 +16,6 @@
             P##_ce(&x[t], &x[t + (JV)], P##_dvec(((p + (size_t)t * (W)) & k) != 0));                                  \
     } while (0)
 
-/* The same with the group's one direction DESC (a constant), inside P##_tail_dir. */
-#define P_DPASS(P, JV)                                                                                                 \
-    do {                                                                                                               \
-        _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++) if (!(t & (JV))) P_CED(P, &x[t], &x[t + (JV)], desc);     \
-    } while (0)
-
 /* The loops shared by every variant P with W lanes: P##_v a vector of keys with its indices, P##_d a key vector,
  * P##_load / P##_store / P##_dvec / P##_ce / P##_gt / P##_sel / P##_inreg defined per variant before. The pass
  * kernels run a whole call in one direction, so each has an ascending and a descending copy (DESC a constant):
@@ -98,35 +92,52 @@
             P##_store(a, ix, p, x);                                                                                    \
         }                                                                                                              \
     }                                                                                                                  \
-    static inline __attribute__((always_inline)) void P##_tail_dir(P##_v *x, size_t k, size_t jtop, size_t p,         \
-                                                                   const int desc)                                     \
+    static inline __attribute__((always_inline)) void P##_group_dir(void *a, uint32_t *ix, size_t k, size_t jtop,      \
+                                                                    size_t p, const int desc)                          \
     {                                                                                                                  \
-        if (jtop >= 4 * (size_t)(W))                                                                                   \
-            P##_DPASS(4);                                                                                              \
-        if (jtop >= 2 * (size_t)(W))                                                                                   \
-            P##_DPASS(2);                                                                                              \
-        if (jtop >= (W))                                                                                               \
-            P##_DPASS(1);                                                                                              \
-        _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++) {                                                          \
-            _Pragma("GCC unroll 4") for (size_t j = (W) / 2; j; j >>= 1) if (j <= jtop) x[t] =                         \
-                P##_inregd(x[t], k, j, p, desc);                                                                       \
+        P##_v x[8];                                                                                                    \
+        if (jtop >= 4 * (size_t)(W)) { /* stride 4 vectors, then the halves are independent: one at a time */         \
+            _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++) x[t] = P##_load(a, ix, p + (size_t)t * (W));         \
+            _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++) P_CED(P, &x[t], &x[t + 4], desc);                    \
+            _Pragma("GCC unroll 4") for (int t = 4; t < 8; t++) P##_store(a, ix, p + (size_t)t * (W), x[t]);         \
+        } else {                                                                                                       \
+            _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++) x[t] = P##_load(a, ix, p + (size_t)t * (W));         \
+        }                                                                                                              \
+        _Pragma("GCC unroll 2") for (int h = 0; h < 8; h += 4) {                                                       \
+            P##_v *y = x + h;                                                                                          \
+            if (h)                                                                                                     \
+                _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++) y[t] = P##_load(a, ix, p + (size_t)(h + t) * (W)); \
+            if (jtop >= 2 * (size_t)(W)) {                                                                             \
+                P_CED(P, &y[0], &y[2], desc);                                                                          \
+                P_CED(P, &y[1], &y[3], desc);                                                                          \
+            }                                                                                                          \
+            if (jtop >= (W)) {                                                                                         \
+                P_CED(P, &y[0], &y[1], desc);                                                                          \
+                P_CED(P, &y[2], &y[3], desc);                                                                          \
+            }                                                                                                          \
+            _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++) {                                                      \
+                _Pragma("GCC unroll 4") for (size_t j = (W) / 2; j; j >>= 1) if (j <= jtop) y[t] =                     \
+                    P##_inregd(y[t], k, j, p, desc);                                                                   \
+                P##_store(a, ix, p + (size_t)(h + t) * (W), y[t]);                                                     \
+            }                                                                                                          \
         }                                                                                                              \
     }                                                                                                                  \
     static void P##_tail(void *a, uint32_t *ix, size_t k0, size_t k1, size_t jtop, size_t lo, size_t hi)              \
     {                                                                                                                  \
+        if (k0 >= 8 * (size_t)(W)) { /* then k1 == k0: one stage, one direction per group, straight-line code */       \
+            for (size_t p = lo; p < hi; p += 8 * (size_t)(W)) {                                                        \
+                if (p & k0)                                                                                            \
+                    P##_group_dir(a, ix, k0, jtop, p, 1);                                                              \
+                else                                                                                                   \
+                    P##_group_dir(a, ix, k0, jtop, p, 0);                                                              \
+            }                                                                                                          \
+            return;                                                                                                    \
+        }                                                                                                              \
         for (size_t p = lo; p < hi; p += 8 * (size_t)(W)) {                                                            \
             P##_v x[8];                                                                                                \
             _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++) x[t] = P##_load(a, ix, p + (size_t)t * (W));         \
-            for (size_t k = k0; k <= k1; k <<= 1) {                                                                    \
-                const size_t j0 = k == k0 ? jtop : k >> 1;                                                             \
-                if (k >= 8 * (size_t)(W)) { /* one direction for the group: straight-line code */                     \
-                    if (p & k)                                                                                         \
-                        P##_tail_dir(x, k, j0, p, 1);                                                                  \
-                    else                                                                                               \
-                        P##_tail_dir(x, k, j0, p, 0);                                                                  \
-                    continue;                                                                                          \
-                }                                                                                                      \
-                for (size_t j = j0; j; j >>= 1) {                                                                      \
+            for (size_t k = k0; k <= k1; k <<= 1)                                                                      \
+                for (size_t j = k == k0 ? jtop : k >> 1; j; j >>= 1) {                                                 \
                     if (j >= (W)) {                                                                                    \
                         switch (j / (W)) {                                                                             \
                         case 4: P##_VPASS(4); break;                                                                   \
@@ -138,7 +149,6 @@
                             P##_inreg(x[t], k, j, p + (size_t)t * (W));                                                \
                     }                                                                                                  \
                 }                                                                                                      \
-            }                                                                                                          \
             _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++) P##_store(a, ix, p + (size_t)t * (W), x[t]);         \
         }                                                                                                              \
     }
@@ -170,12 +180,17 @@ static inline void a2w_store(void *a, uint32_t *ix, size_t p, a2w_v v)
     _mm256_storeu_si256((__m256i *)(ix + p), v.i);
 }
 static inline a2w_d a2w_dvec(int desc) { return _mm256_set1_epi32(desc ? -1 : 0); }
+/* Blend through the floating-point form (see a2d_blend below). */
+static inline __m256i a2w_blend(__m256i a, __m256i b, __m256i m)
+{
+    return _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(a), _mm256_castsi256_ps(b), _mm256_castsi256_ps(m)));
+}
 static inline __m256i a2w_gt(__m256i x, __m256i y) { return _mm256_cmpgt_epi32(x, y); }
 /* Swap x and y (keys and indices) where m is all ones. */
 static inline void a2w_sel(a2w_v *x, a2w_v *y, __m256i m)
 {
-    const a2w_v nx = {_mm256_blendv_epi8(x->k, y->k, m), _mm256_blendv_epi8(x->i, y->i, m)};
-    const a2w_v ny = {_mm256_blendv_epi8(y->k, x->k, m), _mm256_blendv_epi8(y->i, x->i, m)};
+    const a2w_v nx = {a2w_blend(x->k, y->k, m), a2w_blend(x->i, y->i, m)};
+    const a2w_v ny = {a2w_blend(y->k, x->k, m), a2w_blend(y->i, x->i, m)};
     *x = nx;
     *y = ny;
 }
@@ -199,12 +214,11 @@ static inline a2w_v a2w_inreg(a2w_v x, size_t k, size_t j, size_t p)
     const __m256i f = _mm256_xor_si256(up, dl), perm = _mm256_xor_si256(L, J);
     const __m256i pk = _mm256_permutevar8x32_epi32(x.k, perm), pi = _mm256_permutevar8x32_epi32(x.i, perm);
     const __m256i m = _mm256_cmpgt_epi32(_mm256_xor_si256(x.k, f), _mm256_xor_si256(pk, f));
-    a2w_v r = {_mm256_blendv_epi8(x.k, pk, m), _mm256_blendv_epi8(x.i, pi, m)};
+    a2w_v r = {a2w_blend(x.k, pk, m), a2w_blend(x.i, pi, m)};
     return r;
 }
 #define a2w_inregd(x, k, j, p, desc) a2w_inreg(x, k, j, p)
 #define a2w_VPASS(JV) P_VPASS(a2w, 8, JV)
-#define a2w_DPASS(JV) P_DPASS(a2w, JV)
 DEFINE_KERNELS(a2w, 8)
 
 /* AVX2, 64-bit keys, in the pass kernels: 4 keys per vector, their 4 indices in a 128-bit vector (the 64-bit mask
@@ -225,8 +239,8 @@ static inline void a2p_store(void *a, uint32_t *ix, size_t p, a2p_v v)
     _mm256_storeu_si256((__m256i *)((int64_t *)a + p), v.k);
     _mm_storeu_si128((__m128i *)(ix + p), v.i);
 }
-/* Blends through the floating-point forms: the selects are by sign bit either way, and GCC turns the integer
- * _mm*_blendv_epi8 of a 64-bit compare mask into a byte compare and a blend (two instructions). */
+/* Blends through the floating-point forms: the selects are by sign bit either way, and GCC (12) turns the integer
+ * _mm*_blendv_epi8 of a 32- or 64-bit compare mask into a byte compare and a blend (two instructions). */
 static inline __m256i a2d_blend(__m256i a, __m256i b, __m256i m)
 {
     return _mm256_castpd_si256(_mm256_blendv_pd(_mm256_castsi256_pd(a), _mm256_castsi256_pd(b), _mm256_castsi256_pd(m)));
@@ -321,7 +335,6 @@ static inline a2d_v a2d_inregd(a2d_v x, size_t k, size_t j, size_t p, const int 
     return r;
 }
 #define a2d_VPASS(JV) P_VPASS(a2d, 4, JV)
-#define a2d_DPASS(JV) P_DPASS(a2d, JV)
 DEFINE_REGS(a2d, 4)
 static const rto__bitonic_kernels a2d_kernels = {4, a2p_pass1, a2p_pass2, a2p_pass3, a2d_small, a2d_tail};
 
@@ -378,7 +391,6 @@ static inline a5w_v a5w_inreg(a5w_v x, size_t k, size_t j, size_t p)
 }
 #define a5w_inregd(x, k, j, p, desc) a5w_inreg(x, k, j, p)
 #define a5w_VPASS(JV) P_VPASS(a5w, 16, JV)
-#define a5w_DPASS(JV) P_DPASS(a5w, JV)
 DEFINE_KERNELS(a5w, 16)
 
 /* AVX-512, 64-bit keys: 8 keys per vector, their 8 indices in a 256-bit vector, one 8-bit mask for both. */
@@ -429,7 +441,6 @@ static inline a5d_v a5d_inreg(a5d_v x, size_t k, size_t j, size_t p)
 }
 #define a5d_inregd(x, k, j, p, desc) a5d_inreg(x, k, j, p)
 #define a5d_VPASS(JV) P_VPASS(a5d, 8, JV)
-#define a5d_DPASS(JV) P_DPASS(a5d, JV)
 DEFINE_KERNELS(a5d, 8)
 
 #pragma GCC pop_options
