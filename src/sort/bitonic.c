@@ -204,7 +204,7 @@ static rto__bitonic_isa resolve_isa(void)
 
 /* Blocks, in slots: L1 (passes below it run on L1-resident blocks) and L2 (the unit of the parallel block phase). */
 #define L1_BYTES ((size_t)16 << 10)
-#define L2_BYTES ((size_t)256 << 10)
+#define L2_BYTES ((size_t)384 << 10)
 /* From this many slots up the network uses threads: below it, starting them costs more than it saves. */
 #define THREADS_FROM ((size_t)1 << 15)
 /* Slots of one work unit of a parallel whole-array pass. */

@@ -67,12 +67,14 @@
                 x[t] = P##_load(a, ix, o + (size_t)t * q);                                                             \
             _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)                                                        \
                 P_CED(P, &x[t], &x[t + 4], desc);                                                                      \
-            _Pragma("GCC unroll 4") for (int t = 0; t < 8; t += (t & 1) ? 3 : 1)                                       \
-                P_CED(P, &x[t], &x[t + 2], desc);                                                                      \
-            _Pragma("GCC unroll 4") for (int t = 0; t < 8; t += 2)                                                     \
-                P_CED(P, &x[t], &x[t + 1], desc);                                                                      \
-            _Pragma("GCC unroll 8") for (int t = 0; t < 8; t++)                                                        \
-                P##_store(a, ix, o + (size_t)t * q, x[t]);                                                             \
+            _Pragma("GCC unroll 2") for (int h = 0; h < 8; h += 4) { /* then each half on its own */                  \
+                P_CED(P, &x[h], &x[h + 2], desc);                                                                      \
+                P_CED(P, &x[h + 1], &x[h + 3], desc);                                                                  \
+                P_CED(P, &x[h], &x[h + 1], desc);                                                                      \
+                P_CED(P, &x[h + 2], &x[h + 3], desc);                                                                  \
+                _Pragma("GCC unroll 4") for (int t = h; t < h + 4; t++)                                                \
+                    P##_store(a, ix, o + (size_t)t * q, x[t]);                                                         \
+            }                                                                                                          \
         }                                                                                                              \
     }                                                                                                                  \
     P_BY_DIR(P, pass1)                                                                                                 \
