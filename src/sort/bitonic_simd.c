@@ -223,51 +223,21 @@ static inline a2w_v a2w_inreg(a2w_v x, size_t k, size_t j, size_t p)
 #define a2w_VPASS(JV) P_VPASS(a2w, 8, JV)
 DEFINE_KERNELS(a2w, 8)
 
-/* AVX2, 64-bit keys, in the pass kernels: 4 keys per vector, their 4 indices in a 128-bit vector (the 64-bit mask
- * narrowed to 32 bits once per compare). */
-typedef struct {
-    __m256i k;
-    __m128i i;
-} a2p_v;
+/* AVX2, 64-bit keys: 4 keys per vector, their 4 indices widened to 64-bit lanes on load (narrowed again on store), so
+ * that the compare's 64-bit mask selects keys and indices alike and a lane permute moves both the same way. */
 
-static inline a2p_v a2p_load(const void *a, const uint32_t *ix, size_t p)
-{
-    a2p_v v = {_mm256_loadu_si256((const __m256i *)((const int64_t *)a + p)),
-               _mm_loadu_si128((const __m128i *)(ix + p))};
-    return v;
-}
-static inline void a2p_store(void *a, uint32_t *ix, size_t p, a2p_v v)
-{
-    _mm256_storeu_si256((__m256i *)((int64_t *)a + p), v.k);
-    _mm_storeu_si128((__m128i *)(ix + p), v.i);
-}
 /* Blends through the floating-point forms: the selects are by sign bit either way, and GCC (12) turns the integer
  * _mm*_blendv_epi8 of a 32- or 64-bit compare mask into a byte compare and a blend (two instructions). */
 static inline __m256i a2d_blend(__m256i a, __m256i b, __m256i m)
 {
     return _mm256_castpd_si256(_mm256_blendv_pd(_mm256_castsi256_pd(a), _mm256_castsi256_pd(b), _mm256_castsi256_pd(m)));
 }
-static inline __m128i a2p_blend(__m128i a, __m128i b, __m128i m)
+/* The low 32 bits of each 64-bit lane, packed into 128 bits. */
+static inline __m128i a2d_narrow(__m256i v)
 {
-    return _mm_castps_si128(_mm_blendv_ps(_mm_castsi128_ps(a), _mm_castsi128_ps(b), _mm_castsi128_ps(m)));
+    return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(v, _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7)));
 }
-static inline __m256i a2p_gt(__m256i x, __m256i y) { return _mm256_cmpgt_epi64(x, y); }
-static inline __m128i a2d_narrow(__m256i m)
-{
-    return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(m, _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7)));
-}
-static inline void a2p_sel(a2p_v *x, a2p_v *y, __m256i m)
-{
-    const __m128i m32 = a2d_narrow(m);
-    const a2p_v nx = {a2d_blend(x->k, y->k, m), a2p_blend(x->i, y->i, m32)};
-    const a2p_v ny = {a2d_blend(y->k, x->k, m), a2p_blend(y->i, x->i, m32)};
-    *x = nx;
-    *y = ny;
-}
-DEFINE_PASSES(a2p, 4)
 
-/* AVX2, 64-bit keys, in the in-register kernels (small, tail): the 4 indices widened to 64-bit lanes once per load, so
- * that one 64-bit mask selects keys and indices alike, and a lane permute moves both the same way. */
 typedef struct {
     __m256i k, i;
 } a2d_v;
@@ -337,8 +307,7 @@ static inline a2d_v a2d_inregd(a2d_v x, size_t k, size_t j, size_t p, const int 
     return r;
 }
 #define a2d_VPASS(JV) P_VPASS(a2d, 4, JV)
-DEFINE_REGS(a2d, 4)
-static const rto__bitonic_kernels a2d_kernels = {4, a2p_pass1, a2p_pass2, a2p_pass3, a2d_small, a2d_tail};
+DEFINE_KERNELS(a2d, 4)
 
 #pragma GCC pop_options
 
