@@ -202,9 +202,11 @@ static rto__bitonic_isa resolve_isa(void)
     return RTO__BITONIC_BASELINE;
 }
 
-/* Blocks, in slots: L1 (passes below it run on L1-resident blocks) and L2 (the unit of the parallel block phase). */
+/* Blocks, in slots: L1 (passes below it run on L1-resident blocks) and L2 (the unit of the parallel block phase),
+ * rounded down to powers of two. 384 KiB gives 32768 slots to 4-byte keys with their indices (256 KiB) and to 8-byte
+ * ones (384 KiB; 256 KiB gave them 16384 slots, and a whole-array pass more per later stage). */
 #define L1_BYTES ((size_t)16 << 10)
-#define L2_BYTES ((size_t)256 << 10)
+#define L2_BYTES ((size_t)384 << 10)
 /* From this many slots up the network uses threads: below it, starting them costs more than it saves. */
 #define THREADS_FROM ((size_t)1 << 15)
 /* Slots of one work unit of a parallel whole-array pass. */
