@@ -1409,8 +1409,18 @@ static void test_accel_index_refusals(void **state)
             me->indices[mid] = me->vertex_count + (uint32_t)fault; /* just past the end, or further */
             if (fault >= 1)
                 me->indices[end] = UINT32_MAX; /* a later one too: the first is named */
-            if (fault == 2)
-                sc->meshes[0].positions[0] = NAN; /* a key refusal in the first mesh: the index is still named */
+            if (fault == 2) {
+                sc->meshes[0].positions[0] = INFINITY; /* a key refusal in the first mesh: the index is still named */
+                const uint32_t bad_mid = me->indices[mid], bad_end = me->indices[end];
+                me->indices[mid] = saved_mid;
+                me->indices[end] = saved_end;
+                rto_accel *alone = (rto_accel *)&alone;
+                assert_int_equal(rto_accel_build(sc, NULL, &alone, &msg), RTO_ERR_INVALID_ARGUMENT); /* refused alone */
+                assert_null(alone);
+                assert_null(strstr(msg.text, "not below"));
+                me->indices[mid] = bad_mid;
+                me->indices[end] = bad_end;
+            }
             char want[sizeof msg.text];
             snprintf(want, sizeof want, "mesh %u (%s): index %zu is %u, not below %u vertices", last, me->name, mid,
                      me->vertex_count + (uint32_t)fault, me->vertex_count);
@@ -1453,8 +1463,16 @@ static void test_accel_instance_refusals(void **state)
             sc->instances[4998].blas = 7; /* a later one too: the first is named */
         if (fault == 2)
             me->indices[1] = me->vertex_count; /* an index out of range: the instance is still named first */
-        if (fault == 3)
+        if (fault == 3) {
             sc->instances[100].obj_to_world.m[0][3] = INFINITY; /* a TLAS key refusal, earlier in order */
+            const uint32_t bad = sc->instances[3001].blas;
+            sc->instances[3001].blas = 0;
+            rto_accel *alone = (rto_accel *)&alone;
+            assert_int_equal(rto_accel_build(sc, NULL, &alone, &msg), RTO_ERR_INVALID_ARGUMENT); /* refused alone */
+            assert_null(alone);
+            assert_null(strstr(msg.text, "names BLAS"));
+            sc->instances[3001].blas = bad;
+        }
         char want[sizeof msg.text];
         snprintf(want, sizeof want, "instance 3001 names BLAS %u of 1", 1 + (uint32_t)fault);
         for (int kind = 0; kind < 2; kind++)
@@ -1475,6 +1493,58 @@ static void test_accel_instance_refusals(void **state)
     rto_accel *acc = NULL;
     assert_int_equal(rto_accel_build(sc, NULL, &acc, &msg), RTO_OK); /* restored: it builds */
     rto_accel_destroy(acc);
+    rto_scene_destroy(sc);
+}
+
+/* A mesh with NULL indices is refused before the build; what the sequential checks named before it still comes
+ * first: a bad instance, then a bad index in an earlier mesh (but not in a later one). */
+static void test_accel_null_mesh_precedence(void **state)
+{
+    (void)state;
+    rto_scene *sc = NULL;
+    rto_msg msg = {{0}};
+    const char *fix = getenv("RTO_FIXTURES");
+    if (!fix)
+        fail_msg("RTO_FIXTURES is not set (meson sets it to fixtures/)");
+    char path[4096];
+    snprintf(path, sizeof path, "%s/CornellBox-nvpro-glTF/cornellBox.gltf", fix);
+    if (rto_scene_load(path, &sc, &msg))
+        fail_msg("%s: %s", path, msg.text);
+    assert_true(sc->mesh_count >= 2 && sc->instance_count >= 1);
+    assert_true(sc->meshes[0].triangle_count >= 2 && sc->meshes[sc->mesh_count - 1].triangle_count >= 2);
+    rto_mesh *first = &sc->meshes[0], *last = &sc->meshes[sc->mesh_count - 1];
+    uint32_t *first_idx = first->indices, *last_idx = last->indices;
+    const uint32_t saved_first = first_idx[4], saved_last = last_idx[4], saved_blas = sc->instances[0].blas;
+    char want[sizeof msg.text];
+    for (int fault = 0; fault < 3; fault++) {
+        if (fault == 0) { /* a bad index in mesh 0, NULL indices in the last mesh: the index */
+            first_idx[4] = first->vertex_count;
+            last->indices = NULL;
+            snprintf(want, sizeof want, "mesh 0 (%s): index 4 is %u, not below %u vertices", first->name,
+                     first->vertex_count, first->vertex_count);
+        } else if (fault == 1) { /* NULL indices in mesh 0, a bad index in the last mesh: the NULL */
+            first->indices = NULL;
+            last_idx[4] = last->vertex_count;
+            snprintf(want, sizeof want, "mesh 0 (%s): NULL positions or indices", first->name);
+        } else { /* a bad instance beside NULL indices: the instance */
+            last->indices = NULL;
+            sc->instances[0].blas = sc->mesh_count;
+            snprintf(want, sizeof want, "instance 0 names BLAS %u of %u", sc->mesh_count, sc->mesh_count);
+        }
+        for (uint32_t threads = 1; threads <= 3; threads++) {
+            rto_accel_desc d = {RTO_TLAS_SWEEP, threads};
+            rto_accel *acc = (rto_accel *)&acc;
+            assert_int_equal(rto_accel_build(sc, &d, &acc, &msg), RTO_ERR_INVALID_ARGUMENT);
+            assert_null(acc);
+            if (strcmp(msg.text, want) != 0)
+                fail_msg("fault %d, %u threads: \"%s\", expected \"%s\"", fault, threads, msg.text, want);
+        }
+        first->indices = first_idx;
+        last->indices = last_idx;
+        first_idx[4] = saved_first;
+        last_idx[4] = saved_last;
+        sc->instances[0].blas = saved_blas;
+    }
     rto_scene_destroy(sc);
 }
 
@@ -1559,6 +1629,7 @@ int main(void)
         cmocka_unit_test(test_accel_tlas_key_refusals),
         cmocka_unit_test(test_accel_index_refusals),
         cmocka_unit_test(test_accel_instance_refusals),
+        cmocka_unit_test(test_accel_null_mesh_precedence),
         cmocka_unit_test(test_accel_check_names_the_tree),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

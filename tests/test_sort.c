@@ -305,14 +305,20 @@ static void test_team_radix_sort(void **state)
                 uint64_t *e = tu_qsorted(f, keys, n);
                 for (size_t ti = 0; ti < sizeof teams / sizeof teams[0]; ti++) {
                     const uint32_t t = teams[ti];
-                    uint32_t *hist = calloc(rto__radix_team_hist_words(t), sizeof *hist);
-                    uint32_t *first = calloc((size_t)t * 2048u, sizeof *first);
-                    uint64_t *diff = calloc(t, sizeof *diff);
-                    uint8_t *ordered = calloc(t, 1);
+                    /* scratch as the builds leave it: never zeroed between sorts */
+                    const size_t hw = rto__radix_team_hist_words(t);
+                    uint32_t *hist = malloc(hw * sizeof *hist), *first = malloc((size_t)t * 2048u * sizeof *first);
+                    uint64_t *diff = malloc(t * sizeof *diff);
+                    uint8_t *ordered = malloc(t);
                     assert_non_null(hist);
                     assert_non_null(first);
                     assert_non_null(diff);
                     assert_non_null(ordered);
+                    memset(hist, 0xA5, hw * sizeof *hist);
+                    memset(first, 0xA5, (size_t)t * 2048u * sizeof *first);
+                    memset(diff, 0xA5, t * sizeof *diff);
+                    memset(ordered, 0xA5, t);
+                    memset(tmp, 0xA5, (n ? n : 1) * ksz);
                     memset(out, 0xA5, (n ? n : 1) * ksz);
                     team_job j = {{f, keys, n, out, tmp, hist, first, diff, ordered}};
                     rto__team_run(t, team_sort_fn, &j);

@@ -528,8 +528,12 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     for (uint32_t m = 0; m < scene->mesh_count; m++) {
         const rto_mesh *me = &scene->meshes[m];
         if ((me->triangle_count && (!me->indices || !me->positions)) || (me->vertex_count && !me->positions)) {
-            if (instance_message(scene, msg)) /* named first, as before */
-                return RTO_ERR_INVALID_ARGUMENT;
+            /* What the sequential checks named before it: a bad instance, then a bad index of an earlier mesh. */
+            rto_status s = instance_message(scene, msg);
+            for (uint32_t j = 0; !s && j < m; j++)
+                s = index_message(scene, j, msg);
+            if (s)
+                return s;
             return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u (%s): NULL positions or indices", m, me->name);
         }
     }

@@ -41,8 +41,8 @@ typedef struct waitpoint {
  * Inside a job (barriers, the end of a job) a thread waits for team mates that are working, so it spins for up to
  * JOB_SPIN_NS: on the 16-core Xeon a sleeper took about 2 ms to run again, and with the old 2 ms budget at every
  * wait, one late worker made the others sleep at the next barrier, where they were late in turn: every barrier of a
- * 16-thread TLAS build cost 2 ms, 24 ms in all instead of 2.4. Between jobs a pool worker spins for IDLE_SPIN_NS only,
- * then sleeps until the next job. */
+ * 16-thread TLAS build cost 2 ms, and the median of 101 such builds was 10.4 ms instead of 2.2. Between jobs a pool
+ * worker spins for IDLE_SPIN_NS only, then sleeps until the next job. */
 #define JOB_SPIN_NS 20000000
 #define IDLE_SPIN_NS 2000000
 #define YIELD_AFTER_NS 50000
