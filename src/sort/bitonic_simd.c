@@ -297,11 +297,13 @@ static inline a2d_v a2d_inregd(a2d_v x, size_t k, size_t j, size_t p, const int 
     if (j == 1) {
         pk = _mm256_shuffle_epi32(x.k, 0x4E);
         pi = _mm256_shuffle_epi32(x.i, 0x4E);
-        m = _mm256_shuffle_epi32(_mm256_cmpgt_epi64(x.k, pk), desc ? 0xEE : 0x44);
+        const __m256i g = _mm256_cmpgt_epi64(x.k, pk); /* immediates, also where -O0 folds no constant */
+        m = desc ? _mm256_shuffle_epi32(g, 0xEE) : _mm256_shuffle_epi32(g, 0x44);
     } else {
         pk = _mm256_permute4x64_epi64(x.k, 0x4E);
         pi = _mm256_permute4x64_epi64(x.i, 0x4E);
-        m = _mm256_permute4x64_epi64(_mm256_cmpgt_epi64(x.k, pk), desc ? 0xEE : 0x44);
+        const __m256i g = _mm256_cmpgt_epi64(x.k, pk);
+        m = desc ? _mm256_permute4x64_epi64(g, 0xEE) : _mm256_permute4x64_epi64(g, 0x44);
     }
     a2d_v r = {a2d_blend(x.k, pk, m), a2d_blend(x.i, pi, m)};
     return r;
