@@ -130,16 +130,34 @@ void rto__key_part_init(rto__key_part *p)
     p->bad = 0;
 }
 
+/* u = u ∪ b, the later operand kept when equal (rto_minf / rto_maxf). */
+static inline void union_into(rto_aabb *u, const rto_aabb *b)
+{
+    u->min.x = rto_minf(u->min.x, b->min.x);
+    u->min.y = rto_minf(u->min.y, b->min.y);
+    u->min.z = rto_minf(u->min.z, b->min.z);
+    u->max.x = rto_maxf(u->max.x, b->max.x);
+    u->max.y = rto_maxf(u->max.y, b->max.y);
+    u->max.z = rto_maxf(u->max.z, b->max.z);
+}
+
+/* One item into a part: its box into the union, its centroid c into the centroid bounds (the earlier kept when
+ * equal, as centroid_bounds) and the non-finite flag. */
+static inline void part_add(rto__key_part *p, const rto_aabb *b, const float c[3])
+{
+    union_into(&p->u, b);
+    for (int a = 0; a < 3; a++) {
+        p->bad |= !isfinite(c[a]);
+        p->lo[a] = c[a] < p->lo[a] ? c[a] : p->lo[a];
+        p->hi[a] = c[a] > p->hi[a] ? c[a] : p->hi[a];
+    }
+}
+
 /* Both folds are associative with their tie rules, so parts merged in range order give the sequential bytes: the
  * union keeps the later operand when equal (rto_minf), the centroid bounds the earlier (centroid_bounds). */
 void rto__key_part_merge(rto__key_part *into, const rto__key_part *p)
 {
-    into->u.min.x = rto_minf(into->u.min.x, p->u.min.x);
-    into->u.min.y = rto_minf(into->u.min.y, p->u.min.y);
-    into->u.min.z = rto_minf(into->u.min.z, p->u.min.z);
-    into->u.max.x = rto_maxf(into->u.max.x, p->u.max.x);
-    into->u.max.y = rto_maxf(into->u.max.y, p->u.max.y);
-    into->u.max.z = rto_maxf(into->u.max.z, p->u.max.z);
+    union_into(&into->u, &p->u);
     for (int a = 0; a < 3; a++) {
         into->lo[a] = p->lo[a] < into->lo[a] ? p->lo[a] : into->lo[a];
         into->hi[a] = p->hi[a] > into->hi[a] ? p->hi[a] : into->hi[a];
@@ -165,19 +183,10 @@ void rto__blas_boxes_part(const rto_mesh *mesh, size_t begin, size_t end, rto_aa
         b.max.y = rto_maxf(rto_maxf(p0[1], p1[1]), p2[1]);
         b.max.z = rto_maxf(rto_maxf(p0[2], p1[2]), p2[2]);
         boxes[t] = b;
-        p.u.min.x = rto_minf(p.u.min.x, b.min.x);
-        p.u.min.y = rto_minf(p.u.min.y, b.min.y);
-        p.u.min.z = rto_minf(p.u.min.z, b.min.z);
-        p.u.max.x = rto_maxf(p.u.max.x, b.max.x);
-        p.u.max.y = rto_maxf(p.u.max.y, b.max.y);
-        p.u.max.z = rto_maxf(p.u.max.z, b.max.z);
         const float c[3] = {(b.min.x + b.max.x) * 0.5f, (b.min.y + b.max.y) * 0.5f, (b.min.z + b.max.z) * 0.5f};
-        for (int a = 0; a < 3; a++) {
+        for (int a = 0; a < 3; a++)
             cent[a][t] = c[a];
-            p.bad |= !isfinite(c[a]);
-            p.lo[a] = c[a] < p.lo[a] ? c[a] : p.lo[a];
-            p.hi[a] = c[a] > p.hi[a] ? c[a] : p.hi[a];
-        }
+        part_add(&p, &b, c);
     }
     *part = p;
 }
@@ -284,19 +293,9 @@ void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bou
         if (rto_aabb_is_empty(&w))
             continue; /* no key (rto_tlas_keys_from_boxes) */
         k++;
-        p.u.min.x = rto_minf(p.u.min.x, w.min.x);
-        p.u.min.y = rto_minf(p.u.min.y, w.min.y);
-        p.u.min.z = rto_minf(p.u.min.z, w.min.z);
-        p.u.max.x = rto_maxf(p.u.max.x, w.max.x);
-        p.u.max.y = rto_maxf(p.u.max.y, w.max.y);
-        p.u.max.z = rto_maxf(p.u.max.z, w.max.z);
         const rto_vec3 cv = rto_aabb_centroid(&w);
         const float c[3] = {cv.x, cv.y, cv.z};
-        for (int a = 0; a < 3; a++) {
-            p.bad |= !isfinite(c[a]);
-            p.lo[a] = c[a] < p.lo[a] ? c[a] : p.lo[a];
-            p.hi[a] = c[a] > p.hi[a] ? c[a] : p.hi[a];
-        }
+        part_add(&p, &w, c);
     }
     *part = p;
     *keyed = k;
