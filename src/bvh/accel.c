@@ -306,8 +306,8 @@ static void tlas_stages(build_ctx *c, rto__team *team, uint32_t w, uint32_t t)
         bad |= c->bad[v];
     }
     if (bad) {
-        if (w == 0)
-            c->tlas_status = instance_message(sc, &c->tlas_msg);
+        if (w == 0) /* the message is build_message's: early_refusal names the first such instance */
+            c->tlas_status = RTO_ERR_INVALID_ARGUMENT;
         return; /* every worker returns here, after the last sync */
     }
     if (!rto__key_bounds_ok(&all, m)) {
@@ -490,8 +490,8 @@ static rto_status build_message(build_ctx *c, rto_msg *msg)
         blas_work *W = &c->work[m];
         if (!W->status)
             continue;
-        rto_status s = W->status == RTO_ERR_OUT_OF_MEMORY
-                           ? oom_or_refusal(c->scene, msg)
+        rto_status s = W->status == RTO_ERR_OUT_OF_MEMORY /* early_refusal above found nothing */
+                           ? oom(msg)
                            : rto_blas_keys_from_boxes(W->boxes, W->n, W->keys, msg);
         if (!s) /* cannot happen: the same boxes were refused */
             s = rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys refused");
