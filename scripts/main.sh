@@ -7,49 +7,74 @@ cd "$(dirname "$0")/.."
 rto_install_deps
 rto_install_gpu_deps
 rto_build build --werror
+rto=build/oracle/rtoracle
 out=out/goldens
 mkdir -p "$out"
-# Loader warnings go to a temporary file outside out/: a run that changes nothing writes nothing there.
-err=$(mktemp)
-trap 'rm -f "$err"' EXIT
+# What each command prints (a summary or "up to date" line per bundle, loader warnings) goes to temporary files
+# outside out/: a run that changes nothing writes nothing there. A failure shows them and stops.
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
 # Every command below leaves a bundle that is already up to date alone (same inputs, options and rtoracle build, no
 # file changed since; README "Re-running the main job"), so a second run rewrites nothing.
-# The sort matrix a GPU harness runs: every distribution x size class x format x algorithm (about 700 MB).
-build/oracle/rtoracle suite sort -o "$out/sort" "$@"
+# golden FAMILY RTORACLE-ARGS...: one bundle of a family; its output kept for the family's summary line.
+golden() {
+    local family=$1
+    shift
+    "$rto" "$@" >>"$tmp/$family.out" 2>"$tmp/err" ||
+        { cat "$tmp/$family.out" "$tmp/err" >&2; rto_say "rtoracle $* failed"; exit 1; }
+}
+# family_done FAMILY DIR [WHAT]: one line per family: what it holds (default: its bundles), how many bundles were
+# up to date, its size on disk, the time it took.
+t_family=$SECONDS
+family_done() {
+    local n fresh size
+    n=$(grep -c . "$tmp/$1.out")
+    fresh=$(grep -c 'is up to date' "$tmp/$1.out") || true
+    size=$(du -sh "$2" | cut -f1)
+    rto_say "goldens: $1: ${3:-$n bundles} ($((n - fresh)) written, $fresh up to date), ${size}B in $2" \
+        "($((SECONDS - t_family)) s)"
+    t_family=$SECONDS
+}
+fixture_scenes() { find fixtures \( -name '*.gltf' -o -name '*.glb' \) | sort; }
+
+# The sort matrix a GPU harness runs: every distribution x size class x format x algorithm (about 700 MB) in one
+# bundle.
+rto_say "goldens: sort: the whole matrix into $out/sort (about 700 MB on a first run)"
+golden sort suite sort -o "$out/sort" "$@"
+family_done sort "$out/sort" "$(grep -c '"case"' "$out/sort/manifest.json") cases in 1 bundle"
+
 # Acceleration-structure bundles of every bundled fixture scene and the procedural scenes.
-fix=fixtures
 mkdir -p "$out/build"
 while IFS= read -r f; do
-    name=$(basename "${f%.*}")
-    # Loader warnings (e.g. CornellBox's unused texture) are not news here; a failure shows them and stops.
-    build/oracle/rtoracle build "$f" -o "$out/build/$name" 2>"$err" || { cat "$err" >&2; exit 1; }
-done < <(find "$fix" \( -name '*.gltf' -o -name '*.glb' \) | sort)
+    golden build build "$f" -o "$out/build/$(basename "${f%.*}")"
+done < <(fixture_scenes)
 for spec in triangle rtstress:16 instances:clustered:4097; do
-    build/oracle/rtoracle build "$spec" -o "$out/build/${spec//:/-}"
+    golden build build "$spec" -o "$out/build/${spec//:/-}"
 done
+family_done build "$out/build"
+
 # Trace bundles: primary and shadow rays at 320x240 through every fixture scene and the procedural ones (the
 # inputs of a GPU's TRACE kernel and the hit records it must write).
 mkdir -p "$out/trace"
 while IFS= read -r f; do
-    name=$(basename "${f%.*}")
     for set in primary shadow; do
-        build/oracle/rtoracle trace "$f" --rays $set --width 320 --height 240 -o "$out/trace/$name-$set" \
-            2>"$err" || { cat "$err" >&2; exit 1; }
+        golden trace trace "$f" --rays $set --width 320 --height 240 -o "$out/trace/$(basename "${f%.*}")-$set"
     done
-done < <(find "$fix" \( -name '*.gltf' -o -name '*.glb' \) | sort)
+done < <(fixture_scenes)
 for spec in triangle rtstress:16; do
-    build/oracle/rtoracle trace "$spec" --rays primary --width 320 --height 240 -o "$out/trace/${spec//:/-}-primary"
+    golden trace trace "$spec" --rays primary --width 320 --height 240 -o "$out/trace/${spec//:/-}-primary"
 done
+family_done trace "$out/trace"
+
 # Frame bundles: one wavefront frame per scene with a fitting program (every queue, hit, counter, indirect argument,
-# accum buffer and image a GPU's frame must produce), one summary line each.
+# accum buffer and image a GPU's frame must produce).
 mkdir -p "$out/frame"
+frame() { golden frame render "$@" --width 320 --height 240 --no-timings; }
 while IFS= read -r f; do
-    name=$(basename "${f%.*}")
-    build/oracle/rtoracle render "$f" --program sun-shadow --width 320 --height 240 --no-timings \
-        -o "$out/frame/$name-sun-shadow" 2>"$err" || { cat "$err" >&2; exit 1; }
-done < <(find "$fix" \( -name '*.gltf' -o -name '*.glb' \) | sort)
-build/oracle/rtoracle render triangle --program triangle --width 320 --height 240 --no-timings -o "$out/frame/triangle"
-build/oracle/rtoracle render rtstress:16 --program sun-shadow --width 320 --height 240 --no-timings \
-    -o "$out/frame/rtstress-16-sun-shadow"
-build/oracle/rtoracle render stage2 --program normals --width 320 --height 240 --no-timings -o "$out/frame/stage2"
-echo "rtoracle: built build/oracle/rtoracle; golden bundles in $out/"
+    frame "$f" --program sun-shadow -o "$out/frame/$(basename "${f%.*}")-sun-shadow"
+done < <(fixture_scenes)
+frame triangle --program triangle -o "$out/frame/triangle"
+frame rtstress:16 --program sun-shadow -o "$out/frame/rtstress-16-sun-shadow"
+frame stage2 --program normals -o "$out/frame/stage2"
+family_done frame "$out/frame"
+rto_say "built $rto; golden bundles in $out/ ($(du -sh "$out" | cut -f1)B)"

@@ -10,8 +10,11 @@ rm -rf "$out"
 mkdir -p "$out"
 run() { gpu/run --rtoracle "$rto" "$@"; }
 
-gpu/run --rtoracle "$rto" --subset ci --json "$out/ci.json" --html "$out/ci.html"
-echo "gpu: the ci subset passes ($out/ci.html)"
+# One line per case goes to ci.log; the device and the summary are printed, the whole log only on a failure.
+gpu/run --rtoracle "$rto" --subset ci --json "$out/ci.json" --html "$out/ci.html" >"$out/ci.log" 2>&1 ||
+    { cat "$out/ci.log" >&2; echo "FAIL: gpu/run --subset ci (log: $out/ci.log)" >&2; exit 1; }
+grep -E '^device:|cases pass' "$out/ci.log"
+echo "gpu: the ci subset passes ($out/ci.html, one line per case in $out/ci.log)"
 
 # expect_fault NAME CHECK FAULT DIAGNOSIS-REGEX [gpu/run arguments...]: the run fails (status 1) with exactly one
 # failing case, whose first failing check, fault class and diagnosis are the expected ones.

@@ -177,7 +177,7 @@ static void test_fast_path_agrees_with_full_analysis(void **state)
             for (int fi = 0; fi < 2; fi++)
                 for (int padded = 0; padded < 2; padded++)
                     for (int m = 0; m < MUT_COUNT; m++)
-                        for (int rep = 0; rep < (m == MUT_NONE ? 1 : 3); rep++) {
+                        for (int rep = 0; rep < (m == MUT_NONE ? 1 : TU_SIZED(3, 1)); rep++) {
                             const uint32_t seed = (uint32_t)(((di * 16 + zi) * 4 + (size_t)(fi * 2 + padded)) * 16 +
                                                              (size_t)m) * 4 + (uint32_t)rep;
                             uint64_t rng = seed;
@@ -263,7 +263,8 @@ static void test_fast_path_threads_agree(void **state)
         for (size_t zi = 0; zi < sizeof big / sizeof big[0]; zi++)
             for (int fi = 0; fi < 2; fi++)
                 for (size_t mi = 0; mi < sizeof muts / sizeof muts[0]; mi++) {
-                    if (!tu_dist_applies(rto_dist_find(big_dists[di]), fi ? RTO_KEY_U64 : RTO_KEY_U32, big[zi]))
+                    if (!tu_dist_applies(rto_dist_find(big_dists[di]), fi ? RTO_KEY_U64 : RTO_KEY_U32, big[zi]) ||
+                        tu_sanitized_skip(big_dists[di], big[zi]))
                         continue;
                     const uint32_t seed = (uint32_t)(((di * 4 + zi) * 2 + (size_t)fi) * 16 + mi) + 7000;
                     uint64_t rng = seed;
@@ -307,7 +308,8 @@ static void test_sort_match_against_qsort(void **state)
             assert_non_null(info);
             for (size_t zi = 0; zi < sizeof sizes_m / sizeof sizes_m[0]; zi++) {
                 const size_t n = sizes_m[zi], ksz = fi ? 8 : 4;
-                if (!tu_dist_applies(info, f, n))
+                if (!tu_dist_applies(info, f, n) || tu_sanitized_skip(mdists[di], n) ||
+                    (TU_SANITIZED && n > RTO__SORT_MATCH_TEAM_FROM + 3))
                     continue;
                 const uint32_t seed = (uint32_t)((di * 2 + (size_t)fi) * 32 + zi) + 9000;
                 void *keys = tu_keys(mdists[di], f, seed, n);

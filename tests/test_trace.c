@@ -267,7 +267,7 @@ static void test_fixtures_match_brute_force(void **state)
         "StanfordBunny/bunny.gltf",
     };
     for (size_t i = 0; i < sizeof scenes / sizeof scenes[0]; i++)
-        check_scene(scenes[i], 1000 + i, strstr(scenes[i], "bunny") ? 600 : 3000);
+        check_scene(scenes[i], 1000 + i, strstr(scenes[i], "bunny") ? TU_SIZED(600, 200) : TU_SIZED(3000, 1000));
 }
 
 /* The hand-derived Möller–Trumbore of the VulkanTriangle (v0 (1,1,0), v1 (-1,1,0), v2 (0,-1,0)) and its counters. */
@@ -440,10 +440,10 @@ static void test_random_scenes_match_brute_force(void **state)
     char spec[32];
     for (uint32_t seed = 1; seed <= 12; seed++) {
         snprintf(spec, sizeof spec, "random:%u", seed);
-        check_scene(spec, seed, 1500);
+        check_scene(spec, seed, TU_SIZED(1500, 500));
     }
-    check_scene("sphere:3", 21, 1500);
-    check_scene("sphere:3:9", 22, 1500);
+    check_scene("sphere:3", 21, TU_SIZED(1500, 500));
+    check_scene("sphere:3:9", 22, TU_SIZED(1500, 500));
 }
 
 int main(void)

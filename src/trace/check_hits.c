@@ -136,7 +136,8 @@ static void float_row(ray_result *rr, rto_hit_fault f, const char *field, float 
 /* The objToWorld element at column c, row r (WGSL's objToWorld[c][r]); the padding [c][3] is never compared. */
 static void matrix_field(int c, int r, char field[RTO_REPORT_NAME_MAX])
 {
-    snprintf(field, RTO_REPORT_NAME_MAX, "objToWorld[%d][%d]", c, r);
+    /* c and r are 0..3: one digit each (the casts tell the compiler so). */
+    snprintf(field, RTO_REPORT_NAME_MAX, "objToWorld[%u][%u]", (unsigned)c & 3u, (unsigned)r & 3u);
 }
 
 /* A miss must be exactly the miss record of its ray (rto_hit_record_miss): t = tMax, the four IDs 0xFFFFFFFF, bary
