@@ -13,6 +13,7 @@ RTO_DEBS=(
     libopenimageio-dev libpng-dev                  # glTF textures (decoded in the librto_image.so module)
     libembree-dev                                  # benchmarks: Embree on the same geometry
     assimp-testmodels                              # glTF 2.0 test files, broken ones included (tests only)
+    strace                                         # tests: a final swap held up in the kernel (cli.signals)
     libegl1 libgles2 libegl-mesa0 libgl1-mesa-dri  # gpu/: Dawn's OpenGL backend on Mesa llvmpipe (no GPU needed)
     libegl-dev                                     # gpu/: Dawn opens the unversioned libEGL.so, which only this ships
 )

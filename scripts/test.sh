@@ -6,6 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/deps.sh
+trap 'rto_say "scripts/test.sh: line $LINENO failed: $BASH_COMMAND"' ERR
 rto_install_deps
 # The sanitizer runs' options, for meson test and for the determinism check below. intercept_tls_get_addr=0: with
 # it on, LeakSanitizer's runtime itself crashes at exit on some machines after a module with thread-local storage was
