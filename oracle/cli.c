@@ -149,17 +149,16 @@ int cli_write_report(const char *gpu_path, const char *command, const char *text
     return rc;
 }
 
-/* SIGINT / SIGTERM / SIGHUP: remove the temporaries of the outputs being written, then die of the same signal, so
- * the caller sees the usual status (130, 143, ...) and no OUT.tmp.* is left. Only async-signal-safe calls here. */
-static void on_stop_signal(int sig)
-{
-    rto_temporaries_remove();
-    signal(sig, SIG_DFL);
-    raise(sig); /* pending until the handler returns, then the default action ends the process */
-}
+/* SIGINT / SIGTERM / SIGHUP, on whichever thread takes it: remove the temporaries of the outputs being written, then
+ * die of the same signal, so the caller sees the usual status (130, 143, ...) and no OUT.tmp.* is left; a swap into
+ * place under way finishes first (rto_stop_signal). */
+static void on_stop_signal(int sig) { rto_stop_signal(sig); }
 
 void cli_cleanup_on_signals(void)
 {
+    /* A command that meets an error because a stop on another thread removed its temporary does not exit with that
+     * error's status: it waits for the stop to end the process. */
+    atexit(rto_stop_settle);
     static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
     for (size_t i = 0; i < sizeof sigs / sizeof sigs[0]; i++) {
         struct sigaction old, sa;

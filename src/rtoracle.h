@@ -1689,11 +1689,24 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
 rto_status rto_file_write(const char *path, const void *data, size_t len, rto_msg *msg);
 /**
  * Removes every temporary file and directory that the writers of this library (rto_file_write, rto_npy_write,
- * rto_bundle_*) have created and not yet renamed or removed. Async-signal-safe: call it from a SIGINT / SIGTERM
- * handler, then re-raise the signal with its default action. The library blocks SIGINT, SIGTERM and SIGHUP for the
- * moments in which it creates or renames a temporary, so a handler never sees one half-registered.
+ * rto_bundle_*) have created and not yet renamed or removed. Async-signal-safe. A signal handler should call
+ * rto_stop_signal instead, which also waits for an output being put into place.
  */
 void rto_temporaries_remove(void);
+/**
+ * Call from a SIGINT / SIGTERM / SIGHUP handler, on whichever thread the signal arrived: removes every temporary
+ * (rto_temporaries_remove) and ends the process by sig's default action (status 128 + sig in a shell). When some
+ * thread is in the middle of creating, renaming or exchanging an output, the stop waits for the end of that moment,
+ * which carries it out, so a destination is always its old content or its new one, whole; the handler then
+ * returns. Async-signal-safe.
+ */
+void rto_stop_signal(int sig);
+/**
+ * Call before exiting normally (an atexit handler does): when a stop signal is being carried out or is waiting for
+ * a moment on another thread, waits for it to end the process, so that the status is the signal's rather than an
+ * error that the stop itself caused (a write into a temporary it removed).
+ */
+void rto_stop_settle(void);
 /**
  * Copies the NUL-terminated string in to out (capacity cap bytes, NUL included) as well-formed UTF-8, as JSON
  * requires: each maximal ill-formed subsequence becomes U+FFFD (The Unicode Standard §3.9, substitution of maximal

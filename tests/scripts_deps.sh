@@ -107,10 +107,10 @@ want_err() {
         { fail "$case_name: stderr does not end in the one line /$1/:"; sed 's/^/    | /' "$T/err" | head; }
 }
 
-ALL="build-essential pkg-config meson ninja-build cmake libjansson-dev libssl-dev libcmocka-dev g++ libtinygltf-dev
-nlohmann-json3-dev libopenimageio-dev libpng-dev libembree-dev assimp-testmodels libegl1 libgles2 libegl-mesa0
-libgl1-mesa-dri libegl-dev"
-ALL=$(echo $ALL)
+# Every package deps.sh lists (cmake in the middle of the list, as the cases below expect).
+ALL=$(bash -c ". '$DEPS'; echo \${RTO_DEBS[*]}")
+[[ " $ALL " == *" cmake "* && " $ALL " == *" libcmocka-dev "* && " $ALL " != "build-essential "* ]] ||
+    fail "RTO_DEBS no longer holds cmake and libcmocka-dev: $ALL"
 export STUB_INSTALLED=$ALL
 
 # Everything installed: one dpkg-query for the whole list, no apt-get, nothing printed, and the script goes on.

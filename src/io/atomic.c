@@ -16,6 +16,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -91,16 +92,77 @@ static void stop_signals(sigset_t *set)
     sigaddset(set, SIGHUP);
 }
 
+/* A stop signal may be taken by any thread (a process-directed signal goes to any thread that does not block it, and
+ * tgkill names one), also while another thread is creating, renaming or exchanging an output. So the moments and the
+ * stop exclude each other through one counter: g_guard counts the threads inside a moment, and a stop claims the
+ * process by turning 0 into -1. A stop that finds a moment in progress leaves its signal in g_deferred, and the
+ * thread that ends the last moment carries it out. A thread that wants to begin a moment after the claim waits
+ * until the process ends. */
+static atomic_int g_guard;
+static atomic_int g_deferred;
+
 void rto_signals_hold(sigset_t *old)
 {
     sigset_t set;
     stop_signals(&set);
-    /* Per thread on Linux; a process-directed signal goes to a thread that does not block it, which on Linux is
-     * the main thread whenever it can take it, i.e. the one writing. */
-    sigprocmask(SIG_BLOCK, &set, old);
+    /* The handler then never runs on this thread inside the moment (it would only defer itself). */
+    pthread_sigmask(SIG_BLOCK, &set, old);
+    for (;;) {
+        int v = atomic_load(&g_guard);
+        if (v < 0) {
+            /* The process is being stopped by another thread, which removes the temporaries and ends it. */
+            const struct timespec ms = {0, 1000000};
+            nanosleep(&ms, NULL);
+            continue;
+        }
+        if (atomic_compare_exchange_weak(&g_guard, &v, v + 1))
+            return;
+    }
 }
 
-void rto_signals_release(const sigset_t *old) { sigprocmask(SIG_SETMASK, old, NULL); }
+/* Removes every temporary and ends the process by sig's default action. Async-signal-safe. */
+static _Noreturn void stop_now(int sig)
+{
+    rto_temporaries_remove();
+    signal(sig, SIG_DFL);
+    sigset_t one;
+    sigemptyset(&one);
+    sigaddset(&one, sig);
+    sigprocmask(SIG_UNBLOCK, &one, NULL); /* this thread's mask on Linux, as pthread_sigmask */
+    raise(sig);
+    _exit(128 + sig); /* not reached: sig's default action ends the process */
+}
+
+void rto_signals_release(const sigset_t *old)
+{
+    int sig = 0, zero = 0;
+    if (atomic_fetch_sub(&g_guard, 1) == 1 && (sig = atomic_load(&g_deferred)) != 0 &&
+        atomic_compare_exchange_strong(&g_guard, &zero, -1))
+        stop_now(sig);
+    pthread_sigmask(SIG_SETMASK, old, NULL);
+}
+
+void rto_stop_signal(int sig)
+{
+    /* Deferred first, then the claim: a moment that ends between the two sees the signal and carries it out. */
+    int zero = 0;
+    atomic_store(&g_deferred, sig);
+    if (atomic_compare_exchange_strong(&g_guard, &zero, -1))
+        stop_now(sig);
+}
+
+void rto_stop_settle(void)
+{
+    if (atomic_load(&g_guard) < 0 || atomic_load(&g_deferred) != 0) {
+        /* A stop is under way on another thread, or deferred to a moment that is still running: its signal, not
+         * this thread's exit status, ends the process. */
+        sigset_t set;
+        stop_signals(&set);
+        pthread_sigmask(SIG_UNBLOCK, &set, NULL);
+        for (;;)
+            pause();
+    }
+}
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Removal from a signal handler: openat / getdents64 / unlinkat / close only (no opendir, no malloc, no stdio). */
@@ -148,9 +210,22 @@ static void remove_at(int parent, const char *name, int depth)
 void rto_temporaries_remove(void)
 {
     int saved = errno;
-    for (int i = 0; i < TMP_SLOTS; i++)
-        if (atomic_load(&g_slots[i].state) == SLOT_LIVE)
-            remove_at(AT_FDCWD, g_slots[i].path, 0);
+    for (int i = 0; i < TMP_SLOTS; i++) {
+        if (atomic_load(&g_slots[i].state) != SLOT_LIVE)
+            continue;
+        /* Moved aside first ("NAME~"): another thread still writing into it by name (a stop does not halt the other
+         * threads) can then add no entry behind the sweep's back. */
+        const char *path = g_slots[i].path;
+        char aside[PATH_MAX];
+        size_t n = strlen(path);
+        if (n + 2 <= sizeof aside) {
+            memcpy(aside, path, n);
+            memcpy(aside + n, "~", 2);
+            if (rename(path, aside) == 0)
+                path = aside;
+        }
+        remove_at(AT_FDCWD, path, 0);
+    }
     errno = saved;
 }
 
