@@ -158,4 +158,10 @@ run 2 "$RTO" build "$FIX/WaterBottle/glTF/WaterBottle.gltf" --texture-budget 15 
 "$RTO" info "$FIX/CornellBox-nvpro-glTF/cornellBox.gltf" --json >"$T/b.json"
 cmp -s "$T/a.json" "$T/b.json" || fail "info --json differs between runs"
 
+# A glTF without meshes: described (no mesh, no instance), also as JSON, without touching memory it does not own
+# (the sanitizer build caught a write past a one-byte buffer here).
+echo '{"asset":{"version":"2.0"}}' >"$T/empty.gltf"
+run 0 "$RTO" info "$T/empty.gltf" --json && has '"meshes": \[\]' out
+run 0 "$RTO" info "$T/empty.gltf"
+
 finish "cli.scene: all passed"

@@ -118,10 +118,12 @@ rto_status rto_scene_json(const rto_scene *scene, char *buf, size_t cap, size_t 
         *len = 0;
     if (!scene || (cap && !buf))
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL scene or buffer");
-    uint32_t *mesh_instances = rto_alloc(scene->mesh_count, sizeof *mesh_instances);
+    /* One counter even for a scene without meshes (a glTF may have none): the buffer is never of size 0. */
+    const size_t counters = scene->mesh_count ? scene->mesh_count : 1;
+    uint32_t *mesh_instances = rto_alloc(counters, sizeof *mesh_instances);
     if (!mesh_instances)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory describing %s", scene->source);
-    memset(mesh_instances, 0, (scene->mesh_count ? scene->mesh_count : 1) * sizeof *mesh_instances);
+    memset(mesh_instances, 0, counters * sizeof *mesh_instances);
     for (uint32_t i = 0; i < scene->instance_count; i++)
         mesh_instances[scene->instances[i].blas]++;
     int bad = 0;
