@@ -57,6 +57,15 @@ int cmd_check_frame(int argc, char **argv)
 
     rto_report r;
     rto_msg msg = {{0}};
+    /* Artefacts go neither into a bundle nor over an input: --artifacts naming such a place is refused; the default
+     * place, the GPU dump, when it is a bundle (a bundle checked against itself), gets none, with a note. */
+    if (d.artifact_dir && rto_output_check(d.artifact_dir, 1, (const char *const[]){expected}, 1, &msg)) {
+        if (artifact_dir)
+            return cli_status("check-frame", RTO_ERR_INVALID_ARGUMENT, &msg);
+        fprintf(stderr, "rtoracle check-frame: no artefacts written: %s\n", msg.text);
+        d.artifact_dir = NULL;
+        msg = (rto_msg){{0}};
+    }
     uint32_t written = 0;
     rto_status s = rto_frame_check(&d, &r, &written, &msg);
     if (s != RTO_OK && s != RTO_ERR_MISMATCH)

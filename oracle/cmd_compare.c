@@ -179,6 +179,8 @@ int cmd_compare(int argc, char **argv)
         desc.warn = 1e-6;
 
     rto_msg msg = {{0}};
+    if (diff && rto_output_check(diff, 0, (const char *const[]){args.arg[0], args.arg[1]}, 2, &msg))
+        return cli_status("compare", RTO_ERR_INVALID_ARGUMENT, &msg);
     rto_image expected = {0}, actual = {0};
     rto_status s = rto_image_read(args.arg[0], &expected, &msg);
     if (!s)

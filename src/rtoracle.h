@@ -1694,6 +1694,13 @@ rto_status rto_file_write(const char *path, const void *data, size_t len, rto_ms
  */
 void rto_temporaries_remove(void);
 /**
+ * Checks a place an output is about to be written (a file, or with is_dir a directory for files): refused with
+ * RTO_ERR_INVALID_ARGUMENT and a one-line message when it is the same file as one of the n inputs (NULL entries are
+ * skipped), or when it lies inside an rtoracle bundle (or, with is_dir, is one): a bundle holds exactly the files its
+ * manifest lists. A bundle writer's own destination is not checked here (it is replaced whole).
+ */
+rto_status rto_output_check(const char *path, int is_dir, const char *const *inputs, size_t n, rto_msg *msg);
+/**
  * Call from a SIGINT / SIGTERM / SIGHUP handler, on whichever thread the signal arrived: removes every temporary
  * (rto_temporaries_remove) and ends the process by sig's default action (status 128 + sig in a shell). When some
  * thread is in the middle of creating, renaming or exchanging an output, the stop waits for the end of that moment,

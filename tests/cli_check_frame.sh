@@ -114,6 +114,14 @@ grep -q "\"x\": $(word x)" "$T/g/check-frame.diffs.json" || fail "the listing do
 mkdir "$T/art"
 run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --artifacts "$T/art"
 [ -f "$T/art/check-frame.json" ] && [ -f "$T/art/check-frame.accum_diff.exr" ] || fail "--artifacts DIR unused"
+# --artifacts naming a bundle, or a directory inside one, is refused (a bundle holds only what its manifest lists,
+# and a later render -o would refuse to replace it); the bundle is left as it was.
+mkdir -p "$T/e/inner"
+for a in "$T/e" "$T/e/inner"; do
+    run 2 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" --artifacts "$a" && has "refusing to write $a" err
+    [ -e "$a/check-frame.json" ] && fail "--artifacts $a wrote into the bundle"
+done
+rmdir "$T/e/inner"
 
 # the first divergence in pipeline order is the primary fault; later ones are listed
 w=$(dump "$T/e" missing 1)

@@ -35,6 +35,13 @@ got=$(python3 "$IMAGES" pixel diff.png 3 2 0 0 15 11 | tr '\n' '/')
 [ "$got" = "0 0 50 255/0 0 0 255/0 0 0 255/" ] || fail "diff.png pixels: $got"
 run 2 "$RTO" compare base.exr one-off.exr --diff diff.exr && [ -s diff.exr ] || fail "no diff.exr"
 ls ./*.tmp.* >/dev/null 2>&1 && fail "a temporary was left behind"
+# --diff naming an input (by another path too) is refused before anything is read or written; the input is intact.
+cp base.png base.keep
+for out in base.png ./base.png one-off.png; do
+    run 2 "$RTO" compare base.png one-off.png --diff "$out" && has "refusing to write $out: it is the input" err
+    [ "$(wc -l <"$T/err")" = 1 ] || fail "--diff $out: more than one line on stderr"
+done
+cmp -s base.png base.keep || fail "compare --diff base.png changed the input base.png"
 
 # --json: one valid JSON object with the figures, the location and the verdict (PSNR inf as the string "inf").
 run 2 "$RTO" compare base.png one-off.png --json && cp "$T/out" one-off.json

@@ -466,3 +466,69 @@ rto_status rto_file_write(const char *path, const void *data, size_t len, rto_ms
     }
     return rto_atomic_close(&f, msg);
 }
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Where a command's outputs may go: never onto one of its inputs, never into a bundle (whose files are exactly those
+ * its manifest lists, so that a later writer may replace it and a reader may trust it). */
+
+/* A directory holding a manifest.json that names the bundle format. Its first 4 KiB are enough: the writer puts
+ * "format" first. Opened without blocking, as a regular file only (a FIFO named manifest.json must not hang us). */
+static bool is_bundle_dir(const char *dir)
+{
+    char *m = rto__path_join(dir, "manifest.json");
+    if (!m)
+        return false;
+    int fd = open(m, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    free(m);
+    if (fd < 0)
+        return false;
+    struct stat st;
+    char head[4097];
+    ssize_t got = fstat(fd, &st) == 0 && S_ISREG(st.st_mode) ? read(fd, head, sizeof head - 1) : -1;
+    close(fd);
+    if (got <= 0)
+        return false;
+    head[got] = '\0';
+    return strstr(head, "\"rtoracle-bundle\"") != NULL;
+}
+
+rto_status rto_output_check(const char *path, int is_dir, const char *const *inputs, size_t n, rto_msg *msg)
+{
+    if (!path)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no output path given");
+    struct stat so;
+    const bool exists = stat(path, &so) == 0;
+    for (size_t i = 0; exists && i < n; i++) {
+        struct stat si;
+        if (inputs[i] && stat(inputs[i], &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
+            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "refusing to write %s: it is the input %s", path,
+                            inputs[i]);
+    }
+    /* The directory the output lands in (the output itself for a directory that exists), then each one above it. */
+    char *start = NULL;
+    if (is_dir && exists && S_ISDIR(so.st_mode)) {
+        start = strdup(path);
+    } else {
+        const char *slash = strrchr(path, '/');
+        start = slash ? strndup(path, slash == path ? 1 : (size_t)(slash - path)) : strdup(".");
+    }
+    char *dir = start ? realpath(start, NULL) : NULL;
+    free(start);
+    if (!dir)
+        return RTO_OK; /* a missing directory: the writer says so in its own words */
+    rto_status s = RTO_OK;
+    for (;;) {
+        if (is_bundle_dir(dir)) {
+            s = rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+                         "refusing to write %s: it is inside the bundle %s, which holds only the files its manifest "
+                         "lists (write it elsewhere)", path, dir);
+            break;
+        }
+        char *slash = strrchr(dir, '/');
+        if (!slash || slash == dir)
+            break;
+        *slash = '\0';
+    }
+    free(dir);
+    return s;
+}
