@@ -909,7 +909,7 @@ rto_instance_record rto_instance_record_make(const rto_instance *instance);
 typedef struct rto_bundle rto_bundle;
 
 /**
- * Starts a bundle that will become outdir: files go to a fresh temporary sibling directory `outdir.tmp.XXXXXX`,
+ * Starts a bundle that will become outdir: files go to a fresh temporary sibling directory `outdir.tmp.PID-XXXXXX`,
  * created with the process umask like mkdir(2) with 0777. outdir must not exist (its parent must), be an empty
  * directory, or be a previous rtoracle bundle, which rto_bundle_commit then replaces atomically. A previous bundle
  * is a directory whose manifest.json has this format name and version and lists every entry of the directory
@@ -1680,7 +1680,7 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
 /* Output files: atomic writes, interrupted runs, text for JSON                                                     */
 
 /**
- * Writes len bytes to path atomically: into a fresh `path.tmp.XXXXXX` (created with the umask like open(2) with
+ * Writes len bytes to path atomically: into a fresh `path.tmp.PID-XXXXXX` (created with the umask like open(2) with
  * 0666), then renamed over path, so a reader sees the old file or the whole new one and a failure leaves the old
  * one intact. Only a regular file is replaced: a symbolic link is followed (the file it names is replaced, the link
  * stays); a dangling link, a directory or any other kind of file is refused with RTO_ERR_IO, as is a path whose

@@ -109,4 +109,24 @@ if [ "$(uname -m)" = x86_64 ] && command -v strace >/dev/null; then
 else
     echo "delayed swap: not run (needs strace on x86_64)"
 fi
+# SIGKILL leaves a temporary behind (nothing can run); the next run for the same destination removes it, and the
+# abandoned temporaries named like ours whose process is gone, but not a live process's, another name, or a stranger's.
+rm -rf "$T"/k "$T"/k.tmp.*
+"${bg[@]}" "$RTO" "${suite[@]}" --seed 3 -o "$T/k" >/dev/null 2>&1 &
+pid=$!
+for ((w = 0; w < 500; w++)); do
+    compgen -G "$T/k.tmp.$pid-*" >/dev/null && break
+    sleep 0.01
+done
+kill -KILL "$pid"
+wait "$pid" 2>/dev/null
+compgen -G "$T/k.tmp.$pid-*" >/dev/null || fail "SIGKILL: no temporary was seen (the run ended first?)"
+dead=$(sh -c 'echo $$')
+mkdir "$T/k.tmp.$dead-ABCdef~" "$T/k.tmp.$$-ABCdef" "$T/k.tmp.abcdef" "$T/k.tmp.$dead-ABC"
+run 0 "$RTO" "${suite[@]}" --seed 3 -o "$T/k"
+left=$(cd "$T" && ls -d k.tmp.* | sort | tr '\n' ' ')
+want=$(printf '%s\n' "k.tmp.$$-ABCdef" "k.tmp.$dead-ABC" k.tmp.abcdef | sort | tr '\n' ' ')
+[ "$left" = "$want" ] || fail "after a SIGKILL and a new run: left '$left', want '$want'"
+echo "SIGKILL: the next run removed the killed run's temporary and an abandoned one, kept a live one and strangers"
+
 finish "signals: every stopped run left the old or the new bundle, whole, and no temporary"

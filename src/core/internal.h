@@ -222,7 +222,7 @@ static inline void rto__part(size_t n, uint32_t w, uint32_t t, size_t *begin, si
 
 /* Atomic output (io/atomic.c). */
 
-/** Creates `target.tmp.XXXXXX` (a directory with mode 0777, or a file with 0666 whose descriptor goes to *fd; the
+/** Creates `target.tmp.PID-XXXXXX` (a directory with mode 0777, or a file with 0666 whose descriptor goes to *fd; the
  * umask applies) and lists it for rto_temporaries_remove. *tmp is malloc'ed. */
 rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp, int *fd, rto_msg *msg);
 /** Takes a temporary off the list (after it was renamed into place or removed). */

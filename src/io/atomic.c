@@ -1,5 +1,5 @@
 /* Atomic output (DESIGN.md §8): every file or bundle directory is written under a temporary sibling name
- * (`TARGET.tmp.XXXXXX`) and renamed into place, so a reader never sees half an output and a failed run never leaves
+ * (`TARGET.tmp.PID-XXXXXX`) and renamed into place, so a reader never sees half an output and a failed run never leaves
  * one behind. This file owns the three rules every writer shares:
  *
  *  - Temporary names are created with mkdir(0777) / open(0666), so the process umask (and a default ACL) applies
@@ -13,6 +13,7 @@
 #define _GNU_SOURCE /* O_DIRECTORY, O_NOFOLLOW, O_CLOEXEC, SYS_getdents64 */
 #include "internal.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -252,20 +253,57 @@ static void random_suffix(char out[7])
     out[6] = '\0';
 }
 
+/* The temporaries of target that a killed run left (SIGKILL, a crash, a power cut): names target.tmp.PID-XXXXXX (or
+ * with the "~" of one moved aside) whose PID no longer lives here, owned by us. Anything else — another name, a
+ * live PID, another owner — is left alone. A temporary made in another PID namespace that shares this directory
+ * could look abandoned; such sharing is not supported. */
+static void remove_stale(const char *target)
+{
+    const char *slash = strrchr(target, '/');
+    const char *base = slash ? slash + 1 : target;
+    char *dir = slash ? strndup(target, slash == target ? 1 : (size_t)(slash - target)) : strdup(".");
+    DIR *d = dir ? opendir(dir) : NULL;
+    free(dir);
+    if (!d)
+        return;
+    const size_t blen = strlen(base);
+    const pid_t self = getpid();
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        const char *n = e->d_name;
+        if (strncmp(n, base, blen) != 0 || strncmp(n + blen, ".tmp.", 5) != 0)
+            continue;
+        char *end;
+        errno = 0;
+        const long pid = strtol(n + blen + 5, &end, 10);
+        if (errno || pid <= 0 || end == n + blen + 5 || *end != '-' || strspn(end + 1, "0123456789ABCDEFGHIJKLMNOPQ"
+            "RSTUVWXYZabcdefghijklmnopqrstuvwxyz") != 6 || (end[7] != '\0' && strcmp(end + 7, "~") != 0))
+            continue;
+        struct stat st;
+        if ((pid_t)pid == self || kill((pid_t)pid, 0) == 0 || errno != ESRCH ||
+            fstatat(dirfd(d), n, &st, AT_SYMLINK_NOFOLLOW) != 0 || st.st_uid != geteuid())
+            continue;
+        remove_at(dirfd(d), n, 0);
+    }
+    closedir(d);
+}
+
 rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp_out, int *fd_out, rto_msg *msg)
 {
     *tmp_out = NULL;
     if (fd_out)
         *fd_out = -1;
+    remove_stale(target);
     size_t len = strlen(target);
-    char *tmp = malloc(len + 12);
+    char *tmp = malloc(len + 40);
     if (!tmp)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     int err = EEXIST;
     for (int attempt = 0; attempt < 100 && err == EEXIST; attempt++) {
         char suffix[7];
         random_suffix(suffix);
-        snprintf(tmp, len + 12, "%s.tmp.%s", target, suffix);
+        /* The PID lets a later run tell an abandoned temporary from a live one (remove_stale). */
+        snprintf(tmp, len + 40, "%s.tmp.%ld-%s", target, (long)getpid(), suffix);
         sigset_t old;
         rto_signals_hold(&old);
         int fd = -1, ok;
