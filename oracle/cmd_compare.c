@@ -149,6 +149,7 @@ int cmd_compare(int argc, char **argv)
     desc.diff_scale = 1;
     bool json = false;
     const char *diff = NULL;
+    uint32_t budget_mib = (uint32_t)(RTO_IMAGE_BUDGET_DEFAULT >> 20);
     const opt_spec opts[] = {
         OPT_PATH("diff", 0, &diff, "FILE", "write the difference image here (.png: 8-bit, .exr: float)"),
         OPT_REAL("diff-scale", &desc.diff_scale, 0, "S", "multiply the difference image by S", "1"),
@@ -161,6 +162,8 @@ int cmd_compare(int argc, char **argv)
         OPT_REAL("warn-percent", &desc.warn_percent, 100, "P", "WARN when more than P % of the pixels warn", "0"),
         OPT_REAL("hard-warn", &desc.hard_warn, 0, "T", "WARN when any channel differs by more than T", "infinite"),
         OPT_FLAG("json", &json, "one JSON object on stdout instead of text"),
+        OPT_UINT("memory-budget", &budget_mib, 1, 1u << 20, "MIB",
+                 "refuse an image whose decoded pixels would take more than MIB MiB (read from its header)", "256"),
         OPT_END,
     };
     const opt_command cmd = {"compare", compare_usage, compare_epilog, opts, 2, 2, "two images, EXPECTED and ACTUAL"};
@@ -181,15 +184,23 @@ int cmd_compare(int argc, char **argv)
     rto_msg msg = {{0}};
     if (diff && rto_output_check(diff, 0, (const char *const[]){args.arg[0], args.arg[1]}, 2, &msg))
         return cli_status("compare", RTO_ERR_INVALID_ARGUMENT, &msg);
+    /* Both headers first: images of different sizes are refused before either is decoded. */
     rto_image expected = {0}, actual = {0};
-    rto_status s = rto_image_read(args.arg[0], &expected, &msg);
+    rto_status s = rto_image_probe(args.arg[0], &expected, &msg);
     if (!s)
-        s = rto_image_read(args.arg[1], &actual, &msg);
+        s = rto_image_probe(args.arg[1], &actual, &msg);
+    const bool same_size = !s && expected.width == actual.width && expected.height == actual.height &&
+                           expected.channels == actual.channels;
+    const size_t budget = (size_t)budget_mib << 20;
+    if (same_size)
+        s = rto_image_read_budget(args.arg[0], budget, &expected, &msg);
+    if (same_size && !s)
+        s = rto_image_read_budget(args.arg[1], budget, &actual, &msg);
     if (s) {
         rto_image_free(&expected);
         return cli_status("compare", s, &msg);
     }
-    if (expected.width != actual.width || expected.height != actual.height || expected.channels != actual.channels) {
+    if (!same_size) {
         rc = cli_fail("compare", "the images differ in size: %s is %ux%u with %u channel%s, %s is %ux%u with %u "
                       "channel%s", args.arg[0], expected.width, expected.height, expected.channels,
                       expected.channels == 1 ? "" : "s", args.arg[1], actual.width, actual.height, actual.channels,

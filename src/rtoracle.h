@@ -1328,12 +1328,21 @@ typedef struct rto_image {
     void *pixels; /* width * height * channels values of type; owned when filled by rto_image_read */
 } rto_image;
 
+/** The decoded bytes rto_image_read allows by default: 256 MiB (an 8192 x 8192 8-bit RGBA image, or 4096 x 4096 float
+ * RGBA). */
+#define RTO_IMAGE_BUDGET_DEFAULT ((size_t)256 << 20)
 /**
  * Reads a PNG, OpenEXR (or any format OpenImageIO reads) file: 8-bit files as RTO_PIXEL_U8, everything else as
  * RTO_PIXEL_F32, without colour conversion. Refuses (RTO_ERR_PARSE / RTO_ERR_IO / RTO_ERR_UNSUPPORTED, one line in
- * msg) a corrupt, truncated or non-regular file and an image over 2^28 pixels, before allocating its pixels.
+ * msg) a corrupt, truncated or non-regular file, an image over 2^28 pixels, and one whose decoded pixels would take
+ * more than RTO_IMAGE_BUDGET_DEFAULT bytes, from its header, before allocating its pixels.
  */
 rto_status rto_image_read(const char *path, rto_image *out, rto_msg *msg);
+/** rto_image_read with a budget of decoded bytes (0: RTO_IMAGE_BUDGET_DEFAULT). */
+rto_status rto_image_read_budget(const char *path, size_t budget_bytes, rto_image *out, rto_msg *msg);
+/** Reads only the header of an image file: *out gets width, height, channels and type, pixels NULL (nothing to
+ * free). The same refusals as rto_image_read but the budget. */
+rto_status rto_image_probe(const char *path, rto_image *out, rto_msg *msg);
 /** Writes an image atomically (rto_file_write's rules): ".png" needs RTO_PIXEL_U8, ".exr" RTO_PIXEL_F32 (stored as
  * 32-bit float, ZIP compressed). The bytes depend only on the pixels. */
 rto_status rto_image_write(const char *path, const rto_image *image, rto_msg *msg);

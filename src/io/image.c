@@ -116,8 +116,9 @@ static rto_status load_file(const char *path, unsigned char **bytes, size_t *len
     return RTO_OK;
 }
 
-/* Decodes a file's bytes: probe, size checks, allocation, read. */
-static rto_status decode(const char *path, const unsigned char *bytes, size_t len, rto_image *out, rto_msg *msg)
+/* Decodes a file's bytes: probe, size checks, allocation, read (budget 0: the header only). */
+static rto_status decode(const char *path, const unsigned char *bytes, size_t len, size_t budget, rto_image *out,
+                         rto_msg *msg)
 {
     rto_status s = RTO_OK;
     const rto_image_module *m = image_module(path, &s, msg);
@@ -134,6 +135,16 @@ static rto_status decode(const char *path, const unsigned char *bytes, size_t le
     if (!pixels || pixels > RTO_IMAGE_MODULE_MAX_PIXELS)
         return rto_fail(msg, pixels ? RTO_ERR_UNSUPPORTED : RTO_ERR_PARSE, "'%s': %ux%u %s", path, info.width,
                         info.height, pixels ? "is more than 2^28 pixels" : "is empty");
+    const uint64_t need = pixels * info.channels * pixel_bytes(info.type);
+    if (!budget) {
+        *out = info;
+        return RTO_OK;
+    }
+    if (need > budget)
+        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "'%s': %ux%u with %u channel%s of %s needs %llu MiB decoded, over "
+                        "the budget of %llu MiB", path, info.width, info.height, info.channels,
+                        info.channels == 1 ? "" : "s", info.type == RTO_PIXEL_U8 ? "8 bits" : "float",
+                        (unsigned long long)((need + (1u << 20) - 1) >> 20), (unsigned long long)(budget >> 20));
     info.pixels = rto_alloc((size_t)pixels * info.channels, pixel_bytes(info.type));
     if (!info.pixels)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "'%s': out of memory for %ux%u pixels", path, info.width,
@@ -147,7 +158,8 @@ static rto_status decode(const char *path, const unsigned char *bytes, size_t le
     return RTO_OK;
 }
 
-rto_status rto_image_read(const char *path, rto_image *out, rto_msg *msg)
+/* The file's bytes, then its header and, with a budget (0: the header only), its pixels. */
+static rto_status read_with(const char *path, size_t budget, rto_image *out, rto_msg *msg)
 {
     if (!out)
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output image");
@@ -158,10 +170,22 @@ rto_status rto_image_read(const char *path, rto_image *out, rto_msg *msg)
     size_t len = 0;
     rto_status s = load_file(path, &bytes, &len, msg);
     if (!s)
-        s = decode(path, bytes, len, out, msg);
+        s = decode(path, bytes, len, budget, out, msg);
     free(bytes);
     return s;
 }
+
+rto_status rto_image_read_budget(const char *path, size_t budget_bytes, rto_image *out, rto_msg *msg)
+{
+    return read_with(path, budget_bytes ? budget_bytes : RTO_IMAGE_BUDGET_DEFAULT, out, msg);
+}
+
+rto_status rto_image_read(const char *path, rto_image *out, rto_msg *msg)
+{
+    return rto_image_read_budget(path, 0, out, msg);
+}
+
+rto_status rto_image_probe(const char *path, rto_image *out, rto_msg *msg) { return read_with(path, 0, out, msg); }
 
 void rto_image_free(rto_image *image)
 {
