@@ -2,6 +2,9 @@
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 failures=0
+# sampled N: 1 in the optimised build, N under the sanitizer (scripts/test.sh sets RTO_TEST_SANITIZED there): the
+# stride of the longest loops, which then take every Nth case.
+sampled() { if [ -n "${RTO_TEST_SANITIZED:-}" ]; then echo "$1"; else echo 1; fi; }
 
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 # run WANT_RC CMD... : runs CMD, keeps stdout/stderr in $T/out, $T/err, checks the exit status.

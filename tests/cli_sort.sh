@@ -66,7 +66,10 @@ run 1 "$RTO" check-sort --expected "$T/rb" --gpu "$T/pairs.npy" --gpu-passes "$T
 
 # the oracle's own key/value output passes for every distribution (bundles hold n slots): a sentinel-heavy dump of n
 # slots carries padding indices >= n in its values, as docs/sort.md allows (regression: refused as out of range)
+stride=$(sampled 4) k=0
 while read -r dist; do
+    k=$((k + 1))
+    [ $((k % stride)) = 0 ] || [ "$dist" = sentinel-heavy ] || continue
     for fmt in u32 u64; do
         "$RTO" keys --dist "$dist" --n 1000 --format $fmt -o "$T/d.npy" 2>/dev/null || continue # u64-only dists
         run 0 "$RTO" sort "$T/d.npy" -o "$T/db" &&
@@ -82,7 +85,7 @@ run 0 "$RTO" check-sort --expected "$T/db" --gpu "$T/dpairs.npy" --json && has '
 # malformed .npy: every truncation of a small file, bad magic, wrong dtype, fortran order, shape mismatch
 run 0 "$RTO" keys --dist random --n 17 -o "$T/s.npy"
 size=$(stat -c %s "$T/s.npy")
-for ((i = 0; i < size; i++)); do
+for ((i = 0; i < size; i += $(sampled 3))); do
     head -c "$i" "$T/s.npy" >"$T/t.npy"
     "$RTO" sort "$T/t.npy" -o "$T/tout" >"$T/out" 2>"$T/err"
     rc=$?
