@@ -228,8 +228,13 @@ int cmd_trace(int argc, char **argv)
             s = rto_msg_set(&msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu hit records", n);
     }
     const rto_trace_desc td = {(uint32_t)threads};
-    if (!s)
+    if (!s) {
         s = rto_trace(acc, rays, n, &td, hits, counters, &msg);
+        /* A ray the tracer refuses came from the user's file: name it ("ray 4 has a non-finite origin" alone does not
+         * say which file). */
+        if (s && from_file)
+            rto_msg_set(&msg, s, "%s: %s", rays_arg, msg.text);
+    }
     if (!s)
         s = rto_bundle_begin(out, "trace", &b, &msg);
     if (!s)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite: unit and command-line tests on an optimised build, again under AddressSanitizer +
 # UndefinedBehaviorSanitizer, the WebGPU backend's subset on llvmpipe (gpu/), a determinism check that builds at
-# -O0 (sanitized), -O2 and -O3 write byte-identical bundles (traces also with 1 and 2 threads), and that
+# -Og (sanitized), -O2 and -O3 write byte-identical bundles (traces also with 1 and 2 threads), and that
 # `meson install` gives a library a user's program builds against via pkg-config.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -20,24 +20,44 @@ stage "build (debugoptimized, -Werror)"
 rto_build build --werror
 meson test -C build --print-errorlogs --num-processes 2
 
-stage "gpu: the WebGPU kernels on Dawn (Mesa llvmpipe without a GPU), every dump checked by rtoracle"
+# The gpu stage keeps about one core busy (a WebGPU dispatch, then rtoracle's check of it, in turn), so it runs in the
+# background beside the sanitizer build and tests; its output is shown when they are done.
 rto_install_gpu_deps
-bash tests/gpu.sh build/oracle/rtoracle build/gpu
+stage "gpu: the WebGPU kernels on Dawn (Mesa llvmpipe without a GPU), every dump checked by rtoracle (background)"
+gpu_log=build/gpu-stage.log
+# Its own process group (setsid), so that a failure elsewhere stops the whole of it, node included.
+setsid bash tests/gpu.sh build/oracle/rtoracle build/gpu >"$gpu_log" 2>&1 &
+gpu_pid=$!
+tmp=
+cleanup() {
+    [ -z "$gpu_pid" ] || kill -- "-$gpu_pid" 2>/dev/null || true
+    [ -z "$tmp" ] || rm -rf "$tmp"
+}
+trap cleanup EXIT
 
 stage "build-asan (address + undefined sanitizers)"
-rto_build build-asan --werror --buildtype=debug -Db_sanitize=address,undefined -Db_lundef=false \
+# -Og: the sanitizers' checks all stay, and the compute-heavy unit tests run about 1.5-2x faster than at -O0.
+rto_build build-asan --werror --buildtype=debug -Doptimization=g -Db_sanitize=address,undefined -Db_lundef=false \
     -Dc_args=-fno-sanitize-recover=all
 # RTO_TEST_SANITIZED: the command-line tests' longest loops take a sample of their cases (every case class stays);
 # the optimised build above ran them whole.
 RTO_TEST_SANITIZED=1 meson test -C build-asan --print-errorlogs --num-processes 2
 
+stage "gpu: waiting for the background run"
+gpu_status=0
+wait "$gpu_pid" || gpu_status=$?
+gpu_pid=
+cat "$gpu_log"
+[ "$gpu_status" = 0 ] || { echo "FAIL: the gpu stage (tests/gpu.sh) exited $gpu_status (log: $gpu_log)" >&2; exit 1; }
+
 stage "determinism across optimisation levels"
 rto_build build-release --werror --buildtype=release -- installed
 tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
 args=(suite sort --sizes tiny,tile,16384 --dists all --checkpoint-max 4096)
 fix=fixtures
-for b in build build-asan build-release; do
+# determinism_runs BUILD: every bundle below written by BUILD's rtoracle; the three builds run side by side.
+determinism_runs() {
+    local b=$1 t set d
     "$b/oracle/rtoracle" "${args[@]}" -o "$tmp/$b" >/dev/null
     "$b/oracle/rtoracle" build "$fix/CornellBox-nvpro-glTF/cornellBox.gltf" -o "$tmp/$b/cornell" 2>/dev/null
     "$b/oracle/rtoracle" build "$fix/StanfordBunny/bunny.gltf" --tlas karras -o "$tmp/$b/bunny" 2>/dev/null
@@ -59,14 +79,22 @@ for b in build build-asan build-release; do
             -o "$tmp/$b/frame-stage2-$t" >/dev/null
     done
     for d in "$tmp/$b"/trace-*-1 "$tmp/$b"/frame-*-1; do
-        diff -r "$d" "${d%-1}-2" >/dev/null || { echo "FAIL: $d differs between 1 and 2 threads" >&2; exit 1; }
+        diff -r "$d" "${d%-1}-2" >/dev/null || { echo "FAIL: $d differs between 1 and 2 threads" >&2; return 1; }
     done
+}
+pids=()
+for b in build build-asan build-release; do
+    determinism_runs "$b" &
+    pids+=($!)
+done
+for p in "${pids[@]}"; do
+    wait "$p" || { echo "FAIL: the determinism runs of one build failed (above)" >&2; exit 1; }
 done
 diff -r "$tmp/build" "$tmp/build-asan" >/dev/null && diff -r "$tmp/build" "$tmp/build-release" >/dev/null || {
     echo "FAIL: bundles differ between optimisation levels" >&2
     exit 1
 }
-echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases, 3 build bundles, 5 trace bundles and 2 frame bundles byte-identical at -O0/asan, -O2, -O3 and with 1 and 2 threads"
+echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases, 3 build bundles, 5 trace bundles and 2 frame bundles byte-identical at -Og/asan, -O2, -O3 and with 1 and 2 threads"
 stage "install: a user's program built against the installed library through pkg-config"
 bash tests/install.sh build-release
 echo "== all tests passed in $((SECONDS - t_start)) s"

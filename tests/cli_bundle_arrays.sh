@@ -102,6 +102,47 @@ rm -rf "$T/m" && cp -r "$T/rs" "$T/m" && sed -i 's/"nodes": 255/"nodes": 253/' "
 refused "manifest.json: tlas.nodes is 253; a sweep TLAS over 125 leaves has 255" "$RTO" check-bvh --expected "$T/m" \
     --gpu "$T/rs/tlas_nodes.npy"
 
+# --- a manifest that contradicts itself is refused when the bundle is opened, whichever command reads it
+# manifest SRC PYTHON: a copy of bundle SRC in $T/m whose manifest.json (as m) is edited by the Python statement
+manifest() {
+    rm -rf "$T/m" && cp -r "$1" "$T/m" && python3 -c "
+import json, sys
+p = sys.argv[1]
+m = json.load(open(p))
+$2
+json.dump(m, open(p, 'w'))" "$T/m/manifest.json" || fail "manifest edit: $2"
+}
+manifest "$T/rk" "m['counts']['meshes'] = 5"
+refused "manifest.json: counts.meshes is 5, but no blas_1_ file is listed" "$RTO" check-bvh --expected "$T/m" \
+    --gpu "$T/rk/tlas_nodes.npy"
+manifest "$T/rk" "m['counts']['meshes'] = 0"
+refused "manifest.json: counts.meshes is 0, but the bundle lists blas_0_" "$RTO" check-bvh --expected "$T/m" \
+    --gpu "$T/rk/tlas_nodes.npy"
+manifest "$T/rk" "m['files'][0]['name'] = '../../../etc/passwd'"
+refused "manifest.json: files entry 0 names '../../../etc/passwd', not a plain file name inside the bundle" \
+    "$RTO" check-bvh --expected "$T/m" --gpu "$T/rk/tlas_nodes.npy"
+manifest "$T/rk" "m['files'][0]['name'] = 'tlas_nodes.npy\\u0000x'"
+refused "is not allowed" "$RTO" check-bvh --expected "$T/m" --gpu "$T/rk/tlas_nodes.npy"
+run 0 "$RTO" trace rtstress:2 --count 64 --rays random -o "$T/tr"
+for shape in "[2**62]" "[1 << 20]"; do
+    manifest "$T/tr" "[f.update(shape=$shape) for f in m['files'] if f['name'] == 'rays.npy']"
+    refused "manifest.json: the shape of rays.npy has more elements than the file has bytes" \
+        "$RTO" check-hits --expected "$T/m" --gpu "$T/tr/hits.npy"
+done
+for shape in "[2**40, 2**40]" "[-1]" "[1.5]" "'64'"; do
+    manifest "$T/tr" "[f.update(shape=$shape) for f in m['files'] if f['name'] == 'rays.npy']"
+    refused "manifest.json: the shape of rays.npy is not a list of non-negative integers with a product under 2^62" \
+        "$RTO" check-hits --expected "$T/m" --gpu "$T/tr/hits.npy"
+done
+manifest "$T/tr" "m['files'].append(dict(m['files'][-1]))"
+refused "manifest.json lists $(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["files"][-1]["name"])' \
+    "$T/tr/manifest.json") twice" "$RTO" check-hits --expected "$T/m" --gpu "$T/tr/hits.npy"
+manifest "$T/tr" "del m['files']"
+refused "manifest.json has no files list" "$RTO" check-hits --expected "$T/m" --gpu "$T/tr/hits.npy"
+# control: the untouched manifest rewritten by the same editor passes
+manifest "$T/tr" "pass"
+run 0 "$RTO" check-hits --expected "$T/m" --gpu "$T/tr/hits.npy"
+
 # --- check-sort: the bundle's input keys against the manifest
 edited "$T/s32" keys.npy truncate 1
 refused "keys.npy: holds dtype <u4, shape (1,); the manifest says 4097 u32 keys" "$RTO" check-sort --expected "$T/e" \

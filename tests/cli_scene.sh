@@ -100,6 +100,12 @@ refused timeout 20 "$RTO" info "$T/zero.glb" && has "not a regular file (a chara
 # ... and as a buffer URI
 printf '{"asset": {"version": "2.0"}, "buffers": [{"byteLength": 36, "uri": "fifo.gltf"}]}' >"$T/fifobuf.gltf"
 refused timeout 20 "$RTO" info "$T/fifobuf.gltf" && has "buffer 0 ('$T/fifo.gltf'): not a regular file (a FIFO)" err
+# A URI that decodes to a name with a NUL byte is named as written (the decoded name would end at the NUL).
+printf '{"asset": {"version": "2.0"}, "buffers": [{"byteLength": 36, "uri": "a%%00b.bin"}]}' >"$T/nulbuf.gltf"
+refused "$RTO" info "$T/nulbuf.gltf" && has ": buffer 0: URI 'a%00b.bin' decodes to a name with a NUL byte$" err
+printf '{"asset": {"version": "2.0"}, "images": [{"uri": "%%00.png"}], "textures": [{"source": 0}],
+ "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]}' >"$T/nulimg.gltf"
+refused "$RTO" info "$T/nulimg.gltf" && has ": image 0: URI '%00.png' decodes to a name with a NUL byte$" err
 
 # glTF 1.0 (Debian's assimp-testmodels keeps some next to glTF2/)
 while IFS= read -r f; do

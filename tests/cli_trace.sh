@@ -99,7 +99,7 @@ has "regular" err
 cp "$T/t1/rays.npy" "$T/nan.npy"
 "$EDIT" "$T/nan.npy" set-f32 17 nan >/dev/null # ray 1's origin.y
 bad "NaN ray" rtstress:3 --rays "$T/nan.npy"
-has "ray 1" err
+has "^rtoracle trace: $T/nan.npy: ray 1 has a non-finite" err
 cp "$T/t1/rays.npy" "$T/short.npy"
 truncate -s -10 "$T/short.npy"
 bad "truncated ray file" rtstress:3 --rays "$T/short.npy"

@@ -274,6 +274,17 @@ static void test_lookups_on_a_validator_report(void **state)
     assert_int_equal(rto_report_passed(NULL), 0);
 }
 
+/* A message prefixed with itself (rto_msg_set(m, s, "bounce %u: %s", d, m->text), as the frame's bounces do): the
+ * prefix once, then the whole inner message. */
+static void test_msg_prefixed_with_itself(void **state)
+{
+    (void)state;
+    rto_msg m;
+    rto_msg_set(&m, RTO_ERR_INVALID_ARGUMENT, "ray %d has a non-finite origin", 4);
+    assert_int_equal(rto_msg_set(&m, RTO_ERR_INVALID_ARGUMENT, "bounce %u: %s", 0u, m.text), RTO_ERR_INVALID_ARGUMENT);
+    assert_string_equal(m.text, "bounce 0: ray 4 has a non-finite origin");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -281,6 +292,7 @@ int main(void)
         cmocka_unit_test(test_json_writer),
         cmocka_unit_test(test_json_writer_repairs_text),
         cmocka_unit_test(test_lookups_on_a_validator_report),
+        cmocka_unit_test(test_msg_prefixed_with_itself),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -3,6 +3,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/mman.h>
 
 const char *rto_status_string(rto_status s)
@@ -24,9 +25,13 @@ rto_status rto_msg_set(rto_msg *m, rto_status s, const char *fmt, ...)
 {
     if (m) {
         va_list ap;
+        /* Formatted aside first: a caller may pass m->text itself as an argument ("bounce %u: %s", ..., m->text) to
+         * prefix the message, and vsnprintf over its own source repeats the prefix. */
+        char text[sizeof m->text];
         va_start(ap, fmt);
-        vsnprintf(m->text, sizeof m->text, fmt, ap);
+        vsnprintf(text, sizeof text, fmt, ap);
         va_end(ap);
+        memcpy(m->text, text, sizeof text);
     }
     return s;
 }

@@ -832,6 +832,128 @@ rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg)
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 
+static int cmp_cstr(const void *a, const void *b) { return strcmp(*(const char *const *)a, *(const char *const *)b); }
+
+/* The N of a file named PREFIX N _..., or -1. */
+static long long indexed_name(const char *name, const char *prefix)
+{
+    size_t n = strlen(prefix);
+    if (strncmp(name, prefix, n) != 0 || name[n] < '0' || name[n] > '9')
+        return -1;
+    char *end;
+    long long v = strtoll(name + n, &end, 10);
+    return *end == '_' && v >= 0 ? v : -1;
+}
+
+/*
+ * What every reader may then take for granted of manifest.json, checked once when the bundle is opened: `files` is a
+ * list of entries with plain, unique file names (no path, no NUL); a shape is a list of non-negative integers whose
+ * product fits the file it describes (each element takes at least a byte); counts.meshes (when present) numbers the
+ * mesh_N_ and blas_N_ files exactly. Kind-specific agreements (instances.npy against counts.instances, the TLAS
+ * figures) stay with the validators that read those arrays.
+ */
+static rto_status validate_manifest(const char *dir, json_t *root, rto_msg *msg)
+{
+    json_t *files = json_object_get(root, "files");
+    if (!json_is_array(files))
+        return rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json has no files list", dir);
+    const size_t count = json_array_size(files);
+    const char **names = calloc(count ? count : 1, sizeof *names);
+    if (!names)
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    rto_status s = RTO_OK;
+    long long meshes = -1;
+    json_t *jm = json_object_get(json_object_get(root, "counts"), "meshes");
+    if (jm && (!json_is_integer(jm) || json_integer_value(jm) < 0 || json_integer_value(jm) > UINT32_MAX))
+        s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is not a count", dir);
+    else if (jm)
+        meshes = json_integer_value(jm);
+    size_t i;
+    json_t *e;
+    json_array_foreach(files, i, e)
+    {
+        if (s)
+            break;
+        json_t *jn = json_object_get(e, "name");
+        const char *name = json_string_value(jn);
+        if (!json_is_object(e) || !name) {
+            s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: files entry %zu has no name", dir, i);
+            break;
+        }
+        if (!plain_name(name) || strlen(name) != json_string_length(jn)) {
+            s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: files entry %zu names '%.200s', not a plain file name "
+                         "inside the bundle", dir, i, name);
+            break;
+        }
+        names[i] = name;
+        json_t *shape = json_object_get(e, "shape");
+        if (shape) {
+            uint64_t elements = 1;
+            size_t k;
+            json_t *d;
+            int bad = !json_is_array(shape);
+            json_array_foreach(shape, k, d)
+            {
+                const json_int_t v = json_is_integer(d) ? json_integer_value(d) : -1;
+                if (v < 0 || (v && elements > (UINT64_C(1) << 62) / (uint64_t)v)) {
+                    bad = 1;
+                    break;
+                }
+                elements *= (uint64_t)v;
+            }
+            struct stat st;
+            char *path = bad ? NULL : rto__path_join(dir, name);
+            if (!bad && path && lstat(path, &st) == 0 && S_ISREG(st.st_mode) && elements > (uint64_t)st.st_size)
+                bad = 2;
+            free(path);
+            if (bad) {
+                s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: the shape of %.200s %s", dir, name,
+                             bad == 2 ? "has more elements than the file has bytes"
+                                      : "is not a list of non-negative integers with a product under 2^62");
+                break;
+            }
+        }
+        for (int p = 0; p < 2 && meshes >= 0; p++) {
+            const long long n = indexed_name(name, p ? "blas_" : "mesh_");
+            if (n >= meshes) {
+                s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is %lld, but the bundle lists %s",
+                             dir, meshes, name);
+                break;
+            }
+        }
+    }
+    if (!s && count > 1) {
+        qsort(names, count, sizeof *names, cmp_cstr);
+        for (i = 1; i < count && !s; i++)
+            if (strcmp(names[i - 1], names[i]) == 0)
+                s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json lists %.200s twice", dir, names[i]);
+    }
+    /* Every mesh counted has its files, when the bundle holds mesh or BLAS files at all. */
+    for (int p = 0; p < 2 && !s && meshes > 0; p++) {
+        const char *prefix = p ? "blas_" : "mesh_";
+        unsigned char *seen = calloc((size_t)meshes, 1);
+        size_t listed = 0;
+        if (!seen) {
+            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            break;
+        }
+        for (i = 0; i < count; i++) {
+            const long long n = indexed_name(names[i], prefix);
+            if (n >= 0) {
+                seen[n] = 1;
+                listed++;
+            }
+        }
+        for (long long m = 0; listed && m < meshes && !s; m++)
+            if (!seen[m])
+                s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is %lld, but no %s%lld_ file is "
+                             "listed", dir, meshes, prefix, m);
+        free(seen);
+    }
+    free(names);
+    return s;
+}
+
 rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *msg)
 {
     *out = NULL;
@@ -865,6 +987,8 @@ rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *ms
         s = rto_fail(msg, RTO_ERR_UNSUPPORTED, "%s: bundle format version %lld is not supported (this rtoracle reads %d)",
                      dir, json_is_integer(version) ? (long long)json_integer_value(version) : -1LL,
                      RTO_BUNDLE_FORMAT_VERSION);
+    else
+        s = validate_manifest(dir, root, msg);
     rto_bundle_reader *r = s ? NULL : calloc(1, sizeof *r);
     if (!s && (!r || !(r->dir = strdup(dir)))) {
         free(r);

@@ -569,8 +569,16 @@ struct Context {
     mutable std::vector<std::string> images; // external image files opened (or tried), in order
     uint64_t input_bytes = 0; // the scene file and the external buffers read: what mesh memory is measured against
 
-    // The path of an external URI, exactly as tinygltf forms it (percent-decoded, joined to the base directory).
-    std::string resolve(const std::string &uri) const { return tinygltf::JoinPath(base_dir, tinygltf::dlib::urldecode(uri)); }
+    // The path of an external URI, exactly as tinygltf forms it (percent-decoded, joined to the base directory). A
+    // URI whose decoded name holds a NUL byte ("%00") names no file, and would cut every message quoting it short:
+    // refused with the URI as written.
+    std::string resolve(const std::string &what, const std::string &uri) const
+    {
+        const std::string name = tinygltf::dlib::urldecode(uri);
+        if (name.find('\0') != std::string::npos)
+            refuse(RTO_ERR_PARSE, "%s: URI '%.200s' decodes to a name with a NUL byte", what.c_str(), uri.c_str());
+        return tinygltf::JoinPath(base_dir, name);
+    }
 };
 
 // External buffer files: regular files only, each at least its byteLength long (checked with fstat before reading),
@@ -589,7 +597,7 @@ void read_buffers(const json &doc, Context &ctx)
             refuse(RTO_ERR_UNSUPPORTED, "buffer %zu: external URI '%.100s' refused (embedded-only load)", i,
                    uri.c_str());
         const uint64_t want = b["byteLength"].get<uint64_t>();
-        const std::string path = ctx.resolve(uri);
+        const std::string path = ctx.resolve("buffer " + std::to_string(i), uri);
         Context::Pending &p = ctx.files[path];
         if (p.uses == 0) {
             InFile f(path, "buffer " + std::to_string(i) + " ('" + path.substr(0, 200) + "')");
@@ -1212,7 +1220,7 @@ struct Loader {
         const std::string label = !img.name.empty() ? img.name : external ? img.uri : "image " + std::to_string(i);
         int32_t r = -1;
         if (external) {
-            const std::string path = ctx.resolve(img.uri);
+            const std::string path = ctx.resolve("image " + std::to_string(i), img.uri);
             ctx.images.push_back(path);
             InFile f(path, "image " + std::to_string(i) + " ('" + path.substr(0, 200) + "')", true);
             if (!f.is_open()) {
