@@ -62,8 +62,12 @@ for m in "shuffle 0" "shuffle 1" words full store accum-exr accum-small "payload
 done
 [ -z "$(ls "$T/g" | grep check-frame)" ] || fail "a passing check wrote artefacts"
 
-# the committed frame goldens, as a harness loads them (their own buffers pass; the image is left out for speed)
+# the committed frame goldens, as a harness loads them (their own buffers pass; the image is left out for speed);
+# every other one under the sanitizer
+k=0
 for f in "$FIX"/golden/frame-*; do
+    k=$((k + 1))
+    [ $(((k - 1) % $(sampled 2))) = 0 ] || continue
     w=$(dump "$f" words)
     run 0 "$RTO" check-frame --expected "$f" --gpu "$T/g" || fail "golden $f"
 done

@@ -15,9 +15,13 @@ run 0 "$RTO" render --help && has usage out && has "indirect_args.npy" out
 run 0 "$RTO" render --program list && has "sun-shadow" out && has "sun_dir" out
 
 box="$FIX/Box/glTF/Box.gltf"
+# Under the sanitizer, the scene x program pairs of one parity (5 of 9): every scene and every program still runs.
+k=0
 for scene in "$box" rtstress:2 stage2; do
     tag=$(basename "$scene" | tr -c 'a-zA-Z0-9\n' _)
     for prog in triangle sun-shadow normals; do
+        k=$((k + 1))
+        [ $(((k - 1) % $(sampled 2))) = 0 ] || continue
         out="$T/${tag}_$prog"
         run 0 "$RTO" render "$scene" --program $prog --width 40 --height 30 -o "$out" || continue
         has "render" out
