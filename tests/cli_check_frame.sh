@@ -110,6 +110,18 @@ if [ -f "$T/e/image.png" ]; then
 else
     fail "the frame bundle has no image.png"
 fi
+# A dump image whose header claims 16384 x 16384 (gigabytes decoded, its pixel data a stub) is named as the wrong
+# size from its header, within a second and 300 MB: image.png as 8-bit RGBA, accum.exr as float RGBA.
+w=$(dump "$T/e" copy)
+python3 "$(dirname "$0")/big_image.py" "$T/g/image.png" 16384 16384
+bounded 1 "check-frame, image.png of 16384 x 16384" "$RTO" check-frame --expected "$T/e" --gpu "$T/g" \
+    --no-artifacts && has "^FAIL image: image.png is 16384 x 16384; the frame is 32 x 24" out
+w=$(dump "$T/e" copy)
+rm "$T/g/accum.npy"
+python3 "$(dirname "$0")/big_image.py" "$T/g/accum.exr" 16384 16384
+bounded 1 "check-frame, accum.exr of 16384 x 16384" "$RTO" check-frame --expected "$T/e" --gpu "$T/g" \
+    --no-artifacts && has "^FAIL accum: accum.exr is 16384 x 16384; the frame is 32 x 24" out
+
 # the accum diff artefacts, and --artifacts DIR
 w=$(dump "$T/e" accum-big)
 run 1 "$RTO" check-frame --expected "$T/e" --gpu "$T/g" && has "diff listing written" err

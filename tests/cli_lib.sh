@@ -27,6 +27,25 @@ loc() {
     sed -n '/"location": {/,/}/p' "$T/out" | grep -Eq "^ *\"$1\": $2,?\$" ||
         { fail "expected location $1 = $2"; sed -n '/"location"/,/}/p' "$T/out" | sed 's/^/    | /'; }
 }
+# peak RTO ARGS...: runs RTO ARGS, keeping stdout/stderr in $T/out, $T/err; prints "STATUS PEAK-KIB SECONDS".
+peak() {
+    python3 -c 'import resource, subprocess, sys, time
+t = time.monotonic(); r = subprocess.run(sys.argv[2:], stdout=open(sys.argv[1], "w"), stderr=open(sys.argv[1] + ".e", "w"))
+print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, round(time.monotonic() - t, 2))' \
+        "$T/out" "$@"
+    mv "$T/out.e" "$T/err"
+}
+# bounded WANT_RC LABEL RTO ARGS...: the run ends WANT_RC within 5 s (well under a second on the 2-core machine; the
+# rest is room for a loaded one) and under 300 MB of peak RSS, with one line on stderr when it refuses.
+bounded() {
+    local want=$1 label=$2 rc kib secs
+    shift 2
+    peak "$@" >"$T/peak"
+    read -r rc kib secs <"$T/peak"
+    [ "$rc" = "$want" ] && [ "$kib" -lt 307200 ] && awk -v s="$secs" 'BEGIN { exit !(s < 5) }' ||
+        fail "$label: exit $rc, peak $kib KiB, $secs s (want $want, < 300 MB, < 5 s)"
+    [ "$want" != 2 ] || [ "$(wc -l <"$T/err")" = 1 ] || fail "$label: not one line: $(cat "$T/err")"
+}
 # finish MESSAGE : exits 1 if anything failed, else prints MESSAGE.
 finish() {
     if [ "$failures" != 0 ]; then

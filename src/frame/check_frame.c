@@ -274,7 +274,7 @@ static int gpu_has(fcheck *c, const char *name)
 }
 
 static rto_status read_npy(const char *path, void *out, rto_msg *m) { return rto_npy_read(path, out, m); }
-static rto_status read_image(const char *path, void *out, rto_msg *m) { return rto_image_read(path, out, m); }
+static rto_status probe_image(const char *path, void *out, rto_msg *m) { return rto_image_probe(path, out, m); }
 
 /* Reads a file of the dump with read into out; *present 0 when the dump has none (not dumped, not a fault). */
 static rto_status gpu_read(fcheck *c, const char *name, rto_status (*read)(const char *, void *, rto_msg *), void *out,
@@ -307,10 +307,25 @@ static rto_status gpu_load(fcheck *c, const char *name, rto_npy *out, int *prese
     return gpu_read(c, name, read_npy, out, present);
 }
 
+/* A dump's image: its header first; its pixels only when its size is the frame's, decoding no more than that size
+ * needs (a 16384 x 16384 image.png of a few kilobytes is refused from its header, not decoded into gigabytes). A
+ * header-only image (pixels NULL) comes back when the size differs: the callers name the size and read no pixel. */
 static rto_status gpu_image(fcheck *c, const char *name, rto_image *out, int *present)
 {
     memset(out, 0, sizeof *out);
-    return gpu_read(c, name, read_image, out, present);
+    rto_status s = gpu_read(c, name, probe_image, out, present);
+    if (s || !*present || out->width != c->w || out->height != c->h)
+        return s;
+    const size_t budget = (size_t)c->pixels * out->channels * (out->type == RTO_PIXEL_U8 ? 1 : sizeof(float));
+    char *path = join(c->desc->gpu_dir, name);
+    if (!path)
+        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    rto_msg m = {{0}};
+    s = rto_image_read_budget(path, budget, out, &m);
+    free(path);
+    if (s)
+        return rto_fail(c->msg, s, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, m.text);
+    return RTO_OK;
 }
 
 /* The note for a file the dump lacks, unless the bundle lacks it too (then nothing was expected of the GPU). */
