@@ -23,6 +23,18 @@ int cli_fail(const char *cmd, const char *fmt, ...)
     return EXIT_BAD_INPUT;
 }
 
+bool cli_within_budget(const char *cmd, uint64_t need, uint64_t budget_mb, const char *what)
+{
+    const uint64_t budget = budget_mb ? budget_mb << 20 : rto_memory_budget_default();
+    if (!budget || need <= budget)
+        return true;
+    const double gib = 1.0 / (double)(UINT64_C(1) << 30);
+    cli_fail(cmd, "%s may hold up to %.2f GiB at once, over the memory budget of %.2f GiB (%s)", what,
+             (double)need * gib, (double)budget * gib,
+             budget_mb ? "--memory-budget" : "half the memory this process may use; --memory-budget MiB changes it");
+    return false;
+}
+
 int cli_status(const char *cmd, rto_status s, const rto_msg *msg)
 {
     if (s == RTO_OK)

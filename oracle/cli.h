@@ -106,6 +106,12 @@ bool cli_parse_algo(const char *text, rto_sort_algo *a);
 #define CLI_TILE_MAX (UINT32_C(1) << 24)
 /* --texture-budget MB (info, build): up to 1 TiB of decoded textures. */
 #define CLI_TEXTURE_BUDGET_MAX_MB (UINT64_C(1) << 20)
+/* --memory-budget MiB (render, keys): up to 1 PiB; 0 is the default (rto_memory_budget_default). */
+#define CLI_MEMORY_BUDGET_MAX_MB (UINT64_C(1) << 30)
+#define CLI_MEMORY_BUDGET_HELP "memory (MiB) the command may hold; 0: half the memory this process may use"
+/** Whether `need` bytes (what `what` may hold at once) fit the memory budget of budget_mb MiB (0: the default);
+ * refuses with the two figures, in one line, when not. */
+bool cli_within_budget(const char *cmd, uint64_t need, uint64_t budget_mb, const char *what);
 /* --radix-bits: the digit widths the radix reference implements. */
 extern const opt_name cli_radix_bits_names[];
 

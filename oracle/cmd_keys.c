@@ -5,12 +5,14 @@
 #include <string.h>
 
 static const char keys_usage[] =
-    "usage: rtoracle keys --dist NAME --n N [--seed S] [--format u32|u64] -o keys.npy\n"
+    "usage: rtoracle keys --dist NAME --n N [--seed S] [--format u32|u64] [--memory-budget MiB] -o keys.npy\n"
     "       rtoracle keys --list\n\n"
     "Writes N keys of distribution NAME as a 1-D .npy array (uint32 or uint64, default u32).\n"
     "Centroid distributions give Morton keys of generated centroids: TLAS keys (morton15 << 16 | index,\n"
     "N <= 65536) for u32, BLAS keys (morton30 << 32 | index) for u64. Raw distributions give keys directly.\n"
     "Every key is a pure function of (dist, format, seed, index) through the shared PRNG (DESIGN.md §3).\n"
+    "Memory: the keys (4 or 8 bytes each), twice that for sorted and reversed (the C library's sort buffer); a\n"
+    "request over the budget (--memory-budget; default half the memory this process may use) is refused at once.\n"
     "Numbers are decimal (a leading zero is still decimal: 010 is ten) or hexadecimal with 0x.\n";
 
 static void list_dists(void)
@@ -38,7 +40,7 @@ static void list_dists(void)
 int cmd_keys(int argc, char **argv)
 {
     const char *dist = NULL, *out = NULL;
-    uint64_t n = 0;
+    uint64_t n = 0, budget_mb = 0;
     uint32_t seed = 1;
     rto_key_format f = RTO_KEY_U32;
     bool list = false;
@@ -48,6 +50,7 @@ int cmd_keys(int argc, char **argv)
         OPT_UINT("seed", &seed, 0, CLI_SEED_MAX, "S", "PRNG seed", "1"),
         OPT_ENUM("format", &f, cli_format_names, "F", "key format", "u32"),
         OPT_PATH("output", 'o', &out, "P", "output .npy path (written atomically)"),
+        OPT_UINT("memory-budget", &budget_mb, 0, CLI_MEMORY_BUDGET_MAX_MB, "MiB", CLI_MEMORY_BUDGET_HELP, "0"),
         OPT_FLAG("list", &list, "list distributions and size classes"),
         OPT_END,
     };
@@ -65,6 +68,10 @@ int cmd_keys(int argc, char **argv)
         return rc;
     if (!rto_dist_find(dist))
         return cli_fail("keys", "unknown distribution '%s' (rtoracle keys --list)", dist);
+    char what[96];
+    snprintf(what, sizeof what, "%llu %s keys of '%s'", (unsigned long long)n, f == RTO_KEY_U32 ? "u32" : "u64", dist);
+    if (!cli_within_budget("keys", n * rto_key_size(f) + rto_keys_memory_bound(dist, f, (size_t)n), budget_mb, what))
+        return EXIT_BAD_INPUT;
     void *keys = malloc(n ? n * rto_key_size(f) : 1);
     if (!keys)
         return cli_fail("keys", "out of memory for %llu keys", (unsigned long long)n);

@@ -11,7 +11,8 @@
 static const char render_usage[] =
     "usage: rtoracle render SCENE --program NAME|PLUGIN.so [--width W --height H] [--max-depth D]\n"
     "                       [--camera scene|auto|N|EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY] [--param NAME=V[,V..][:NAME=..]]\n"
-    "                       [--stages LIST] [--tlas sweep|karras] [--threads N] [--no-timings] -o OUTDIR\n\n"
+    "                       [--stages LIST] [--tlas sweep|karras] [--threads N] [--memory-budget MiB]\n"
+    "                       [--no-timings] -o OUTDIR\n\n"
     "SCENE is a .gltf / .glb path, a procedural scene (see rtoracle info --help), or stage2 (seed 002's two\n"
     "spheres, box and ground slab, traced analytically with the seed's own intersection code).\n"
     "Programs: triangle (barycentric colours), sun-shadow (ambient + a shadow ray towards the sun, Reinhard and\n"
@@ -33,6 +34,9 @@ static const char render_usage[] =
     "  not_comparable.npy         u8 (H, W): 1 = accumulate conflict, 2 = a ray dropped at capacity\n"
     "  manifest.json              scene, program and parameters, camera, counters, per-stage wall times\n"
     "Everything but the manifest's timings is byte-identical across runs and --threads (--no-timings omits them).\n"
+    "Memory: a frame may hold its queues at their capacity of 2 W H rays (64 bytes each, plus the payload) and\n"
+    "every kept stage; the bound (DESIGN.md §7) is checked before the scene is loaded, and a frame over the budget\n"
+    "(--memory-budget; default half the memory this process may use) is refused at once.\n"
     "An OUTDIR that already holds this very bundle (same inputs, options and rtoracle build, no file changed\n"
     "since) is left as it is, in one line; --force writes it again.\n";
 
@@ -123,7 +127,7 @@ static void on_progress(void *arg, double fraction)
 int cmd_render(int argc, char **argv)
 {
     const char *out = NULL, *program_arg = NULL, *camera_arg = NULL, *param_arg = NULL, *stages_arg = "all";
-    uint64_t width = 160, height = 90, depth = 0, threads = 0, budget_mb = 0;
+    uint64_t width = 160, height = 90, depth = 0, threads = 0, budget_mb = 0, memory_mb = 0;
     unsigned karras = 0;
     bool no_timings = false, force = false;
     const opt_spec opts[] = {
@@ -139,6 +143,7 @@ int cmd_render(int argc, char **argv)
         OPT_UINT("threads", &threads, 0, 256, "N", "threads (0: one per CPU); the output is the same", "0"),
         OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
                  "decoded texture memory (RGBA8, MiB) the scene may take", "256"),
+        OPT_UINT("memory-budget", &memory_mb, 0, CLI_MEMORY_BUDGET_MAX_MB, "MiB", CLI_MEMORY_BUDGET_HELP, "0"),
         OPT_FLAG("no-timings", &no_timings, "leave the per-stage wall times out of the manifest"),
         OPT_FLAG("force", &force, "write the bundle even when OUTDIR is up to date"),
         OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
@@ -172,7 +177,7 @@ int cmd_render(int argc, char **argv)
         return EXIT_BAD_INPUT;
     const bool is_plugin =
         !rto_program_builtin(program_arg) && (strchr(program_arg, '/') || strstr(program_arg, ".so"));
-    static const char *const not_inputs[] = {"output", "force", "threads", NULL};
+    static const char *const not_inputs[] = {"output", "force", "threads", "memory-budget", NULL};
     char *request = opts_request(&cmd, &args, not_inputs);
     if (cli_up_to_date("render", out, request, force)) {
         free(request);
@@ -192,6 +197,25 @@ int cmd_render(int argc, char **argv)
         free(request);
         return cli_fail("render", "--program %s: not a built-in program (triangle, sun-shadow, normals) or a .so",
                         program_arg);
+    }
+
+    /* the frame's memory from its size, depth, payload and stages alone: refused before the scene is loaded */
+    {
+        rto_frame_desc plan;
+        memset(&plan, 0, sizeof plan);
+        plan.program = prog;
+        plan.width = (uint32_t)width;
+        plan.height = (uint32_t)height;
+        plan.max_depth = (uint32_t)depth;
+        plan.keep = keep;
+        char what[160];
+        snprintf(what, sizeof what, "a %llux%llu frame of %s (maxDepth %u, --stages %s)", (unsigned long long)width,
+                 (unsigned long long)height, prog->name, depth ? (unsigned)depth : prog->max_depth, stages_arg);
+        if (!cli_within_budget("render", rto_frame_memory_bound(&plan), memory_mb, what)) {
+            rto_plugin_unload(plugin);
+            free(request);
+            return EXIT_BAD_INPUT;
+        }
     }
 
     const char *spec = args.arg[0];

@@ -203,6 +203,12 @@ rto_status rto_centroids_generate(const char *dist, uint32_t seed, size_t n, rto
  * centroid distribution, raw keys otherwise. keys holds n * rto_key_size(f) bytes.
  */
 rto_status rto_keys_generate(const char *dist, rto_key_format f, uint32_t seed, size_t n, void *keys, rto_msg *msg);
+/**
+ * The most bytes rto_keys_generate may allocate besides keys for n keys of dist in format f: the C library's sort
+ * buffer for "sorted" and "reversed" (n keys), the centroids of a centroid distribution (generated in chunks of
+ * 2^16 for u64 keys, whole for the at most 65,536 of u32). The caller adds the n * rto_key_size(f) of keys.
+ */
+uint64_t rto_keys_memory_bound(const char *dist, rto_key_format f, size_t n);
 
 /** Named size classes: "tiny", "tile", "pow2", "large", "all" (the union, ascending, unique). */
 #define RTO_SIZE_CLASS_MAX 128
@@ -1617,6 +1623,20 @@ typedef struct rto_frame {
  */
 rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg *msg);
 void rto_frame_destroy(rto_frame *frame);
+/**
+ * The most bytes rto_frame_render and the bundle writer may hold at once for desc (its scene and trees not counted),
+ * from its size, depth, program payload and keep bits alone, before any work (DESIGN.md §7, "Memory"): the
+ * per-pixel buffers and their encoded copies, the queue being shaded and the queue being filled at their capacity of
+ * 2 W H rays, one chunk's hit records and logs, and every kept per-bounce buffer at capacity. A bound, not a
+ * forecast: a frame whose program emits one ray per pixel holds about half of the queue part. 0 when desc would be
+ * refused (no program, a size of 0 or over 2^26 pixels, a depth over 64).
+ */
+uint64_t rto_frame_memory_bound(const rto_frame_desc *desc);
+/**
+ * The default memory budget of the command-line tools: half the physical memory, or half the process's address
+ * space limit (RLIMIT_AS) or cgroup memory limit (memory.max) when lower. 0 when none can be read.
+ */
+uint64_t rto_memory_budget_default(void);
 /**
  * Adds a frame's files (rto_bundle_file: camera, emit counts, indirect args, frame counters, the kept per-bounce
  * buffers, accum, image, not-comparable mask) and manifest sections ("frame", "program", "parameters", "camera",

@@ -96,6 +96,39 @@ run 2 "$RTO" render rtstress:2 --program triangle -o "$T/user.txt"
 [ "$(wc -l < "$T/err")" = 1 ] || fail "a refusal printed more than one line"
 [ -e "$T/bad" ] && fail "a refused render left output"
 
+# Memory: the frame's bound (its queues at capacity, the kept stages) is checked against the budget before the scene
+# is loaded: over it, one line with both figures and exit 2 within a second and 300 MB, nothing written.
+bounded 2 "render 8192x8192 over the budget" "$RTO" render rtstress:2 --program sun-shadow --width 8192 \
+    --height 8192 --stages none --memory-budget 4096 -o "$T/bad" &&
+    has "a 8192x8192 frame of sun-shadow (maxDepth 2, --stages none) may hold up to 20.93 GiB at once, over the memory budget of 4.00 GiB (--memory-budget)" err
+bounded 2 "render 4096x4096 over the budget" "$RTO" render rtstress:2 --program sun-shadow --width 4096 \
+    --height 4096 --stages none --memory-budget 1024 -o "$T/bad" && has "up to 5.32 GiB at once" err
+# kept stages count at capacity: all of them at 1024 x 1024 need more than 1 GiB, none of them less
+bounded 2 "render 1024x1024, all stages, over the budget" "$RTO" render rtstress:2 --program sun-shadow \
+    --width 1024 --height 1024 --memory-budget 1000 -o "$T/bad" && has "up to 1.00 GiB at once" err
+[ -e "$T/bad" ] && fail "a render over its memory budget left output"
+# within the budget it runs; and the bound holds: the peak of a frame stays under its bound plus the process's own
+# 200 MB (libraries, the scene and its trees; the sanitizer's shadow memory makes the figure meaningless there)
+if [ -z "${RTO_TEST_SANITIZED:-}" ]; then
+    for c in "1024 1024 none sun-shadow" "1024 1024 all sun-shadow" "1024 512 rays,hits,payloads normals"; do
+        set -- $c
+        prog=$4
+        "$RTO" render rtstress:2 --program "$prog" --width "$1" --height "$2" --stages "$3" --memory-budget 1 \
+            -o "$T/bad" 2>"$T/err"
+        gib=$(sed -n 's/.* up to \([0-9.]*\) GiB.*/\1/p' "$T/err")
+        peak "$RTO" render rtstress:2 --program "$prog" --width "$1" --height "$2" --stages "$3" -o "$T/mem" \
+            --memory-budget 2048 >"$T/peak"
+        read -r rc kib secs <"$T/peak"
+        [ "$rc" = 0 ] && awk -v k="$kib" -v g="$gib" 'BEGIN { exit !(k * 1024 <= g * 2^30 + 200 * 2^20) }' ||
+            fail "render $c: exit $rc, peak $kib KiB over its bound of $gib GiB + 200 MiB"
+    done
+    rm -rf "$T/mem"
+    # the default budget: half the address space a process may use (here 4 GB: the 5.32 GiB frame is refused)
+    (ulimit -v 4000000 && exec "$RTO" render rtstress:2 --program sun-shadow --width 4096 --height 4096 \
+        --stages none -o "$T/bad") >"$T/out" 2>"$T/err"
+    [ $? = 2 ] && has "over the memory budget of 1.91 GiB (half the memory this process may use" err
+fi
+
 # re-rendering over a previous frame bundle replaces it
 run 0 "$RTO" render rtstress:2 --program triangle --width 16 --height 8 -o "$T/plug"
 [ "$(field "$T/plug" program/name)" = '"triangle"' ] || fail "a previous bundle was not replaced"

@@ -17,6 +17,14 @@ run 2 "$RTO" keys --dist random --n 12x -o "$T/x.npy"
 run 2 "$RTO" keys --dist random --n 999999999999 -o "$T/x.npy" && has "--n" err
 run 2 "$RTO" keys --dist no-such --n 10 -o "$T/x.npy" && has "unknown distribution" err
 run 2 "$RTO" keys --dist uniform --n 65537 -o "$T/x.npy" && has "65536" err
+# memory: the keys (and the sort buffer of sorted / reversed) against --memory-budget, refused before any work
+bounded 2 "keys 2^28 u64 over the budget" "$RTO" keys --dist uniform --n 268435456 --format u64 --memory-budget 1024 \
+    -o "$T/x.npy" && has "268435456 u64 keys of 'uniform' may hold up to 2.00 GiB at once, over the memory budget of 1.00 GiB" err
+bounded 2 "keys 2^27 sorted over the budget" "$RTO" keys --dist sorted --n 134217728 --format u64 --memory-budget 1536 \
+    -o "$T/x.npy" && has "up to 2.00 GiB" err
+[ -e "$T/x.npy" ] && fail "a refused keys request wrote output"
+run 0 "$RTO" keys --dist uniform --n 131072 --format u64 --memory-budget 4 -o "$T/x.npy"
+rm -f "$T/x.npy"
 run 2 "$RTO" sort --algo quick "$T/x.npy" -o "$T/o"
 [ -e "$T/x.npy" ] && fail "a refused keys command left $T/x.npy"
 

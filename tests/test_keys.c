@@ -127,6 +127,37 @@ static void test_tlas_blas_keys(void **state)
     }
 }
 
+/* rto_keys_generate makes BLAS keys of a centroid distribution chunk by chunk (2^16 centroids at a time, never
+ * all of them): the bytes of rto_blas_keys over all the centroids (checked above against the quantisation), at sizes
+ * below, at and across chunk boundaries, the last chunk partial. */
+static void test_generated_blas_keys_whole(void **state)
+{
+    (void)state;
+    const size_t sizes[] = {0, 1, 65535, 65536, 65537, 3 * 65536 + 5};
+    const size_t most = 3 * 65536 + 5;
+    rto_vec3 *c = malloc(most * sizeof *c);
+    uint64_t *want = malloc(most * sizeof *want), *got = malloc(most * sizeof *got);
+    assert_true(c && want && got);
+    for (size_t d = 0; d < rto_dist_count(); d++) {
+        const rto_dist_info *di = rto_dist_at(d);
+        if (di->kind != RTO_DIST_CENTROID)
+            continue;
+        for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+            const size_t n = sizes[k];
+            assert_int_equal(rto_centroids_generate(di->name, 9, n, c, NULL), RTO_OK);
+            assert_int_equal(rto_blas_keys(c, n, want, NULL), RTO_OK);
+            assert_int_equal(rto_keys_generate(di->name, RTO_KEY_U64, 9, n, got, NULL), RTO_OK);
+            for (size_t i = 0; i < n; i++)
+                if (got[i] != want[i])
+                    fail_msg("%s n = %zu: key %zu is 0x%016llx, rto_blas_keys gives 0x%016llx", di->name, n, i,
+                             (unsigned long long)got[i], (unsigned long long)want[i]);
+        }
+    }
+    free(c);
+    free(want);
+    free(got);
+}
+
 static void test_keys_refuse_bad_input(void **state)
 {
     (void)state;
@@ -268,6 +299,7 @@ int main(void)
         cmocka_unit_test(test_morton_interleave),       cmocka_unit_test(test_tlas_blas_keys),
         cmocka_unit_test(test_keys_refuse_bad_input),   cmocka_unit_test(test_distribution_properties),
         cmocka_unit_test(test_keys_are_deterministic),  cmocka_unit_test(test_size_classes),
+        cmocka_unit_test(test_generated_blas_keys_whole),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -13,6 +13,8 @@
  *   counts 1, 2, 3 and 7 give the same bytes in every buffer. */
 #include "testutil.h"
 
+#include "frame/frame_internal.h"
+
 #include <float.h>
 
 /* ---------------------------------------------------------------------------------------------------------------- */
@@ -993,22 +995,23 @@ static void test_invalid_calls(void **state)
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Thread counts: the same bytes                                                                                     */
 
-static void same_bytes(const void *a, const void *b, size_t n, const char *what, uint32_t threads)
+/* `how` names the two runs compared ("1 and 3 threads"). */
+static void same_bytes(const void *a, const void *b, size_t n, const char *what, const char *how)
 {
     if (n == 0)
         return;
     if (!a || !b)
-        fail_msg("%s: kept with 1 thread %s, with %u threads %s", what, a ? "yes" : "no", threads, b ? "yes" : "no");
+        fail_msg("%s: kept in the first run %s, in the second %s (%s)", what, a ? "yes" : "no", b ? "yes" : "no", how);
     if (memcmp(a, b, n)) {
         const uint8_t *x = a, *y = b;
         size_t i = 0;
         while (x[i] == y[i])
             i++;
-        fail_msg("%s differs between 1 and %u threads at byte %zu of %zu", what, threads, i, n);
+        fail_msg("%s differs between %s at byte %zu of %zu", what, how, i, n);
     }
 }
 
-static void compare_frames(const rto_frame *a, const rto_frame *b, uint32_t threads)
+static void compare_frames(const rto_frame *a, const rto_frame *b, const char *threads)
 {
     assert_int_equal(a->width, b->width);
     assert_int_equal(a->height, b->height);
@@ -1048,7 +1051,9 @@ static void threads_case(rto_frame_desc *d, const char *label)
     for (int k = 0; k < 3; k++) {
         d->threads = counts[k];
         rto_frame *f = render(d);
-        compare_frames(one, f, counts[k]);
+        char how[48];
+        snprintf(how, sizeof how, "1 and %u threads", counts[k]);
+        compare_frames(one, f, how);
         rto_frame_destroy(f);
     }
     uint64_t rays = 0;
@@ -1057,6 +1062,67 @@ static void threads_case(rto_frame_desc *d, const char *label)
     print_message("%s: threads 1, 2, 3, 7 give the same bytes (%u queues, %llu rays in all)\n", label,
                   one->max_depth + 1, (unsigned long long)rays);
     rto_frame_destroy(one);
+}
+
+/* Chunk sizes: a pass run in chunks of 1, 5 or 64 items (each chunk's logs applied before the next) gives the bytes
+ * of the same pass run whole, drops at capacity and conflicts included. */
+static void chunks_case(rto_frame_desc *d, const char *label)
+{
+    const size_t saved = rto__frame_chunk;
+    d->threads = 3;
+    d->keep = RTO_FRAME_KEEP_ALL;
+    rto__frame_chunk = SIZE_MAX;
+    rto_frame *whole = render(d);
+    const size_t chunks[3] = {1, 5, 64};
+    for (int k = 0; k < 3; k++) {
+        rto__frame_chunk = chunks[k];
+        rto_frame *f = render(d);
+        char how[64];
+        snprintf(how, sizeof how, "one chunk and chunks of %zu", chunks[k]);
+        compare_frames(whole, f, how);
+        rto_frame_destroy(f);
+    }
+    rto__frame_chunk = saved;
+    print_message("%s: chunks of 1, 5, 64 give the bytes of one chunk\n", label);
+    rto_frame_destroy(whole);
+}
+
+static void test_chunks_identical(void **state)
+{
+    (void)state;
+    rto_scene *s = tu_load("sphere:3");
+    rto_accel *acc = build(s);
+    rto_frame_desc d;
+    memset(&d, 0, sizeof d);
+    d.program = builtin("sun-shadow");
+    d.accel = acc;
+    d.width = 29;
+    d.height = 17;
+    chunks_case(&d, "sun-shadow on sphere:3 29x17");
+    rto_accel_destroy(acc);
+    rto_scene_destroy(s);
+    memset(&d, 0, sizeof d);
+    d.scene_kind = RTO_FRAME_SCENE_STAGE2;
+    d.width = 13;
+    d.height = 7;
+    d.program = &flood_program;
+    chunks_case(&d, "flood 13x7");
+    d.program = &conflict_program;
+    chunks_case(&d, "conflict 13x7");
+    /* and against the serial simulations: queues cut at capacity, conflicts per pass */
+    const size_t saved = rto__frame_chunk;
+    rto__frame_chunk = 5;
+    d.program = &flood_program;
+    rto_frame *f = render(&d);
+    check_flood(f, d.width, d.height);
+    rto_frame_destroy(f);
+    d.program = &conflict_program;
+    d.width = 17;
+    d.height = 9;
+    f = render(&d);
+    check_conflicts(f, d.width, d.height);
+    rto_frame_destroy(f);
+    rto__frame_chunk = saved;
 }
 
 static void test_threads_identical(void **state)
@@ -1109,6 +1175,7 @@ int main(void)
         cmocka_unit_test(test_conflicts),
         cmocka_unit_test(test_invalid_calls),
         cmocka_unit_test(test_threads_identical),
+        cmocka_unit_test(test_chunks_identical),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 const char *rto_status_string(rto_status s)
 {
@@ -64,4 +66,50 @@ void *rto__alloc_large(size_t count, size_t size)
     madvise(p, bytes & ~(HUGE_PAGE - 1), MADV_HUGEPAGE); /* advice only: a kernel without THP ignores it */
 #endif
     return p;
+}
+
+void *rto__realloc_large(void *p, size_t count, size_t size)
+{
+    if (size != 0 && count > SIZE_MAX / size)
+        return NULL;
+    const size_t bytes = count * size;
+    unsigned char *q = realloc(p, bytes ? bytes : 1);
+    if (!q || bytes < HUGE_FROM)
+        return q;
+#ifdef MADV_HUGEPAGE
+    /* the whole huge pages inside the block (realloc keeps 16-byte alignment only) */
+    const uintptr_t begin = ((uintptr_t)q + HUGE_PAGE - 1) & ~(uintptr_t)(HUGE_PAGE - 1);
+    const uintptr_t end = ((uintptr_t)q + bytes) & ~(uintptr_t)(HUGE_PAGE - 1);
+    if (end > begin)
+        madvise((void *)begin, end - begin, MADV_HUGEPAGE);
+#endif
+    return q;
+}
+
+/* The cgroup v2 memory limit of this process's group as the group sees itself (a container's limit); 0 when there
+ * is none ("max") or no cgroup v2 file. */
+static uint64_t cgroup_memory_max(void)
+{
+    FILE *fp = fopen("/sys/fs/cgroup/memory.max", "r");
+    if (!fp)
+        return 0;
+    char line[64] = "";
+    const int ok = fgets(line, sizeof line, fp) != NULL;
+    fclose(fp);
+    char *end = NULL;
+    const unsigned long long v = ok ? strtoull(line, &end, 10) : 0;
+    return ok && end != line ? (uint64_t)v : 0;
+}
+
+uint64_t rto_memory_budget_default(void)
+{
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    uint64_t budget = pages > 0 && page > 0 ? (uint64_t)pages * (uint64_t)page / 2 : 0;
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && (!budget || rl.rlim_cur / 2 < budget))
+        budget = (uint64_t)rl.rlim_cur / 2;
+    const uint64_t group = cgroup_memory_max();
+    if (group && (!budget || group / 2 < budget))
+        budget = group / 2;
+    return budget;
 }

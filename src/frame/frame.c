@@ -16,6 +16,16 @@
 /* Most pixels of a frame: 2^26 (an 8K x 8K image); queues then hold up to 2^27 rays. */
 #define FRAME_MAX_PIXELS (UINT64_C(1) << 26)
 
+/* Items (pixels of GENERATE, rays of TRACE + SHADE) per chunk. A pass runs its items chunk by chunk, in order, each
+ * chunk's logs applied before the next: the same queues, sums and counters as one chunk, while hit records (unless
+ * kept) and the logs only ever hold a chunk's worth. */
+#define FRAME_CHUNK ((size_t)1 << 18)
+size_t rto__frame_chunk = FRAME_CHUNK;
+
+/* Bytes per pixel the frame holds throughout: accum (f32 RGBA), image (RGBA8), the not-comparable mask, and the
+ * conflict detector's item and pass stamps. */
+#define FRAME_PIXEL_BYTES (4 * sizeof(float) + 4 + 1 + 2 * sizeof(uint32_t))
+
 static const char *const stage_names[RTO_FRAME_STAGE_COUNT] = {"generate", "prep", "trace", "shade", "resolve"};
 
 const char *rto_frame_stage_name(rto_frame_stage stage)
@@ -59,11 +69,12 @@ typedef struct run {
     uint32_t payload_words;
     uint32_t nworkers;
     worker *workers;
-    /* the queue being shaded */
+    /* the chunk being traced and shaded: items item_base .. of the queue */
+    size_t item_base;
     const rto_wf_ray *rays;
     const uint32_t *payloads;
-    const rto_hit_record *hits;
-    rto_frame_queue *tracing; /* the queue being traced (stage2) */
+    rto_hit_record *hits;
+    rto_trace_counters *trace_counters;
     /* conflict detection: the last item that accumulated into each pixel, stamped with the pass */
     uint32_t *acc_item;
     uint32_t *acc_pass;
@@ -219,7 +230,8 @@ static void generate_range(void *ctx, uint32_t wi, size_t begin, size_t end)
     const uint32_t width = r->frame->width;
     w->shading = 0;
     reserve(w, end - begin);
-    for (size_t p = begin; p < end && !w->oom; p++) {
+    for (size_t i = begin; i < end && !w->oom; i++) {
+        const size_t p = r->item_base + i;
         w->pixel = w->item = (uint32_t)p;
         w->emits = 0;
         r->prog->raygen(&w->pub, (uint32_t)(p % width), (uint32_t)(p / width));
@@ -240,7 +252,7 @@ static void shade_range(void *ctx, uint32_t wi, size_t begin, size_t end)
         if (payload)
             memcpy(copy, payload, (size_t)r->payload_words * sizeof(uint32_t));
         w->pixel = ray->pixel;
-        w->item = (uint32_t)i;
+        w->item = (uint32_t)(r->item_base + i);
         w->emits = 0;
         if (hit->miss_flag) {
             w->misses++;
@@ -258,8 +270,23 @@ static void shade_range(void *ctx, uint32_t wi, size_t begin, size_t end)
     }
 }
 
-/* Applies the workers' logs in worker (= item) order: emits into queue q, accumulates into the accum buffer. */
-static rto_status apply_logs(run *r, uint32_t q, uint32_t row, rto_msg *msg)
+/* Room in queue q for `more` rays past its count. The queue is allocated once at its capacity, as a GPU allocates
+ * it: a large block is mapped, not touched, so only the rays stored take memory (pages on first write). */
+static int grow_queue(rto_frame_queue *q, size_t *cap, size_t more, uint64_t capacity, uint32_t payload_words)
+{
+    if (q->count + more <= *cap)
+        return 1;
+    q->rays = rto__alloc_large(capacity, sizeof *q->rays);
+    q->payloads = payload_words ? rto__alloc_large(capacity * payload_words, sizeof *q->payloads) : NULL;
+    if (!q->rays || (payload_words && !q->payloads))
+        return 0;
+    *cap = (size_t)capacity;
+    return 1;
+}
+
+/* Applies the workers' logs of one chunk in worker (= item) order: emits appended to queue q, accumulates into the
+ * accum buffer. The chunks of a pass share its pass stamp (conflicts are per pass). */
+static rto_status apply_logs(run *r, uint32_t q, size_t *qcap, uint32_t row, rto_msg *msg)
 {
     rto_frame *f = r->frame;
     rto_frame_queue *dst = &f->queues[q];
@@ -273,17 +300,8 @@ static rto_status apply_logs(run *r, uint32_t q, uint32_t row, rto_msg *msg)
     }
     const size_t room = (size_t)f->capacity - dst->count;
     const size_t store = total < room ? total : room;
-    if (store) { /* each queue is filled by exactly one pass: it is empty here */
-        dst->rays = rto__alloc_large(store, sizeof *dst->rays);
-        if (!dst->rays)
-            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays of queue %u", store, q);
-        if (r->payload_words) {
-            dst->payloads = rto__alloc_large(store * r->payload_words, sizeof *dst->payloads);
-            if (!dst->payloads)
-                return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for the payloads of queue %u", q);
-        }
-    }
-    r->pass++;
+    if (store && !grow_queue(dst, qcap, store, f->capacity, r->payload_words))
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays of queue %u", dst->count + store, q);
     const size_t pixels = (size_t)f->width * f->height;
     for (uint32_t i = 0; i < r->nworkers; i++) {
         worker *w = &r->workers[i];
@@ -329,11 +347,10 @@ static void trace_stage2_range(void *ctx, uint32_t wi, size_t begin, size_t end)
 {
     (void)wi;
     run *r = ctx;
-    rto_frame_queue *q = r->tracing;
-    rto_stage2_trace(q->rays + begin, end - begin, q->hits + begin);
+    rto_stage2_trace(r->rays + begin, end - begin, r->hits + begin);
     /* The seed's traceScene tests its four primitives without a tree: no traversal to count. */
-    if (q->trace_counters)
-        memset(q->trace_counters + begin, 0, (end - begin) * sizeof *q->trace_counters);
+    if (r->trace_counters)
+        memset(r->trace_counters + begin, 0, (end - begin) * sizeof *r->trace_counters);
 }
 
 static double now(void)
@@ -506,16 +523,23 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
 
     /* GENERATE: clear accum, run raygen per pixel */
     double t0 = now();
+    const size_t chunk = rto__frame_chunk ? rto__frame_chunk : 1;
+    size_t qcap = 0; /* rays the queue being filled has room for */
     if (!s) {
         for (size_t i = 0; i < pixels; i++) {
             f->accum[4 * i] = f->accum[4 * i + 1] = f->accum[4 * i + 2] = 0.0f;
             f->accum[4 * i + 3] = 1.0f;
         }
-        rto__parallel_ranges(pixels, r.nworkers, generate_range, &r);
-        s = apply_logs(&r, 0, 0, msg);
+        r.pass++;
+        for (size_t begin = 0; !s && begin < pixels; begin += chunk) {
+            r.item_base = begin;
+            rto__parallel_ranges(pixels - begin < chunk ? pixels - begin : chunk, r.nworkers, generate_range, &r);
+            s = apply_logs(&r, 0, &qcap, 0, msg);
+        }
         PROGRESS();
     }
     f->seconds[RTO_STAGE_GENERATE] += now() - t0;
+    rto_hit_record *chunk_hits = NULL;
     for (uint32_t d = 0; !s && d <= depth; d++) {
         /* PREP d */
         t0 = now();
@@ -526,43 +550,52 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
         f->seconds[RTO_STAGE_PREP] += now() - t0;
         if (d == depth)
             break;
-        /* TRACE d */
-        t0 = now();
+        /* TRACE d and SHADE d, chunk by chunk: hit records a bundle keeps are stored whole, others a chunk at a
+         * time (a 4K frame never holds a queue's hit records) */
         f->counters[d].traced = (uint32_t)q->count;
-        q->hits = rto__alloc_large(q->count, sizeof *q->hits);
-        if (desc->keep & RTO_FRAME_KEEP_TRACE_COUNTERS)
+        const int keep_hits = (desc->keep & RTO_FRAME_KEEP_HITS) != 0;
+        const int keep_counters = (desc->keep & RTO_FRAME_KEEP_TRACE_COUNTERS) != 0;
+        const size_t chunk_max = q->count < chunk ? q->count : chunk;
+        if (keep_hits)
+            q->hits = rto__alloc_large(q->count, sizeof *q->hits);
+        else if (!chunk_hits)
+            chunk_hits = rto__alloc_large(chunk < f->capacity ? chunk : (size_t)f->capacity, sizeof *chunk_hits);
+        if (keep_counters)
             q->trace_counters = rto__alloc_large(q->count, sizeof *q->trace_counters);
-        if (!q->hits || ((desc->keep & RTO_FRAME_KEEP_TRACE_COUNTERS) && !q->trace_counters)) {
-            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu hit records", q->count);
+        if ((keep_hits ? !q->hits : !chunk_hits) || (keep_counters && !q->trace_counters)) {
+            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu hit records", keep_hits ? q->count
+                                                                                                  : chunk_max);
             break;
         }
-        if (stage2) {
-            r.tracing = q;
-            rto__parallel_ranges(q->count, r.nworkers, trace_stage2_range, &r);
-        } else {
-            const rto_trace_desc td = {desc->threads};
-            s = rto_trace(desc->accel, q->rays, q->count, &td, q->hits, q->trace_counters, msg);
-            if (s) {
-                rto_fail(msg, s, "bounce %u: %s", d, msg ? msg->text : "tracing failed");
-                break;
+        qcap = 0;
+        r.pass++;
+        for (size_t begin = 0; !s && begin < q->count; begin += chunk) {
+            const size_t n = q->count - begin < chunk ? q->count - begin : chunk;
+            t0 = now();
+            r.item_base = begin;
+            r.rays = q->rays + begin;
+            r.payloads = r.payload_words ? q->payloads + begin * r.payload_words : NULL;
+            r.hits = keep_hits ? q->hits + begin : chunk_hits;
+            r.trace_counters = keep_counters ? q->trace_counters + begin : NULL;
+            if (stage2) {
+                rto__parallel_ranges(n, r.nworkers, trace_stage2_range, &r);
+            } else {
+                const rto_trace_desc td = {desc->threads};
+                s = rto_trace(desc->accel, r.rays, n, &td, r.hits, r.trace_counters, msg);
+                if (s) {
+                    rto_fail(msg, s, "bounce %u: %s", d, msg ? msg->text : "tracing failed");
+                    break;
+                }
             }
+            const double t1 = now();
+            f->seconds[RTO_STAGE_TRACE] += t1 - t0;
+            rto__parallel_ranges(n, r.nworkers, shade_range, &r);
+            s = apply_logs(&r, d + 1, &qcap, d, msg);
+            f->seconds[RTO_STAGE_SHADE] += now() - t1;
         }
-        f->seconds[RTO_STAGE_TRACE] += now() - t0;
         PROGRESS();
-        /* SHADE d */
-        t0 = now();
-        r.rays = q->rays;
-        r.payloads = q->payloads;
-        r.hits = q->hits;
-        rto__parallel_ranges(q->count, r.nworkers, shade_range, &r);
-        s = apply_logs(&r, d + 1, d, msg);
-        f->seconds[RTO_STAGE_SHADE] += now() - t0;
         PROGRESS();
         /* what the bundle does not keep goes now: a 4K frame never holds every bounce at once */
-        if (!(desc->keep & RTO_FRAME_KEEP_HITS)) {
-            free(q->hits);
-            q->hits = NULL;
-        }
         if (!(desc->keep & RTO_FRAME_KEEP_RAYS)) {
             free(q->rays);
             q->rays = NULL;
@@ -573,6 +606,7 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
         }
         PROGRESS();
     }
+    free(chunk_hits);
     if (!s && !(desc->keep & RTO_FRAME_KEEP_RAYS)) {
         free(f->queues[depth].rays);
         f->queues[depth].rays = NULL;
@@ -614,6 +648,40 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
     }
     *out = f;
     return RTO_OK;
+}
+
+/* Bytes per pixel the bundle writer may hold while encoding: the encoded file in a growing vector (up to twice its
+ * size) and its copy, at most 16 bytes a pixel for accum.exr (zip-compressed floats, never larger than raw by more
+ * than a header) and 4 for image.png. */
+#define FRAME_EXR_PIXEL_BYTES (3 * 16)
+#define FRAME_PNG_PIXEL_BYTES (3 * 4)
+
+uint64_t rto_frame_memory_bound(const rto_frame_desc *desc)
+{
+    if (!desc || !desc->program || !desc->width || !desc->height)
+        return 0;
+    const uint64_t pixels = (uint64_t)desc->width * desc->height;
+    const uint64_t depth = desc->max_depth ? desc->max_depth : desc->program->max_depth;
+    if (pixels > FRAME_MAX_PIXELS || depth > 64 || desc->program->payload_size > RTO_PAYLOAD_MAX)
+        return 0;
+    const uint64_t cap = 2 * pixels, payload = desc->program->payload_size, k = desc->keep;
+    const uint64_t chunk = rto__frame_chunk < cap ? (rto__frame_chunk ? rto__frame_chunk : 1) : cap;
+    const uint64_t ray = sizeof(rto_wf_ray), hit = sizeof(rto_hit_record), tc = sizeof(rto_trace_counters);
+    /* kept: every queue's rays and payloads (depth + 1 of them), every traced queue's hits and trace counters */
+    const uint64_t kept = cap * ((depth + 1) * ((k & RTO_FRAME_KEEP_RAYS ? ray : 0) +
+                                                (k & RTO_FRAME_KEEP_PAYLOADS ? payload : 0)) +
+                                 depth * ((k & RTO_FRAME_KEEP_HITS ? hit : 0) +
+                                          (k & RTO_FRAME_KEEP_TRACE_COUNTERS ? tc : 0)));
+    /* rendering: the queue shaded and the queue filled, at capacity, where they are not kept; a chunk's hit records
+     * (unless kept) and its logs: up to RTO_FRAME_EMITS_PER_INVOCATION rays and as many accumulates per item, the
+     * logs doubling as they grow */
+    const uint64_t in_flight = depth ? 2 * cap * ((k & RTO_FRAME_KEEP_RAYS ? 0 : ray) +
+                                                  (k & RTO_FRAME_KEEP_PAYLOADS ? 0 : payload)) : 0;
+    const uint64_t logs = 2 * chunk * RTO_FRAME_EMITS_PER_INVOCATION * (ray + payload + sizeof(acc_entry));
+    const uint64_t rendering = in_flight + logs + (depth && !(k & RTO_FRAME_KEEP_HITS) ? chunk * hit : 0);
+    /* writing: the encoded images */
+    const uint64_t writing = pixels * ((k & RTO_FRAME_KEEP_ACCUM ? FRAME_EXR_PIXEL_BYTES : 0) + FRAME_PNG_PIXEL_BYTES);
+    return pixels * FRAME_PIXEL_BYTES + kept + (rendering > writing ? rendering : writing);
 }
 
 uint8_t rto__unorm8(float x)

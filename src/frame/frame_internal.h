@@ -17,6 +17,9 @@ void rto__surface_mesh(const rto_frame_env *env, const rto_wf_ray *ray, const rt
 void rto__texture_sample(const rto_scene *scene, int32_t texture, const float uv[2], float rgba[4]);
 /** normalize(v) = v / length(v), length = sqrt((x*x + y*y) + z*z) in binary32 (DESIGN.md §7). */
 void rto__normalize3(const float v[3], float out[3]);
+/** Items per chunk of a GENERATE or TRACE + SHADE pass (default 2^18; the tests set others: the output never
+ * depends on it). */
+extern size_t rto__frame_chunk;
 /** The 8-bit value of a resolved channel: clamp to [0, 1], round(x * 255) half up; NaN gives 0. */
 uint8_t rto__unorm8(float x);
 

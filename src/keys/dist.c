@@ -2,6 +2,7 @@
  * n), built from the shared PRNG, so a JS or WGSL harness can regenerate any input bit for bit. */
 #include "internal.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -58,18 +59,10 @@ static rto_vec3 in_cube(uint32_t seed, uint32_t i, float c)
     return v;
 }
 
-rto_status rto_centroids_generate(const char *dist, uint32_t seed, size_t n, rto_vec3 *out, rto_msg *msg)
+/* Centroids [begin, end) of n of distribution d into out[0 .. end - begin). */
+static void centroids_range(const rto_dist_info *d, uint32_t seed, size_t n, size_t begin, size_t end, rto_vec3 *out)
 {
-    const rto_dist_info *d = rto_dist_find(dist);
-    if (!d || d->kind != RTO_DIST_CENTROID)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%s' is not a centroid distribution", dist ? dist : "(null)");
-    /* 3 draws per element index a u32 counter: keep 3n below 2^32. */
-    if ((uint64_t)n > RTO_MAX_KEYS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu", n,
-                        (unsigned long long)RTO_MAX_KEYS);
-    if (n && !out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
-    for (size_t k = 0; k < n; k++) {
+    for (size_t k = begin; k < end; k++) {
         uint32_t i = (uint32_t)k;
         rto_vec3 v = {0.5f, 0.5f, 0.5f};
         if (strcmp(d->name, "uniform") == 0) {
@@ -90,8 +83,22 @@ rto_status rto_centroids_generate(const char *dist, uint32_t seed, size_t n, rto
         } else if (strcmp(d->name, "two-clusters") == 0) {
             v = in_cube(seed, i, (i & 1u) ? 0.75f : 0.25f);
         } /* one-bucket: the default (0.5, 0.5, 0.5) */
-        out[k] = v;
+        out[k - begin] = v;
     }
+}
+
+rto_status rto_centroids_generate(const char *dist, uint32_t seed, size_t n, rto_vec3 *out, rto_msg *msg)
+{
+    const rto_dist_info *d = rto_dist_find(dist);
+    if (!d || d->kind != RTO_DIST_CENTROID)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%s' is not a centroid distribution", dist ? dist : "(null)");
+    /* 3 draws per element index a u32 counter: keep 3n below 2^32. */
+    if ((uint64_t)n > RTO_MAX_KEYS)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu", n,
+                        (unsigned long long)RTO_MAX_KEYS);
+    if (n && !out)
+        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
+    centroids_range(d, seed, n, 0, n, out);
     return RTO_OK;
 }
 
@@ -115,6 +122,69 @@ static int cmp_u64(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Centroids per chunk of BLAS keys: 2^16 (768 KiB of centroids in structure-of-arrays form). */
+#define KEY_CHUNK ((size_t)1 << 16)
+
+/* rto_blas_keys of the n centroids of d without holding them: the centroid bounds over every chunk (the earlier
+ * value kept when equal, as rto_blas_keys does), then each chunk's keys from those bounds, its centroids made again
+ * (each is a pure function of seed, n and its index). The bytes of rto_blas_keys over rto_centroids_generate. */
+static rto_status blas_keys_chunked(const rto_dist_info *d, uint32_t seed, size_t n, uint64_t *keys, rto_msg *msg)
+{
+    const size_t cap = n < KEY_CHUNK ? n : KEY_CHUNK;
+    rto_vec3 *c = rto_alloc(cap, sizeof *c);
+    float *cent = rto_alloc(3 * cap, sizeof *cent);
+    if (!c || !cent) {
+        free(c);
+        free(cent);
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu centroids", cap);
+    }
+    rto__key_part all;
+    rto__key_part_init(&all);
+    for (size_t begin = 0; begin < n; begin += KEY_CHUNK) {
+        const size_t m = n - begin < KEY_CHUNK ? n - begin : KEY_CHUNK;
+        centroids_range(d, seed, n, begin, begin + m, c);
+        for (size_t k = 0; k < m; k++)
+            for (int a = 0; a < 3; a++) {
+                const float v = a == 0 ? c[k].x : a == 1 ? c[k].y : c[k].z;
+                all.bad |= !isfinite(v);
+                all.lo[a] = v < all.lo[a] ? v : all.lo[a];
+                all.hi[a] = v > all.hi[a] ? v : all.hi[a];
+            }
+    }
+    /* generated centroids lie in [0, 1]: the bounds are always usable */
+    rto_status s = rto__key_bounds_ok(&all, n) ? RTO_OK
+                                               : rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unusable centroid bounds of '%s'", d->name);
+    float *const soa[3] = {cent, cent + cap, cent + 2 * cap};
+    for (size_t begin = 0; !s && begin < n; begin += KEY_CHUNK) {
+        const size_t m = n - begin < KEY_CHUNK ? n - begin : KEY_CHUNK;
+        centroids_range(d, seed, n, begin, begin + m, c);
+        for (size_t k = 0; k < m; k++) {
+            soa[0][k] = c[k].x;
+            soa[1][k] = c[k].y;
+            soa[2][k] = c[k].z;
+        }
+        /* keys of the chunk's indices 0 .. m - 1, then moved to begin .. (the index is the low 32 bits) */
+        rto__blas_keys_part(soa, 0, m, &all, keys + begin);
+        for (size_t k = 0; k < m; k++)
+            keys[begin + k] += begin;
+    }
+    free(c);
+    free(cent);
+    return s;
+}
+
+uint64_t rto_keys_memory_bound(const char *dist, rto_key_format f, size_t n)
+{
+    const rto_dist_info *d = rto_dist_find(dist);
+    if (!d)
+        return 0;
+    if (d->kind == RTO_DIST_CENTROID)
+        return f == RTO_KEY_U64 ? (uint64_t)(n < KEY_CHUNK ? n : KEY_CHUNK) * (sizeof(rto_vec3) + 3 * sizeof(float))
+                                : (uint64_t)n * sizeof(rto_vec3);
+    /* glibc's qsort sorts through a buffer of the whole array */
+    return strcmp(d->name, "sorted") == 0 || strcmp(d->name, "reversed") == 0 ? (uint64_t)n * rto_key_size(f) : 0;
+}
+
 rto_status rto_keys_generate(const char *dist, rto_key_format f, uint32_t seed, size_t n, void *keys, rto_msg *msg)
 {
     const rto_dist_info *d = rto_dist_find(dist);
@@ -135,12 +205,14 @@ rto_status rto_keys_generate(const char *dist, rto_key_format f, uint32_t seed, 
             return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
                             "n = %zu: TLAS keys index at most %u instances (use --format u64)", n,
                             RTO_TLAS_MAX_INSTANCES);
+        if (f == RTO_KEY_U64)
+            return blas_keys_chunked(d, seed, n, keys, msg);
         rto_vec3 *c = rto_alloc(n, sizeof *c);
         if (!c)
             return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu centroids", n);
         rto_status s = rto_centroids_generate(d->name, seed, n, c, msg);
         if (!s)
-            s = f == RTO_KEY_U32 ? rto_tlas_keys(c, n, keys, msg) : rto_blas_keys(c, n, keys, msg);
+            s = rto_tlas_keys(c, n, keys, msg);
         free(c);
         return s;
     }
