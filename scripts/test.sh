@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite: unit and command-line tests on an optimised build, again under AddressSanitizer +
-# UndefinedBehaviorSanitizer, the WebGPU backend's subset on llvmpipe (gpu/), a determinism check that builds at
-# -Og (sanitized), -O2 and -O3 write byte-identical bundles (traces also with 1 and 2 threads), and that
-# `meson install` gives a library a user's program builds against via pkg-config.
+# UndefinedBehaviorSanitizer (built with clang, with short runs of the four libFuzzer targets), the WebGPU backend's
+# subset on llvmpipe (gpu/), a determinism check that builds at -Og (sanitized, clang), -O2 and -O3 (gcc) write
+# byte-identical bundles (traces also with 1 and 2 threads), and that `meson install` gives a library a user's program
+# builds against via pkg-config.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/deps.sh
@@ -35,11 +36,21 @@ cleanup() {
 }
 trap cleanup EXIT
 
-stage "build-asan (address + undefined sanitizers)"
-# C at -Og (after meson's -O0, so it wins): the sanitizers' checks all stay, and the compute-heavy unit tests run
-# about 1.5-2x faster than at -O0. The C++ glTF shim and image module stay at -O0: they compile twice as fast there.
-rto_build build-asan --werror --buildtype=debug -Db_sanitize=address,undefined -Db_lundef=false \
-    "-Dc_args=-fno-sanitize-recover=all -Og"
+stage "build-asan (clang, address + undefined sanitizers, the fuzz targets)"
+# clang, so that the same build holds the libFuzzer targets (-Dfuzz=targets), which the suite 'fuzz' runs a fixed
+# number of times on their seed corpora; gcc builds the two others, and the determinism stage below holds the three
+# to the same bytes. C at -Og (after meson's -O0, so it wins): the sanitizers' checks all stay, and the compute-heavy
+# unit tests run about 1.5-2x faster than at -O0. The C++ glTF shim and image module stay at -O0: they compile twice
+# as fast there. A build-asan configured otherwise (an older checkout's, with gcc) is made again.
+rto_install_debs "${RTO_TEST_DEBS[@]}"
+if [ -f build-asan/build.ninja ] && ! meson introspect build-asan --buildoptions 2>/dev/null |
+    python3 -c 'import json, sys; sys.exit(not any(o["name"] == "fuzz" and o["value"] == "targets" for o in json.load(sys.stdin)))'; then
+    rm -rf build-asan
+fi
+# Line tables only (what the sanitizers' reports need) and lld: about a fifth less compile and link time.
+CC=clang-14 CXX=clang++-14 rto_build build-asan --werror --buildtype=plain -Db_sanitize=address,undefined \
+    -Db_lundef=false -Dfuzz=targets "-Dc_args=-fno-sanitize-recover=all -Og -gline-tables-only" \
+    "-Dcpp_args=-O0 -gline-tables-only" -Dc_link_args=-fuse-ld=lld -Dcpp_link_args=-fuse-ld=lld
 # RTO_TEST_SANITIZED: the command-line tests' longest loops take a sample of their cases (every case class stays);
 # the optimised build above ran them whole.
 RTO_TEST_SANITIZED=1 meson test -C build-asan --print-errorlogs --num-processes 2
@@ -95,7 +106,7 @@ diff -r "$tmp/build" "$tmp/build-asan" >/dev/null && diff -r "$tmp/build" "$tmp/
     echo "FAIL: bundles differ between optimisation levels" >&2
     exit 1
 }
-echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases, 3 build bundles, 5 trace bundles and 2 frame bundles byte-identical at -Og/asan, -O2, -O3 and with 1 and 2 threads"
+echo "determinism: $(grep -c '"case"' "$tmp/build/manifest.json") sort cases, 3 build bundles, 5 trace bundles and 2 frame bundles byte-identical at -Og/asan (clang), -O2 and -O3 (gcc) and with 1 and 2 threads"
 stage "install: a user's program built against the installed library through pkg-config"
 bash tests/install.sh build-release
 echo "== all tests passed in $((SECONDS - t_start)) s"
