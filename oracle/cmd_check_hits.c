@@ -16,21 +16,24 @@ static const char check_hits_usage[] =
     "Compares a GPU's hit records (one 96-byte HitRecord per ray, in ray order) with the trace bundle written\n"
     "by `rtoracle trace`. The dump may be the structured HitRecord records, a (count, 24) uint32/float32\n"
     "array or the raw buffer as flat uint32/float32 words.\n"
-    "Rules (DESIGN.md §9): t within 1e-5*max(1,|t|); bary within 1e-4; instanceId, primId, hitGroup,\n"
-    "customIndex, missFlag and the 12 values of objToWorld exact (the padding of its columns is ignored).\n"
-    "A miss must be the miss record: t = the ray's tMax, IDs 0xFFFFFFFF, bary and objToWorld 0.\n"
-    "Ties: a record naming another primitive than the oracle's is accepted when that primitive,\n"
-    "intersected again with the same ray, gives the oracle's t within tolerance; it is then compared with\n"
-    "that primitive's own values, and listed as a tie. Grazing: a hit one side found and the other did\n"
-    "not is accepted when it lies within 1e-5 (relative) of an edge of its triangle, or on a ray within\n"
-    "1e-4 of parallel to its plane, and no triangle is hit solidly before the GPU's answer (a GPU's\n"
-    "division and fused multiply-adds decide edges differently); listed as grazing. TERMINATE_ON_FIRST_HIT\n"
-    "rays: only hit / miss is defined, so a hit must name a primitive the ray hits, at its t.\n";
+    "Rules (DESIGN.md §9's conformance model: every binary32 operation of §6 correctly rounded, any a*b + c\n"
+    "fused or not, division and reciprocal within 2.5 ulp): a record equal to the oracle's passes; otherwise\n"
+    "a hit must name a primitive that a conforming implementation may hit, with t and the barycentrics inside\n"
+    "the intervals the model gives for it (computed per ray, in binary64 with outward rounding), customIndex,\n"
+    "hitGroup and objToWorld exactly its instance's (the column padding is ignored), and no primitive that\n"
+    "every conforming implementation reaches and hits may lie before it. A miss must be the miss record (t =\n"
+    "the ray's tMax, IDs 0xFFFFFFFF, bary and objToWorld 0), and no primitive may be certainly reached and\n"
+    "hit. Each accepted difference is named by the freedom that explains it: arithmetic (the same primitive,\n"
+    "other rounding), tie (another primitive at a t the model cannot tell apart), edge (hit or miss is not\n"
+    "certain: a vertex, an edge, a ray nearly parallel to the plane), box (certainly hit, not certainly\n"
+    "reached), t-range (t within rounding of tMin or tMax), first-hit (a TERMINATE_ON_FIRST_HIT ray ending\n"
+    "on another hit: only hit / miss and the claim's t are defined).\n";
 
 static const char check_hits_epilog[] =
     "Fault classes, in priority order: size, miss-flag, instance, prim, t, bary, custom-index, hit-group,\n"
     "transform. The report names the highest-priority fault of the first wrong ray and lists every class\n"
-    "seen. Exit status: 0 valid (ties allowed), 1 a fault was found, 2 bad usage or input (including a\n"
+    "seen. Exit status: 0 valid (differences the model allows included), 1 a fault was found, 2 bad usage or\n"
+    "input (including a\n"
     "bundle whose arrays disagree with its manifest).\n";
 
 /* What check-hits reads from a trace bundle, each array validated before use. */

@@ -305,7 +305,7 @@ typedef enum rto_check_state {
 } rto_check_state;
 
 #define RTO_REPORT_NAME_MAX 24
-#define RTO_REPORT_MAX_FIELDS 8
+#define RTO_REPORT_MAX_FIELDS 16
 #define RTO_REPORT_MAX_CHECKS 8
 #define RTO_REPORT_MAX_FAULTS 12
 #define RTO_REPORT_MAX_ROWS 16

@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""results.py: keep a GPU run's results and the table docs/gpu.md shows from them.
+
+  gpu/results.py record RUN.json OUT.json --commit C --date D --device TEXT --note TEXT
+      OUT.json: gpu/run's --json output with where and when it ran (commit, date, device, how it was run), the
+      case directories' paths left out.
+  gpu/results.py table OUT.json [OUT2.json ...] --doc docs/gpu.md
+      rewrites the part of the doc between "<!-- gpu-results begin -->" and "<!-- gpu-results end -->": one line
+      per run (commit, date, device, driver, how), then one row per case (family, case, passes, what the check
+      said besides pass, GPU time per run). Never typed by hand: run this again whenever a verdict rule changes.
+"""
+import argparse
+import json
+import sys
+
+BEGIN = "<!-- gpu-results begin -->"
+END = "<!-- gpu-results end -->"
+
+
+def record(args):
+    with open(args.run) as f:
+        run = json.load(f)
+    for r in run.get("results", []):
+        r.pop("dir", None)
+        r.pop("images", None)
+    run["recorded"] = {"commit": args.commit, "date": args.date, "device": args.device, "note": args.note}
+    with open(args.out, "w") as f:
+        json.dump(run, f, indent=1, sort_keys=True)
+        f.write("\n")
+
+
+def gpu_time(r):
+    ms = r.get("gpu_ms") or {}
+    parts = []
+    for stage, v in ms.items():
+        runs = max(1, r.get("repeat", 1))
+        parts.append(f"{stage} {v['ms'] / runs:.3f}")
+    return ", ".join(parts) + " ms" if parts else "-"
+
+
+def table(args):
+    lines = [BEGIN, ""]
+    for path in args.runs:
+        with open(path) as f:
+            run = json.load(f)
+        rec = run["recorded"]
+        results = run["results"]
+        passed = sum(1 for r in results if r["pass"] and r["passes"] == r["repeat"])
+        lines.append(f"Run of commit {rec['commit']}, {rec['date']}, {rec['device']} ({run['adapter']}), "
+                     f"{run['backend']}, `--repeat {run['repeat']}`; {rec['note']}: **{passed} of {len(results)} "
+                     f"cases pass every run** (`{path}`).")
+        lines.append("")
+        lines.append("| case | passes | check says | GPU time per run |")
+        lines.append("|---|---|---|---|")
+        for r in results:
+            said = r["diagnosis"] or r["fault"]
+            said = "-" if said in ("", "none") else said.replace("|", "\\|")
+            lines.append(f"| `{r['case']}` | {r['passes']}/{r['repeat']} | {said} | {gpu_time(r)} |")
+        lines.append("")
+    lines.append(END)
+    with open(args.doc) as f:
+        doc = f.read()
+    if BEGIN not in doc or END not in doc:
+        sys.exit(f"results.py: {args.doc} has no {BEGIN} ... {END} section")
+    head, rest = doc.split(BEGIN, 1)
+    _, tail = rest.split(END, 1)
+    with open(args.doc, "w") as f:
+        f.write(head + "\n".join(lines) + tail)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("record")
+    r.add_argument("run")
+    r.add_argument("out")
+    r.add_argument("--commit", required=True)
+    r.add_argument("--date", required=True)
+    r.add_argument("--device", required=True)
+    r.add_argument("--note", required=True)
+    t = sub.add_parser("table")
+    t.add_argument("runs", nargs="+")
+    t.add_argument("--doc", required=True)
+    args = p.parse_args()
+    record(args) if args.cmd == "record" else table(args)
+
+
+if __name__ == "__main__":
+    main()

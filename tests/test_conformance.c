@@ -1,0 +1,483 @@
+/* The conformance model of DESIGN.md §9 from the GPU's side: simulated GPUs written here, not calling src/trace/,
+ * run §6 — Möller–Trumbore, the ray transform, closest hit over every triangle of every visible instance (brute force,
+ * so with no box test at all), culling, masks and TERMINATE_ON_FIRST_HIT — with the freedoms the model grants: every
+ * a*b + c fused or not (the first or the second product of each sum, or a choice per site from a PRNG) and the
+ * reciprocal moved by up to 2 ulp. check-hits must accept every record of every one of them, over the fixtures,
+ * sphere:L and random:N triangle soups (slivers included), with generated ray sets and rays made here at vertices,
+ * on edges, starting on surfaces and ending at a hit's t. A record off by twice the model's bound must fail, field by
+ * field. */
+#include "testutil.h"
+
+#include "trace/conform.h"
+
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* A simulated GPU                                                                                                    */
+
+typedef enum fuse { FUSE_NONE = 0, FUSE_FIRST = 1, FUSE_SECOND = 2, FUSE_RANDOM = 3 } fuse;
+
+typedef struct sim {
+    fuse fuse;
+    int div_ulps; /* the reciprocal moved by this many ulps (each within WGSL's 2.5) */
+    uint64_t rng; /* FUSE_RANDOM's choices */
+} sim;
+
+static const char *const fuse_names[] = {"none", "first", "second", "random"};
+
+static int fuse_choice(sim *s)
+{
+    if (s->fuse != FUSE_RANDOM)
+        return (int)s->fuse;
+    return (int)(tu_rng_next(&s->rng) % 3);
+}
+
+/* a*b + c*d as a GPU may evaluate it (this file is compiled with -ffp-contract=off: only fmaf fuses) */
+static float sum2(sim *s, float a, float b, float c, float d)
+{
+    switch (fuse_choice(s)) {
+    case 1: return fmaf(a, b, c * d);
+    case 2: return fmaf(c, d, a * b);
+    default: return a * b + c * d;
+    }
+}
+
+/* x + a*b, the last step of a dot product or a transform row */
+static float plus(sim *s, float x, float a, float b) { return fuse_choice(s) ? fmaf(a, b, x) : x + a * b; }
+
+static float dot(sim *s, const float a[3], const float b[3])
+{
+    return plus(s, sum2(s, a[0], b[0], a[1], b[1]), a[2], b[2]);
+}
+
+static void cross(sim *s, const float a[3], const float b[3], float o[3])
+{
+    o[0] = sum2(s, a[1], b[2], -a[2], b[1]);
+    o[1] = sum2(s, a[2], b[0], -a[0], b[2]);
+    o[2] = sum2(s, a[0], b[1], -a[1], b[0]);
+}
+
+static float recip(const sim *s, float x)
+{
+    float r = 1.0f / x;
+    for (int k = 0; k < abs(s->div_ulps); k++)
+        r = nextafterf(r, s->div_ulps > 0 ? INFINITY : -INFINITY);
+    return r;
+}
+
+typedef struct sim_hit {
+    float t, u, v, det;
+} sim_hit;
+
+static int sim_triangle(sim *s, const float *v0, const float *v1, const float *v2, const float o[3], const float d[3],
+                        float t_min, float best, sim_hit *h)
+{
+    float e1[3], e2[3], p[3], sv[3], q[3];
+    for (int a = 0; a < 3; a++) {
+        e1[a] = v1[a] - v0[a];
+        e2[a] = v2[a] - v0[a];
+        sv[a] = o[a] - v0[a];
+    }
+    cross(s, d, e2, p);
+    h->det = dot(s, e1, p);
+    if (h->det == 0.0f)
+        return 0;
+    const float inv = recip(s, h->det);
+    cross(s, sv, e1, q);
+    h->u = dot(s, sv, p) * inv;
+    h->v = dot(s, d, q) * inv;
+    h->t = dot(s, e2, q) * inv;
+    return h->u >= 0.0f && h->v >= 0.0f && h->u + h->v <= 1.0f && t_min <= h->t && h->t < best;
+}
+
+/* The record a GPU writes for a hit: objToWorld as WGSL's mat4x3 (column c holds row-major column c). */
+static rto_hit_record sim_record(const rto_instance *in, uint32_t inst, uint32_t prim, const sim_hit *h)
+{
+    rto_hit_record r;
+    memset(&r, 0, sizeof r);
+    r.t = h->t;
+    r.instance_id = inst;
+    r.prim_id = prim;
+    r.hit_group = in->sbt_offset;
+    r.bary[0] = h->u;
+    r.bary[1] = h->v;
+    r.custom_index = in->custom_index;
+    for (int c = 0; c < 4; c++)
+        for (int row = 0; row < 3; row++)
+            r.obj_to_world[c][row] = in->obj_to_world.m[row][c];
+    return r;
+}
+
+static rto_hit_record sim_miss(float t_max)
+{
+    rto_hit_record r;
+    memset(&r, 0, sizeof r);
+    r.t = t_max;
+    r.instance_id = r.prim_id = r.hit_group = r.custom_index = UINT32_MAX;
+    r.miss_flag = 1;
+    return r;
+}
+
+/* The simulator's own shortcut, which changes no answer: triangles whose box, grown by a margin far beyond any
+ * rounding (1e-3 of the box's size and position), the object-space ray misses in binary64 are skipped. */
+typedef struct tri_box {
+    double lo[3], hi[3];
+} tri_box;
+
+static tri_box *mesh_boxes(const rto_mesh *m)
+{
+    tri_box *b = calloc(m->triangle_count ? m->triangle_count : 1, sizeof *b);
+    assert_non_null(b);
+    for (uint32_t p = 0; p < m->triangle_count; p++) {
+        double scale = 1.0;
+        for (int a = 0; a < 3; a++) {
+            b[p].lo[a] = INFINITY;
+            b[p].hi[a] = -INFINITY;
+            for (int c = 0; c < 3; c++) {
+                const double v = m->positions[3 * (size_t)m->indices[3 * (size_t)p + c] + a];
+                b[p].lo[a] = fmin(b[p].lo[a], v);
+                b[p].hi[a] = fmax(b[p].hi[a], v);
+                scale = fmax(scale, fabs(v));
+            }
+        }
+        for (int a = 0; a < 3; a++) {
+            const double grow = 1e-3 * (scale + b[p].hi[a] - b[p].lo[a]);
+            b[p].lo[a] -= grow;
+            b[p].hi[a] += grow;
+        }
+    }
+    return b;
+}
+
+static int box_missed(const tri_box *b, const float o[3], const float d[3], float t_min, float t_max)
+{
+    double near = t_min, far = t_max;
+    for (int a = 0; a < 3; a++) {
+        if (d[a] == 0.0f) {
+            if (o[a] < b->lo[a] || o[a] > b->hi[a])
+                return 1;
+            continue;
+        }
+        const double inv = 1.0 / d[a], t0 = (b->lo[a] - o[a]) * inv, t1 = (b->hi[a] - o[a]) * inv;
+        const double lo = t0 < t1 ? t0 : t1, hi = t0 < t1 ? t1 : t0;
+        near = lo > near ? lo : near;
+        far = hi < far ? hi : far;
+    }
+    /* t itself may be off by rounding too: a generous slack on the range */
+    return near > far + 1e-3 * (1.0 + fabs(far));
+}
+
+/* One ray, brute force: every instance the cull mask admits, every triangle, in order, strict t < best. boxes: one
+ * array per mesh (mesh_boxes). */
+static rto_hit_record sim_trace(sim *s, const rto_scene *sc, tri_box *const *boxes, const rto_wf_ray *ray)
+{
+    rto_hit_record best = sim_miss(ray->t_max);
+    float best_t = ray->t_max;
+    for (uint32_t k = 0; k < sc->instance_count; k++) {
+        const rto_instance *in = &sc->instances[k];
+        if (!(in->mask & ray->cull_mask))
+            continue;
+        const float(*m)[4] = in->world_to_obj.m;
+        float o[3], d[3];
+        for (int r = 0; r < 3; r++) {
+            o[r] = plus(s, sum2(s, m[r][0], ray->origin[0], m[r][1], ray->origin[1]), m[r][2], ray->origin[2]) +
+                   m[r][3];
+            d[r] = plus(s, sum2(s, m[r][0], ray->dir[0], m[r][1], ray->dir[1]), m[r][2], ray->dir[2]);
+        }
+        const rto_mesh *mesh = &sc->meshes[in->blas];
+        for (uint32_t p = 0; p < mesh->triangle_count; p++) {
+            if (box_missed(&boxes[in->blas][p], o, d, ray->t_min, best_t))
+                continue;
+            const uint32_t *ix = &mesh->indices[3 * (size_t)p];
+            sim_hit h;
+            if (!sim_triangle(s, &mesh->positions[3 * (size_t)ix[0]], &mesh->positions[3 * (size_t)ix[1]],
+                              &mesh->positions[3 * (size_t)ix[2]], o, d, ray->t_min, best_t, &h))
+                continue;
+            if (((ray->flags & RTO_RAY_FLAG_CULL_BACK_FACING) && h.det < 0.0f) ||
+                ((ray->flags & RTO_RAY_FLAG_CULL_FRONT_FACING) && h.det > 0.0f))
+                continue;
+            best = sim_record(in, k, p, &h);
+            best_t = h.t;
+            if (ray->flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT)
+                return best;
+        }
+    }
+    return best;
+}
+
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* Rays                                                                                                               */
+
+static rto_wf_ray make_ray(const double o[3], const double d[3], float t_min, float t_max, uint32_t flags)
+{
+    rto_wf_ray r;
+    memset(&r, 0, sizeof r);
+    for (int a = 0; a < 3; a++) {
+        r.origin[a] = (float)o[a];
+        r.dir[a] = (float)d[a];
+    }
+    r.t_min = t_min;
+    r.t_max = t_max;
+    r.flags = flags;
+    r.cull_mask = 0xFF;
+    return r;
+}
+
+/* Rays made here for n random triangles: at a vertex, at an edge's midpoint, from a point on the triangle itself
+ * (a surface start, tMin 0) outwards and inwards, and through the inside with tMax set to 1.0 (ending at the plane
+ * when the origin is one unit away). Flags vary: culling, first hit. */
+static size_t made_rays(const rto_scene *sc, uint64_t seed, size_t n, rto_wf_ray *out)
+{
+    size_t m = 0;
+    static const uint32_t flag_sets[] = {RTO_RAY_FLAG_OPAQUE, RTO_RAY_FLAG_OPAQUE | RTO_RAY_FLAG_CULL_BACK_FACING,
+                                         RTO_RAY_FLAG_OPAQUE | RTO_RAY_FLAG_CULL_FRONT_FACING,
+                                         RTO_RAY_FLAG_OPAQUE | RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT};
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t k = (uint32_t)(tu_rng_next(&seed) % sc->instance_count);
+        const rto_mesh *mesh = &sc->meshes[sc->instances[k].blas];
+        if (!mesh->triangle_count)
+            continue;
+        const uint32_t p = (uint32_t)(tu_rng_next(&seed) % mesh->triangle_count);
+        double w[3][3];
+        for (int c = 0; c < 3; c++)
+            tu_world_vertex(sc, k, p, c, w[c]);
+        double targets[3][3];
+        const int c = (int)(tu_rng_next(&seed) % 3);
+        for (int a = 0; a < 3; a++) {
+            targets[0][a] = w[c][a];                             /* a vertex */
+            targets[1][a] = 0.5 * (w[c][a] + w[(c + 1) % 3][a]); /* an edge's midpoint */
+            targets[2][a] = (w[0][a] + w[1][a] + w[2][a]) / 3;   /* the centroid */
+        }
+        const uint32_t flags = flag_sets[tu_rng_next(&seed) % 4];
+        for (int t = 0; t < 3; t++) {
+            double d[3], o[3];
+            tu_rng_dir(&seed, d);
+            for (int a = 0; a < 3; a++)
+                o[a] = targets[t][a] - 2.0 * d[a];
+            out[m++] = make_ray(o, d, 0.0f, 1e30f, flags);
+        }
+        /* surface starts, both ways */
+        double d[3];
+        tu_rng_dir(&seed, d);
+        out[m++] = make_ray(targets[2], d, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE);
+        const double back[3] = {-d[0], -d[1], -d[2]};
+        out[m++] = make_ray(targets[2], back, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE);
+        /* ending at the plane: the ray from one unit away along -n with tMax 1 */
+        double e1[3], e2[3], nrm[3];
+        for (int a = 0; a < 3; a++) {
+            e1[a] = w[1][a] - w[0][a];
+            e2[a] = w[2][a] - w[0][a];
+        }
+        nrm[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        nrm[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        nrm[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        const double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+        if (len > 0) {
+            double o[3], dn[3];
+            for (int a = 0; a < 3; a++) {
+                dn[a] = -nrm[a] / len;
+                o[a] = targets[2][a] - dn[a];
+            }
+            out[m++] = make_ray(o, dn, 0.0f, 1.0f, RTO_RAY_FLAG_OPAQUE);
+            out[m++] = make_ray(o, dn, 1.0f, 1e30f, RTO_RAY_FLAG_OPAQUE); /* starting at the plane */
+        }
+    }
+    return m;
+}
+
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* The family                                                                                                         */
+
+typedef struct family_totals {
+    size_t rays, records, differing;
+} family_totals;
+
+/* Traces the rays with the oracle and with each simulated GPU; check-hits must accept every GPU. */
+static void run_case(const rto_scene *sc, tri_box *const *boxes, const rto_accel *acc, const char *label,
+                     const rto_wf_ray *rays, size_t n, const sim *sims, size_t nsims, family_totals *tot)
+{
+    rto_hit_record *expected = calloc(n ? n : 1, sizeof *expected), *gpu = calloc(n ? n : 1, sizeof *gpu);
+    assert_true(expected && gpu);
+    rto_msg msg = {{0}};
+    if (rto_trace(acc, rays, n, NULL, expected, NULL, &msg))
+        fail_msg("%s: rto_trace: %s", label, msg.text);
+    for (size_t v = 0; v < nsims; v++) {
+        sim s = sims[v];
+        size_t differing = 0;
+        for (size_t i = 0; i < n; i++) {
+            gpu[i] = sim_trace(&s, sc, boxes, &rays[i]);
+            differing += memcmp(&gpu[i], &expected[i], offsetof(rto_hit_record, obj_to_world)) != 0;
+        }
+        rto_hits_check_desc d;
+        memset(&d, 0, sizeof d);
+        d.rays = rays;
+        d.ray_count = n;
+        d.expected = expected;
+        d.gpu = gpu;
+        d.gpu_count = n;
+        d.instances = sc->instances;
+        d.instance_count = sc->instance_count;
+        d.meshes = sc->meshes;
+        d.mesh_count = sc->mesh_count;
+        rto_report r;
+        const rto_status st = rto_hits_check(&d, &r, &msg);
+        if (st != RTO_OK)
+            fail_msg("%s, GPU fuse %s, reciprocal %+d ulp: rejected (%s): %s %s", label, fuse_names[s.fuse],
+                     s.div_ulps, rto_status_string(st), r.summary, st == RTO_ERR_MISMATCH ? "" : msg.text);
+        tot->records += n;
+        tot->differing += differing;
+    }
+    tot->rays += n;
+    print_message("%-44s %6zu rays x %zu simulated GPUs: all accepted\n", label, n, nsims);
+    free(expected);
+    free(gpu);
+}
+
+static void family(const char *spec, size_t made, size_t generated, family_totals *tot)
+{
+    rto_scene *sc = tu_load(spec);
+    rto_accel *acc = NULL;
+    rto_msg msg = {{0}};
+    if (rto_accel_build(sc, NULL, &acc, &msg))
+        fail_msg("build %s: %s", spec, msg.text);
+    tri_box **boxes = calloc(sc->mesh_count ? sc->mesh_count : 1, sizeof *boxes);
+    assert_non_null(boxes);
+    for (uint32_t m = 0; m < sc->mesh_count; m++)
+        boxes[m] = mesh_boxes(&sc->meshes[m]);
+    /* each case meets four GPUs: none fused with the reciprocal 2 ulp up, the first or second product fused with
+     * it 1 or 2 ulp down, and per-site choices */
+    const sim sims[4] = {{FUSE_NONE, 2, 1}, {FUSE_FIRST, -1, 2}, {FUSE_SECOND, -2, 3}, {FUSE_RANDOM, 1, 4}};
+    for (int set = 0; set < RTO_RAY_SET_COUNT; set++) {
+        rto_rays_desc rd;
+        memset(&rd, 0, sizeof rd);
+        rd.set = (rto_ray_set)set;
+        rd.seed = 11;
+        rd.width = TU_SIZED(40, 16);
+        rd.height = TU_SIZED(30, 12);
+        rd.count = generated;
+        const size_t cap = rto_rays_capacity(&rd);
+        rto_wf_ray *rays = calloc(cap ? cap : 1, sizeof *rays);
+        size_t n = 0;
+        assert_non_null(rays);
+        if (rto_rays_generate(acc, &rd, rays, cap, &n, NULL, &msg))
+            fail_msg("%s %s rays: %s", spec, rto_ray_set_name(rd.set), msg.text);
+        char label[96];
+        snprintf(label, sizeof label, "%s %s", spec, rto_ray_set_name(rd.set));
+        run_case(sc, boxes, acc, label, rays, n, sims, 4, tot);
+        free(rays);
+    }
+    rto_wf_ray *rays = calloc(7 * made + 1, sizeof *rays);
+    assert_non_null(rays);
+    const size_t n = made_rays(sc, 77, made, rays);
+    char label[96];
+    snprintf(label, sizeof label, "%s vertex/edge/surface/range", spec);
+    run_case(sc, boxes, acc, label, rays, n, sims, 4, tot);
+    free(rays);
+    for (uint32_t m = 0; m < sc->mesh_count; m++)
+        free(boxes[m]);
+    free(boxes);
+    rto_accel_destroy(acc);
+    rto_scene_destroy(sc);
+}
+
+static void test_simulated_gpus_accepted(void **state)
+{
+    (void)state;
+    family_totals tot = {0, 0, 0};
+    const size_t made = TU_SIZED(60, 15), generated = TU_SIZED(500, 100);
+    family("Box/glTF/Box.gltf", made, generated, &tot);
+    family("Duck/glTF/Duck.gltf", made, generated, &tot);
+    family("CornellBox-nvpro-glTF/cornellBox.gltf", made, generated, &tot);
+    family("sphere:2", made, generated, &tot);
+    family("random:3", made, generated, &tot);
+    family("random:5", made, generated, &tot);
+    family("random:13", made, generated, &tot);
+    print_message("simulated GPUs: %zu rays, %zu records checked, %zu of them not the oracle's bit for bit: all "
+                  "accepted\n", tot.rays, tot.records, tot.differing);
+    assert_true(tot.differing > 0); /* the freedoms did change records: the test saw differences */
+}
+
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* The bound, from both sides                                                                                         */
+
+static rto_status check_one(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *e,
+                            const rto_hit_record *g, rto_report *r)
+{
+    rto_hits_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.rays = ray;
+    d.ray_count = 1;
+    d.expected = e;
+    d.gpu = g;
+    d.gpu_count = 1;
+    d.instances = sc->instances;
+    d.instance_count = sc->instance_count;
+    d.meshes = sc->meshes;
+    d.mesh_count = sc->mesh_count;
+    rto_msg msg = {{0}};
+    return rto_hits_check(&d, r, &msg);
+}
+
+/* For hit rays of a scene: t, u and v at the model's bound pass (counted as arithmetic); at twice the distance from
+ * the oracle's value they fail, named t or bary. */
+static void test_twice_the_bound_fails(void **state)
+{
+    (void)state;
+    rto_scene *sc = tu_load("Duck/glTF/Duck.gltf");
+    rto_accel *acc = NULL;
+    assert_int_equal(rto_accel_build(sc, NULL, &acc, NULL), RTO_OK);
+    rto_wf_ray rays[64];
+    const size_t n = made_rays(sc, 5, 9, rays);
+    rto_hit_record e[64];
+    assert_int_equal(rto_trace(acc, rays, n, NULL, e, NULL, NULL), RTO_OK);
+    cf_scene cs;
+    rto_scene view = *sc;
+    assert_int_equal(cf_scene_init(&cs, &view, NULL), RTO_OK);
+    size_t tried = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (e[i].miss_flag || (rays[i].flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT))
+            continue;
+        cf_prim p;
+        cf_prim_eval(&cs, e[i].instance_id, e[i].prim_id, &rays[i], rays[i].t_max, &p);
+        if (p.hit != CF_CERTAIN)
+            continue; /* on an edge: moving u or v may make it another primitive's */
+        const cf_iv ivs[3] = {p.tri.t, p.tri.u, p.tri.v};
+        const float refs[3] = {e[i].t, e[i].bary[0], e[i].bary[1]};
+        for (int f = 0; f < 3; f++) {
+            for (int side = -1; side <= 1; side += 2) {
+                const double end = side > 0 ? ivs[f].hi : ivs[f].lo;
+                /* the largest binary32 value inside the bound, and one twice as far out */
+                float at = (float)end;
+                if ((side > 0 && (double)at > end) || (side < 0 && (double)at < end))
+                    at = nextafterf(at, side > 0 ? -INFINITY : INFINITY);
+                const float twice = (float)((double)refs[f] + 2.0 * (end - (double)refs[f]));
+                if (twice == refs[f] || at == refs[f])
+                    continue; /* a bound under one ulp: nothing to move */
+                rto_hit_record g = e[i];
+                float *field = f == 0 ? &g.t : &g.bary[f - 1];
+                *field = at;
+                rto_report r;
+                if (check_one(sc, &rays[i], &e[i], &g, &r) != RTO_OK)
+                    fail_msg("ray %zu: field %d at its bound %.9g (interval [%.9g, %.9g]) rejected: %s", i, f,
+                             (double)at, ivs[f].lo, ivs[f].hi, r.summary);
+                *field = twice;
+                if (check_one(sc, &rays[i], &e[i], &g, &r) != RTO_ERR_MISMATCH)
+                    fail_msg("ray %zu: field %d at twice its bound (%.9g) accepted", i, f, (double)twice);
+                assert_string_equal(r.fault, f == 0 ? "t" : "bary");
+                tried++;
+            }
+        }
+    }
+    print_message("%zu fields moved to their bound (accepted) and to twice it (rejected)\n", tried);
+    assert_true(tried >= 12);
+    cf_scene_free(&cs);
+    rto_accel_destroy(acc);
+    rto_scene_destroy(sc);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_simulated_gpus_accepted),
+        cmocka_unit_test(test_twice_the_bound_fails),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
