@@ -18,9 +18,9 @@ RTO_DEBS=(
     libegl-dev                                     # gpu/: Dawn opens the unversioned libEGL.so, which only this ships
 )
 
-# What the test command needs besides: clang, whose libFuzzer the sanitizer build's fuzz targets link, and its
-# linker (scripts/test.sh).
-RTO_TEST_DEBS=(clang-14 libclang-rt-14-dev lld-14)
+# What the test command needs besides: clang, whose libFuzzer the sanitizer build's fuzz targets link, its linker,
+# and llvm-14's llvm-symbolizer, which names the functions in the sanitizers' reports (scripts/test.sh).
+RTO_TEST_DEBS=(clang-14 libclang-rt-14-dev lld-14 llvm-14)
 
 # Where the apt and npm logs go (one file each, rewritten by every install).
 RTO_LOG_DIR=${RTO_LOG_DIR:-${TMPDIR:-/tmp}}

@@ -9,11 +9,14 @@ cd "$(dirname "$0")/.."
 . scripts/deps.sh
 trap 'rto_say "scripts/test.sh: line $LINENO failed: $BASH_COMMAND"' ERR
 rto_install_deps
+rto_install_debs "${RTO_TEST_DEBS[@]}"
 # The sanitizer runs' options, for meson test and for the determinism check below. intercept_tls_get_addr=0: with
 # it on, LeakSanitizer's runtime itself crashes at exit on some machines after a module with thread-local storage was
 # loaded (google/sanitizers#1322); leak detection stays on (tests/sanitizer_leak.sh plants a leak and expects it).
-export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:intercept_tls_get_addr=0
-export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
+# The symbolizer is llvm-14's (RTO_TEST_DEBS): without it, reports give addresses instead of function names.
+symbolizer=/usr/lib/llvm-14/bin/llvm-symbolizer
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:intercept_tls_get_addr=0:external_symbolizer_path=$symbolizer
+export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:external_symbolizer_path=$symbolizer
 t_start=$SECONDS
 stage() { echo "== $* (at $((SECONDS - t_start)) s)"; }
 
@@ -42,7 +45,6 @@ stage "build-asan (clang, address + undefined sanitizers, the fuzz targets)"
 # to the same bytes. C at -Og (after meson's -O0, so it wins): the sanitizers' checks all stay, and the compute-heavy
 # unit tests run about 1.5-2x faster than at -O0. The C++ glTF shim and image module stay at -O0: they compile twice
 # as fast there. A build-asan configured otherwise (an older checkout's, with gcc) is made again.
-rto_install_debs "${RTO_TEST_DEBS[@]}"
 if [ -f build-asan/build.ninja ] && ! meson introspect build-asan --buildoptions 2>/dev/null |
     python3 -c 'import json, sys; sys.exit(not any(o["name"] == "fuzz" and o["value"] == "targets" for o in json.load(sys.stdin)))'; then
     rm -rf build-asan
