@@ -53,7 +53,7 @@ def table(args):
         lines.append("| case | passes | check says | GPU time per run |")
         lines.append("|---|---|---|---|")
         for r in results:
-            said = r["diagnosis"] or r["fault"]
+            said = r.get("diagnosis") or r.get("fault") or ""
             said = "-" if said in ("", "none") else said.replace("|", "\\|")
             lines.append(f"| `{r['case']}` | {r['passes']}/{r['repeat']} | {said} | {gpu_time(r)} |")
         lines.append("")
