@@ -17,23 +17,10 @@ static void normalize(double v[3])
         v[a] /= l;
 }
 
-/* The hit record a correct GPU writes, from the scene alone: column c of objToWorld is row-major column c. */
+/* The hit record a correct GPU writes, from the scene alone. */
 static rto_hit_record record_of(const rto_scene *s, uint32_t k, uint32_t p, double t, double u, double v)
 {
-    rto_hit_record h;
-    memset(&h, 0, sizeof h);
-    const rto_instance *in = &s->instances[k];
-    h.t = (float)t;
-    h.instance_id = k;
-    h.prim_id = p;
-    h.hit_group = in->sbt_offset;
-    h.bary[0] = (float)u;
-    h.bary[1] = (float)v;
-    h.custom_index = in->custom_index;
-    for (int c = 0; c < 4; c++)
-        for (int r = 0; r < 3; r++)
-            h.obj_to_world[c][r] = in->obj_to_world.m[r][c];
-    return h;
+    return tu_hit_record(&s->instances[k], k, p, (float)t, (float)u, (float)v);
 }
 
 /* The record of triangle p of instance k for a binary32 ray, computed in binary64 from the scene alone (worldToObj
@@ -69,27 +56,11 @@ static rto_hit_record exact_record_of(const rto_scene *s, uint32_t k, uint32_t p
     return record_of(s, k, p, t, u, w);
 }
 
-static rto_hit_record miss_of(float t_max)
-{
-    rto_hit_record h;
-    memset(&h, 0, sizeof h);
-    h.t = t_max;
-    h.instance_id = h.prim_id = h.hit_group = h.custom_index = UINT32_MAX;
-    h.miss_flag = 1;
-    return h;
-}
+static rto_hit_record miss_of(float t_max) { return tu_miss_record(t_max); }
 
 static rto_wf_ray ray_of(const double o[3], const double d[3], uint32_t flags, uint32_t index)
 {
-    rto_wf_ray r;
-    memset(&r, 0, sizeof r);
-    for (int a = 0; a < 3; a++) {
-        r.origin[a] = (float)o[a];
-        r.dir[a] = (float)d[a];
-    }
-    r.t_max = RTO_RAY_T_MAX;
-    r.flags = flags;
-    r.cull_mask = 0xFF;
+    rto_wf_ray r = tu_ray(o, d, 0.0f, RTO_RAY_T_MAX, flags);
     r.pixel = r.payload_slot = index;
     return r;
 }

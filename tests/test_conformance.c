@@ -88,34 +88,6 @@ static int sim_triangle(sim *s, const float *v0, const float *v1, const float *v
     return h->u >= 0.0f && h->v >= 0.0f && h->u + h->v <= 1.0f && t_min <= h->t && h->t < best;
 }
 
-/* The record a GPU writes for a hit: objToWorld as WGSL's mat4x3 (column c holds row-major column c). */
-static rto_hit_record sim_record(const rto_instance *in, uint32_t inst, uint32_t prim, const sim_hit *h)
-{
-    rto_hit_record r;
-    memset(&r, 0, sizeof r);
-    r.t = h->t;
-    r.instance_id = inst;
-    r.prim_id = prim;
-    r.hit_group = in->sbt_offset;
-    r.bary[0] = h->u;
-    r.bary[1] = h->v;
-    r.custom_index = in->custom_index;
-    for (int c = 0; c < 4; c++)
-        for (int row = 0; row < 3; row++)
-            r.obj_to_world[c][row] = in->obj_to_world.m[row][c];
-    return r;
-}
-
-static rto_hit_record sim_miss(float t_max)
-{
-    rto_hit_record r;
-    memset(&r, 0, sizeof r);
-    r.t = t_max;
-    r.instance_id = r.prim_id = r.hit_group = r.custom_index = UINT32_MAX;
-    r.miss_flag = 1;
-    return r;
-}
-
 /* The simulator's own shortcut, which changes no answer: triangles whose box, grown by a margin far beyond any
  * rounding (1e-3 of the box's size and position), the object-space ray misses in binary64 are skipped. */
 typedef struct tri_box {
@@ -169,7 +141,7 @@ static int box_missed(const tri_box *b, const float o[3], const float d[3], floa
  * array per mesh (mesh_boxes). */
 static rto_hit_record sim_trace(sim *s, const rto_scene *sc, tri_box *const *boxes, const rto_wf_ray *ray)
 {
-    rto_hit_record best = sim_miss(ray->t_max);
+    rto_hit_record best = tu_miss_record(ray->t_max);
     float best_t = ray->t_max;
     for (uint32_t k = 0; k < sc->instance_count; k++) {
         const rto_instance *in = &sc->instances[k];
@@ -194,7 +166,7 @@ static rto_hit_record sim_trace(sim *s, const rto_scene *sc, tri_box *const *box
             if (((ray->flags & RTO_RAY_FLAG_CULL_BACK_FACING) && h.det < 0.0f) ||
                 ((ray->flags & RTO_RAY_FLAG_CULL_FRONT_FACING) && h.det > 0.0f))
                 continue;
-            best = sim_record(in, k, p, &h);
+            best = tu_hit_record(in, k, p, h.t, h.u, h.v);
             best_t = h.t;
             if (ray->flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT)
                 return best;
@@ -205,21 +177,6 @@ static rto_hit_record sim_trace(sim *s, const rto_scene *sc, tri_box *const *box
 
 /* ------------------------------------------------------------------------------------------------------------------ */
 /* Rays                                                                                                               */
-
-static rto_wf_ray make_ray(const double o[3], const double d[3], float t_min, float t_max, uint32_t flags)
-{
-    rto_wf_ray r;
-    memset(&r, 0, sizeof r);
-    for (int a = 0; a < 3; a++) {
-        r.origin[a] = (float)o[a];
-        r.dir[a] = (float)d[a];
-    }
-    r.t_min = t_min;
-    r.t_max = t_max;
-    r.flags = flags;
-    r.cull_mask = 0xFF;
-    return r;
-}
 
 /* Rays made here for n random triangles: at a vertex, at an edge's midpoint, from a point on the triangle itself
  * (a surface start, tMin 0) outwards and inwards, and through the inside with tMax set to 1.0 (ending at the plane
@@ -252,14 +209,14 @@ static size_t made_rays(const rto_scene *sc, uint64_t seed, size_t n, rto_wf_ray
             tu_rng_dir(&seed, d);
             for (int a = 0; a < 3; a++)
                 o[a] = targets[t][a] - 2.0 * d[a];
-            out[m++] = make_ray(o, d, 0.0f, 1e30f, flags);
+            out[m++] = tu_ray(o, d, 0.0f, 1e30f, flags);
         }
         /* surface starts, both ways */
         double d[3];
         tu_rng_dir(&seed, d);
-        out[m++] = make_ray(targets[2], d, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE);
+        out[m++] = tu_ray(targets[2], d, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE);
         const double back[3] = {-d[0], -d[1], -d[2]};
-        out[m++] = make_ray(targets[2], back, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE);
+        out[m++] = tu_ray(targets[2], back, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE);
         /* ending at the plane: the ray from one unit away along -n with tMax 1 */
         double e1[3], e2[3], nrm[3];
         for (int a = 0; a < 3; a++) {
@@ -276,8 +233,8 @@ static size_t made_rays(const rto_scene *sc, uint64_t seed, size_t n, rto_wf_ray
                 dn[a] = -nrm[a] / len;
                 o[a] = targets[2][a] - dn[a];
             }
-            out[m++] = make_ray(o, dn, 0.0f, 1.0f, RTO_RAY_FLAG_OPAQUE);
-            out[m++] = make_ray(o, dn, 1.0f, 1e30f, RTO_RAY_FLAG_OPAQUE); /* starting at the plane */
+            out[m++] = tu_ray(o, dn, 0.0f, 1.0f, RTO_RAY_FLAG_OPAQUE);
+            out[m++] = tu_ray(o, dn, 1.0f, 1e30f, RTO_RAY_FLAG_OPAQUE); /* starting at the plane */
         }
     }
     return m;

@@ -442,15 +442,7 @@ static rto_hit_record hit_rec(uint32_t inst, uint32_t prim, float t)
     return h;
 }
 
-static rto_hit_record miss_rec(void)
-{
-    rto_hit_record h;
-    memset(&h, 0, sizeof h);
-    h.t = RTO_RAY_T_MAX;
-    h.instance_id = h.prim_id = h.hit_group = h.custom_index = UINT32_MAX;
-    h.miss_flag = 1;
-    return h;
-}
+static rto_hit_record miss_rec(void) { return tu_miss_record(RTO_RAY_T_MAX); }
 
 static xc_class classify(const rto_scene *s, const rto_wf_ray *r, rto_hit_record o, rto_hit_record e,
                          const rto_hit_record *closest, const rto_hit_record *robust, xc_result *res)

@@ -1087,31 +1087,58 @@ static void chunks_case(rto_frame_desc *d, const char *label)
     rto_frame_destroy(whole);
 }
 
-static void test_chunks_identical(void **state)
+/* The frames both sweeps below run, each at its own size (W, H in sizes): sun-shadow on a mesh scene (primary and
+ * shadow rays, two bounces), normals on stage2, and the flood and conflict programs (drops and conflicts must be the
+ * same pixels whatever the threads or chunks). */
+static void frame_cases(void (*run)(rto_frame_desc *, const char *), const uint32_t sizes[4][2])
 {
-    (void)state;
     rto_scene *s = tu_load("sphere:3");
     rto_accel *acc = build(s);
+    char label[64];
     rto_frame_desc d;
     memset(&d, 0, sizeof d);
     d.program = builtin("sun-shadow");
     d.accel = acc;
-    d.width = 29;
-    d.height = 17;
-    chunks_case(&d, "sun-shadow on sphere:3 29x17");
+    d.width = sizes[0][0];
+    d.height = sizes[0][1];
+    d.max_depth = 2;
+    snprintf(label, sizeof label, "sun-shadow on sphere:3 %ux%u", d.width, d.height);
+    run(&d, label);
     rto_accel_destroy(acc);
     rto_scene_destroy(s);
-    memset(&d, 0, sizeof d);
-    d.scene_kind = RTO_FRAME_SCENE_STAGE2;
-    d.width = 13;
-    d.height = 7;
-    d.program = &flood_program;
-    chunks_case(&d, "flood 13x7");
-    d.program = &conflict_program;
-    chunks_case(&d, "conflict 13x7");
+    const rto_program *const programs[3] = {builtin("normals"), &flood_program, &conflict_program};
+    for (int k = 0; k < 3; k++) {
+        memset(&d, 0, sizeof d);
+        d.program = programs[k];
+        d.scene_kind = RTO_FRAME_SCENE_STAGE2;
+        d.width = sizes[k + 1][0];
+        d.height = sizes[k + 1][1];
+        snprintf(label, sizeof label, "%s on stage2 %ux%u", programs[k]->name, d.width, d.height);
+        run(&d, label);
+    }
+}
+
+static void test_threads_identical(void **state)
+{
+    (void)state;
+    static const uint32_t sizes[4][2] = {{67, 41}, {61, 37}, {23, 11}, {31, 13}};
+    frame_cases(threads_case, sizes);
+}
+
+static void test_chunks_identical(void **state)
+{
+    (void)state;
+    static const uint32_t sizes[4][2] = {{29, 17}, {19, 11}, {13, 7}, {13, 7}};
+    frame_cases(chunks_case, sizes);
     /* and against the serial simulations: queues cut at capacity, conflicts per pass */
     const size_t saved = rto__frame_chunk;
     rto__frame_chunk = 5;
+    rto_frame_desc d;
+    memset(&d, 0, sizeof d);
+    d.scene_kind = RTO_FRAME_SCENE_STAGE2;
+    d.keep = RTO_FRAME_KEEP_ALL;
+    d.width = 13;
+    d.height = 7;
     d.program = &flood_program;
     rto_frame *f = render(&d);
     check_flood(f, d.width, d.height);
@@ -1123,46 +1150,6 @@ static void test_chunks_identical(void **state)
     check_conflicts(f, d.width, d.height);
     rto_frame_destroy(f);
     rto__frame_chunk = saved;
-}
-
-static void test_threads_identical(void **state)
-{
-    (void)state;
-    /* sun-shadow on a mesh scene (primary and shadow rays, two bounces), normals on stage2, and the flood and
-     * conflict programs (drops and conflicts must be the same pixels at any thread count). */
-    rto_scene *s = tu_load("sphere:3");
-    rto_accel *acc = build(s);
-    rto_frame_desc d;
-    memset(&d, 0, sizeof d);
-    d.program = builtin("sun-shadow");
-    d.accel = acc;
-    d.width = 67;
-    d.height = 41;
-    d.max_depth = 2;
-    threads_case(&d, "sun-shadow on sphere:3 67x41");
-    rto_accel_destroy(acc);
-    rto_scene_destroy(s);
-
-    memset(&d, 0, sizeof d);
-    d.program = builtin("normals");
-    d.scene_kind = RTO_FRAME_SCENE_STAGE2;
-    d.width = 61;
-    d.height = 37;
-    threads_case(&d, "normals on stage2 61x37");
-
-    memset(&d, 0, sizeof d);
-    d.program = &flood_program;
-    d.scene_kind = RTO_FRAME_SCENE_STAGE2;
-    d.width = 23;
-    d.height = 11;
-    threads_case(&d, "flood 23x11");
-
-    memset(&d, 0, sizeof d);
-    d.program = &conflict_program;
-    d.scene_kind = RTO_FRAME_SCENE_STAGE2;
-    d.width = 31;
-    d.height = 13;
-    threads_case(&d, "conflict 31x13");
 }
 
 int main(void)

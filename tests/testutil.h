@@ -239,4 +239,50 @@ static inline void tu_world_vertex(const rto_scene *s, uint32_t k, uint32_t p, i
                  (double)in->obj_to_world.m[r][2] * v[2] + (double)in->obj_to_world.m[r][3];
 }
 
+/* The hit record a correct GPU writes for triangle p of instance k (with its instance in), from the scene alone:
+ * objToWorld as WGSL's column-major mat4x3 (column c holds row-major column c), padding 0. */
+static inline rto_hit_record tu_hit_record(const rto_instance *in, uint32_t k, uint32_t p, float t, float u, float v)
+{
+    rto_hit_record h;
+    memset(&h, 0, sizeof h);
+    h.t = t;
+    h.instance_id = k;
+    h.prim_id = p;
+    h.hit_group = in->sbt_offset;
+    h.bary[0] = u;
+    h.bary[1] = v;
+    h.custom_index = in->custom_index;
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 3; r++)
+            h.obj_to_world[c][r] = in->obj_to_world.m[r][c];
+    return h;
+}
+
+/* A ray from binary64 origin and direction (rounded to binary32), cull mask 0xFF, the other fields 0. */
+static inline rto_wf_ray tu_ray(const double o[3], const double d[3], float t_min, float t_max, uint32_t flags)
+{
+    rto_wf_ray r;
+    memset(&r, 0, sizeof r);
+    for (int a = 0; a < 3; a++) {
+        r.origin[a] = (float)o[a];
+        r.dir[a] = (float)d[a];
+    }
+    r.t_min = t_min;
+    r.t_max = t_max;
+    r.flags = flags;
+    r.cull_mask = 0xFF;
+    return r;
+}
+
+/* The miss record of a ray: t = tMax, the four IDs 0xFFFFFFFF, the rest 0. */
+static inline rto_hit_record tu_miss_record(float t_max)
+{
+    rto_hit_record h;
+    memset(&h, 0, sizeof h);
+    h.t = t_max;
+    h.instance_id = h.prim_id = h.hit_group = h.custom_index = UINT32_MAX;
+    h.miss_flag = 1;
+    return h;
+}
+
 #endif

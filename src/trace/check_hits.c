@@ -196,6 +196,26 @@ static claim_kind reintersect(const rto_hits_check_desc *d, const rto_wf_ray *ra
     return rto_instance_triangle_hit(in, &d->meshes[in->blas], prim, ray, th) ? CLAIM_HIT : CLAIM_MISSED;
 }
 
+/* The rows naming where a GPU record's hit departs from the oracle's record e: missFlag, instanceId and primId where
+ * they differ, as fault f's rows, or (prefix "accepted.") as an accepted difference's. */
+static void departure_rows(ray_result *rr, rto_hit_fault f, const char *prefix, const rto_hit_record *e,
+                           const rto_hit_record *g)
+{
+    char field[RTO_REPORT_NAME_MAX];
+    if (e->miss_flag != g->miss_flag) {
+        snprintf(field, sizeof field, "%smissFlag", prefix);
+        id_row(rr, f, field, e->miss_flag, g->miss_flag);
+    }
+    if (e->instance_id != g->instance_id) {
+        snprintf(field, sizeof field, "%sinstanceId", prefix);
+        id_row(rr, f, field, e->instance_id, g->instance_id);
+    }
+    if (e->prim_id != g->prim_id) {
+        snprintf(field, sizeof field, "%sprimId", prefix);
+        id_row(rr, f, field, e->prim_id, g->prim_id);
+    }
+}
+
 /* The fields a hit takes from its instance, exactly: customIndex, hitGroup (sbtOffset) and objToWorld. */
 static void compare_instance_fields(size_t i, const rto_hit_record *ref, const rto_hit_record *g, ray_result *rr)
 {
@@ -415,12 +435,7 @@ static void compare_ray(hcheck *c, size_t i, ray_result *rr)
                                                                  : RTO_HIT_PRIM;
     cf_prim_eval(&c->cs, g->instance_id, g->prim_id, ray, ray->t_max, &claim);
     if (!claim.valid || claim.masked || claim.hit == CF_NEVER) {
-        if (e->miss_flag)
-            id_row(rr, idf, "missFlag", e->miss_flag, g->miss_flag);
-        if (g->instance_id != e->instance_id)
-            id_row(rr, idf, "instanceId", e->instance_id, g->instance_id);
-        if (g->prim_id != e->prim_id)
-            id_row(rr, idf, "primId", e->prim_id, g->prim_id);
+        departure_rows(rr, idf, "", e, g);
         char why[200];
         if (!claim.valid && g->instance_id >= d->instance_count)
             snprintf(why, sizeof why, "which does not exist (the scene has %" PRIu32 " instances)", d->instance_count);
@@ -466,10 +481,7 @@ static void compare_ray(hcheck *c, size_t i, ray_result *rr)
         return; /* a wrong t says nothing about what lies before the answer */
     /* nothing every conforming implementation finds may lie before the answer (a first hit may be any hit) */
     if (!first_hit && must_find_other(c, ray, e, g->t, g->instance_id, g->prim_id, &fi, &fp, &other)) {
-        if (g->instance_id != e->instance_id)
-            id_row(rr, idf, "instanceId", e->instance_id, g->instance_id);
-        if (g->prim_id != e->prim_id)
-            id_row(rr, idf, "primId", e->prim_id, g->prim_id);
+        departure_rows(rr, idf, "", e, g);
         interval_text(other.tri.t, iv, sizeof iv);
         fault(rr, idf, 0, "ray %zu: the GPU claims triangle %" PRIu32 " of instance %" PRIu32 " at t = %.9g, but "
               "every conforming implementation reaches and hits triangle %" PRIu32 " of instance %" PRIu32
@@ -497,12 +509,7 @@ static void compare_ray(hcheck *c, size_t i, ray_result *rr)
         }
     }
     if (!same_prim) {
-        if (e->miss_flag)
-            id_row(rr, RTO_HIT_OK, "accepted.missFlag", e->miss_flag, g->miss_flag);
-        if (e->instance_id != g->instance_id)
-            id_row(rr, RTO_HIT_OK, "accepted.instanceId", e->instance_id, g->instance_id);
-        if (e->prim_id != g->prim_id)
-            id_row(rr, RTO_HIT_OK, "accepted.primId", e->prim_id, g->prim_id);
+        departure_rows(rr, RTO_HIT_OK, "accepted.", e, g);
         float_row(rr, RTO_HIT_OK, "accepted.t", e->t, g->t, 0, 0);
     }
 }
