@@ -1,0 +1,105 @@
+#!/usr/bin/env python3
+"""tracer_mutations.py: which tests catch each fault planted in the tracer (issue: "every listed tracer mutation
+caught by a test other than golden").
+
+  tests/tools/tracer_mutations.py run BUILD_DIR OUT.json     plant each mutation in turn in the source tree BUILD_DIR
+                                                            was configured from, rebuild, run the tests below, put the
+                                                            source back; OUT.json: mutation -> failing tests
+  tests/tools/tracer_mutations.py table OUT.json DOC.md      rewrite the section of DOC.md between
+                                                            "<!-- tracer-mutations begin -->" and "... end -->"
+
+Run it on a scratch checkout (git worktree): it edits src/trace/ and restores each file after each mutation, but a
+stopped run can leave one planted."""
+import json
+import os
+import subprocess
+import sys
+
+TESTS = ["unit.trace", "unit.check_hits", "unit.conformance", "unit.rays", "unit.bvh", "unit.embree",
+         "cli.trace", "cli.check_hits", "cli.crosscheck"]
+
+# (name, file, exact text, replacement): each text must occur exactly once.
+MUTATIONS = [
+    ("t <= bestT (ties keep the later triangle)", "src/trace/intersect.c",
+     "t_min <= h.t && h.t < best_t;", "t_min <= h.t && h.t <= best_t;"),
+    ("tMin dropped from the triangle test", "src/trace/intersect.c",
+     "t_min <= h.t && h.t < best_t;", "h.t < best_t;"),
+    ("translation added first in the ray transform", "src/trace/intersect.c",
+     "obj_origin[r] = ((m[r][0] * origin[0] + m[r][1] * origin[1]) + m[r][2] * origin[2]) + m[r][3];",
+     "obj_origin[r] = ((m[r][3] + m[r][0] * origin[0]) + m[r][1] * origin[1]) + m[r][2] * origin[2];"),
+    ("dot product summed right to left", "src/trace/intersect.c",
+     "return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2];", "return a[0] * b[0] + (a[1] * b[1] + a[2] * b[2]);"),
+    ("division by det instead of the reciprocal", "src/trace/intersect.c",
+     "h.u = dot3(s, p) * inv;", "h.u = dot3(s, p) / h.det;"),
+    ("u and v swapped in the hit record", "src/trace/intersect.c",
+     "h.bary[0] = hit->u;\n    h.bary[1] = hit->v;", "h.bary[0] = hit->v;\n    h.bary[1] = hit->u;"),
+    ("CULL_BACK_FACING culls front faces", "src/trace/intersect.c",
+     "((flags & RTO_RAY_FLAG_CULL_BACK_FACING) && det < 0.0f)", "((flags & RTO_RAY_FLAG_CULL_BACK_FACING) && det > 0.0f)"),
+    ("slab tNear ignores tMin", "src/trace/intersect.c",
+     "const float t_near = rto_maxf(rto_maxf(rto_maxf(lo[0], lo[1]), lo[2]), t_min);",
+     "const float t_near = rto_maxf(rto_maxf(lo[0], lo[1]), lo[2]);"),
+    ("farther child visited first", "src/trace/traverse.c",
+     "if (tl <= tr) {", "if (tl > tr) {"),
+    ("customIndex of the next instance", "src/trace/intersect.c",
+     "h.custom_index = instance->custom_index;", "h.custom_index = instance->custom_index + 1;"),
+    ("hitGroup from the mask", "src/trace/intersect.c",
+     "h.hit_group = instance->sbt_offset;", "h.hit_group = instance->mask;"),
+    ("objToWorld translation dropped", "src/trace/intersect.c",
+     "for (int c = 0; c < 4; c++)\n        for (int r = 0; r < 3; r++)\n            h.obj_to_world[c][r] = instance->obj_to_world.m[r][c];",
+     "for (int c = 0; c < 3; c++)\n        for (int r = 0; r < 3; r++)\n            h.obj_to_world[c][r] = instance->obj_to_world.m[r][c];"),
+]
+
+
+def run(build, out):
+    with open(os.path.join(build, "meson-info", "meson-info.json")) as f:
+        root = json.load(f)["directories"]["source"]
+    results = []
+    for name, rel, old, new in MUTATIONS:
+        path = os.path.join(root, rel)
+        with open(path) as f:
+            text = f.read()
+        if text.count(old) != 1:
+            sys.exit(f"tracer_mutations.py: '{name}': the text occurs {text.count(old)} times in {rel}")
+        try:
+            with open(path, "w") as f:
+                f.write(text.replace(old, new))
+            subprocess.run(["ninja", "-C", build], capture_output=True, check=True)
+            caught = []
+            for t in TESTS:
+                r = subprocess.run(["meson", "test", "-C", build, "--no-rebuild", t], capture_output=True, text=True)
+                if r.returncode != 0:
+                    caught.append(t)
+        finally:
+            with open(path, "w") as f:
+                f.write(text)
+        print(f"{name}: caught by {', '.join(caught) if caught else 'NOTHING'}", flush=True)
+        results.append({"mutation": name, "file": rel, "caught_by": caught})
+    subprocess.run(["ninja", "-C", build], capture_output=True, check=True)
+    with open(out, "w") as f:
+        json.dump({"tests": TESTS, "results": results}, f, indent=1)
+        f.write("\n")
+
+
+def table(path, doc):
+    with open(path) as f:
+        data = json.load(f)
+    begin, end = "<!-- tracer-mutations begin -->", "<!-- tracer-mutations end -->"
+    rows = [begin, "", "| mutation of the tracer | tests that catch it (besides `golden`) |", "|---|---|"]
+    for r in data["results"]:
+        rows.append(f"| {r['mutation']} (`{r['file']}`) | {', '.join('`' + t + '`' for t in r['caught_by']) or '**none**'} |")
+    rows += ["", f"Tests run for each: {', '.join('`' + t + '`' for t in data['tests'])} (`{path}`).", "", end]
+    with open(doc) as f:
+        text = f.read()
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    with open(doc, "w") as f:
+        f.write(head + "\n".join(rows) + tail)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "run":
+        run(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) == 4 and sys.argv[1] == "table":
+        table(sys.argv[2], sys.argv[3])
+    else:
+        sys.exit(__doc__)
