@@ -224,8 +224,20 @@ rto_status cf_scene_init(cf_scene *cs, const rto_scene *scene, rto_msg *msg)
     cs->instance_boxes = rto_alloc(scene->instance_count, sizeof *cs->instance_boxes);
     if (!cs->instance_boxes)
         return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u instance boxes", scene->instance_count);
+    /* rto_instance_aabb's bytes: its mesh's box through objToWorld, each mesh's box computed once */
+    rto_aabb *mesh_boxes = rto_alloc(scene->mesh_count, sizeof *mesh_boxes);
+    if (!mesh_boxes) {
+        cf_scene_free(cs);
+        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u mesh boxes", scene->mesh_count);
+    }
+    for (uint32_t m = 0; m < scene->mesh_count; m++)
+        mesh_boxes[m] = rto_mesh_aabb(&scene->meshes[m]);
     for (uint32_t i = 0; i < scene->instance_count; i++)
-        cs->instance_boxes[i] = rto_instance_aabb(scene, i);
+        cs->instance_boxes[i] = scene->instances[i].blas < scene->mesh_count
+                                    ? rto_aabb_transform(&scene->instances[i].obj_to_world,
+                                                         &mesh_boxes[scene->instances[i].blas])
+                                    : rto_instance_aabb(scene, i); /* the empty box */
+    free(mesh_boxes);
     return RTO_OK;
 }
 
