@@ -430,11 +430,110 @@ static void test_twice_the_bound_fails(void **state)
     rto_scene_destroy(sc);
 }
 
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* §6 without its freedoms, bit for bit                                                                               */
+
+/* With no fused multiply-add and an exact reciprocal, the simulated GPU is §6 itself: for every hit of the oracle, its
+ * Möller–Trumbore of the oracle's primitive (through its own ray transform) gives the oracle's t, u and v bit for bit.
+ * This is what holds the oracle's operation order (the transform's translation last, dot products left to right,
+ * the reciprocal, u before v) to the contract, independently of the oracle's code. */
+static void test_exact_arithmetic(void **state)
+{
+    (void)state;
+    static const char *const scenes[] = {"Box/glTF/Box.gltf", "Duck/glTF/Duck.gltf", "sphere:2", "random:5",
+                                         "rtstress:2"};
+    size_t checked = 0;
+    for (size_t k = 0; k < sizeof scenes / sizeof scenes[0]; k++) {
+        rto_scene *sc = tu_load(scenes[k]);
+        rto_accel *acc = NULL;
+        assert_int_equal(rto_accel_build(sc, NULL, &acc, NULL), RTO_OK);
+        rto_wf_ray rays[7 * 60];
+        const size_t n = made_rays(sc, 31 + k, 60, rays);
+        rto_hit_record e[7 * 60];
+        assert_int_equal(rto_trace(acc, rays, n, NULL, e, NULL, NULL), RTO_OK);
+        sim exact = {FUSE_NONE, 0, 0};
+        for (size_t i = 0; i < n; i++) {
+            if (e[i].miss_flag)
+                continue;
+            const rto_instance *in = &sc->instances[e[i].instance_id];
+            const float(*m)[4] = in->world_to_obj.m;
+            float o[3], d[3];
+            for (int r = 0; r < 3; r++) {
+                o[r] = plus(&exact, sum2(&exact, m[r][0], rays[i].origin[0], m[r][1], rays[i].origin[1]), m[r][2],
+                            rays[i].origin[2]) + m[r][3];
+                d[r] = plus(&exact, sum2(&exact, m[r][0], rays[i].dir[0], m[r][1], rays[i].dir[1]), m[r][2],
+                            rays[i].dir[2]);
+            }
+            const rto_mesh *mesh = &sc->meshes[in->blas];
+            const uint32_t *ix = &mesh->indices[3 * (size_t)e[i].prim_id];
+            sim_hit h;
+            sim_triangle(&exact, &mesh->positions[3 * (size_t)ix[0]], &mesh->positions[3 * (size_t)ix[1]],
+                         &mesh->positions[3 * (size_t)ix[2]], o, d, rays[i].t_min, INFINITY, &h);
+            if (memcmp(&h.t, &e[i].t, 4) || memcmp(&h.u, &e[i].bary[0], 4) || memcmp(&h.v, &e[i].bary[1], 4))
+                fail_msg("%s ray %zu: §6 gives t %.9g u %.9g v %.9g on triangle %u of instance %u, the oracle t %.9g "
+                         "u %.9g v %.9g", scenes[k], i, (double)h.t, (double)h.u, (double)h.v, e[i].prim_id,
+                         e[i].instance_id, (double)e[i].t, (double)e[i].bary[0], (double)e[i].bary[1]);
+            checked++;
+        }
+        rto_accel_destroy(acc);
+        rto_scene_destroy(sc);
+    }
+    print_message("%zu hits: the oracle's t, u, v are §6's bit for bit\n", checked);
+    assert_true(checked > 200);
+}
+
+/* Ties (§6): two copies of one triangle in one mesh are hit at the same t; their leaves have equal boxes and equal
+ * Morton codes, so the lower index sorts first, is the left child, and is visited first on equal entry t; strict
+ * t < bestT keeps it. The oracle must answer triangle 0, with either TLAS layout and from either side. */
+static void test_tie_order(void **state)
+{
+    (void)state;
+    float pos[9] = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
+    uint32_t idx[6] = {0, 1, 2, 0, 1, 2};
+    rto_mesh mesh;
+    memset(&mesh, 0, sizeof mesh);
+    mesh.vertex_count = 3;
+    mesh.positions = pos;
+    mesh.triangle_count = 2;
+    mesh.indices = idx;
+    mesh.material = -1;
+    rto_instance inst;
+    memset(&inst, 0, sizeof inst);
+    const double id[3][4] = {{1, 0, 0, 0.5}, {0, 1, 0, 0}, {0, 0, 1, -2}};
+    assert_int_equal(rto_instance_set_transform(&inst, id, NULL), RTO_OK);
+    inst.mask = 0xFF;
+    rto_scene sc;
+    memset(&sc, 0, sizeof sc);
+    sc.meshes = &mesh;
+    sc.mesh_count = 1;
+    sc.instances = &inst;
+    sc.instance_count = 1;
+    for (int layout = 0; layout < 2; layout++) {
+        const rto_accel_desc ad = {layout ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, 1};
+        rto_accel *acc = NULL;
+        assert_int_equal(rto_accel_build(&sc, &ad, &acc, NULL), RTO_OK);
+        const double o1[3] = {0.5, 0, 3}, d1[3] = {0, 0, -1}, o2[3] = {0.4, 0.1, -7}, d2[3] = {0, 0, 1};
+        const rto_wf_ray rays[2] = {tu_ray(o1, d1, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE),
+                                    tu_ray(o2, d2, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE)};
+        rto_hit_record h[2];
+        assert_int_equal(rto_trace(acc, rays, 2, NULL, h, NULL, NULL), RTO_OK);
+        for (int r = 0; r < 2; r++) {
+            assert_int_equal(h[r].miss_flag, 0);
+            if (h[r].prim_id != 0)
+                fail_msg("%s TLAS, ray %d: triangle %u kept of two at the same t; §6 keeps the first visited, 0",
+                         layout ? "Karras" : "sweep", r, h[r].prim_id);
+        }
+        rto_accel_destroy(acc);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_simulated_gpus_accepted),
         cmocka_unit_test(test_twice_the_bound_fails),
+        cmocka_unit_test(test_exact_arithmetic),
+        cmocka_unit_test(test_tie_order),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
