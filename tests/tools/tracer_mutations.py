@@ -15,8 +15,8 @@ import os
 import subprocess
 import sys
 
-TESTS = ["unit.trace", "unit.check_hits", "unit.conformance", "unit.rays", "unit.bvh", "unit.embree",
-         "cli.trace", "cli.check_hits", "cli.crosscheck"]
+TESTS = ["unit.trace", "unit.check_hits", "unit.conformance", "unit.rays", "unit.embree", "cli.check_hits",
+         "cli.crosscheck"]
 
 # (name, file, exact text, replacement): each text must occur exactly once.
 MUTATIONS = [
