@@ -527,6 +527,24 @@ static void test_tie_order(void **state)
     }
 }
 
+/* The slab test's range (§6): tNear = max(max3(min(t0, t1)), tMin), tFar = min(min3(max(t0, t1)), bestT). A box
+ * the ray crosses at t in [5, 6] is entered from tMin 0 (entry 5), entered at tMin 5.5 (entry 5.5), not entered
+ * from tMin 7 nor with bestT 4, and entered at bestT 5 exactly (hit iff tNear <= tFar). Exact binary32 values. */
+static void test_slab_range(void **state)
+{
+    (void)state;
+    const float mn[3] = {0, 0, 0}, mx[3] = {1, 1, 1}, o[3] = {-5, 0.5f, 0.5f}, inv[3] = {1, 1e20f, 1e20f};
+    float t = -1;
+    assert_true(rto_slab_test(mn, mx, o, inv, 0.0f, 1e30f, &t));
+    assert_true(t == 5.0f);
+    assert_true(rto_slab_test(mn, mx, o, inv, 5.5f, 1e30f, &t));
+    assert_true(t == 5.5f);
+    assert_false(rto_slab_test(mn, mx, o, inv, 7.0f, 1e30f, &t));
+    assert_false(rto_slab_test(mn, mx, o, inv, 0.0f, 4.0f, &t));
+    assert_true(rto_slab_test(mn, mx, o, inv, 0.0f, 5.0f, &t));
+    assert_true(t == 5.0f);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -534,6 +552,7 @@ int main(void)
         cmocka_unit_test(test_twice_the_bound_fails),
         cmocka_unit_test(test_exact_arithmetic),
         cmocka_unit_test(test_tie_order),
+        cmocka_unit_test(test_slab_range),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
