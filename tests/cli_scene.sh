@@ -49,8 +49,12 @@ refused "$RTO" info "$ASSIMP/draco/2CylinderEngine.gltf" && has "KHR_draco_mesh_
 run 0 "$RTO" info "$ASSIMP/TestNoRootNode/SceneWithoutNodes.gltf" && has "^instances:  0$" out &&
     has "bounds:     empty" out
 
-# every assimp glTF 2.0 file: exit 0, or exit 2 with one line (never a crash)
+# every assimp glTF 2.0 file: exit 0, or exit 2 with one line (never a crash). Under the sanitizer every other file
+# (the suite's fuzz.gltf loads every one of them as a seed there).
+k=0
 while IFS= read -r f; do
+    k=$((k + 1))
+    [ $(((k - 1) % $(sampled 2))) = 0 ] || continue
     "$RTO" info "$f" >"$T/out" 2>"$T/err"
     rc=$?
     case $rc in
