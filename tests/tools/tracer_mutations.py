@@ -2,9 +2,12 @@
 """tracer_mutations.py: which tests catch each fault planted in the tracer (issue: "every listed tracer mutation
 caught by a test other than golden").
 
-  tests/tools/tracer_mutations.py run BUILD_DIR OUT.json     plant each mutation in turn in the source tree BUILD_DIR
-                                                            was configured from, rebuild, run the tests below, put the
-                                                            source back; OUT.json: mutation -> failing tests
+  tests/tools/tracer_mutations.py run BUILD_DIR OUT.json [NAME]
+                                                            plant each mutation (or the one named) in turn in the
+                                                            source tree BUILD_DIR was configured from, rebuild, run the
+                                                            tests below, put the source back; OUT.json: mutation ->
+                                                            failing tests and the commit, merged into OUT.json's
+                                                            earlier rows when one mutation is named
   tests/tools/tracer_mutations.py table OUT.json DOC.md      rewrite the section of DOC.md between
                                                             "<!-- tracer-mutations begin -->" and "... end -->"
 
@@ -50,11 +53,20 @@ MUTATIONS = [
 ]
 
 
-def run(build, out):
+def run(build, out, only=None):
     with open(os.path.join(build, "meson-info", "meson-info.json")) as f:
         root = json.load(f)["directories"]["source"]
+    commit = subprocess.run(["git", "-C", root, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                            check=True).stdout.strip()
     results = []
+    if only:
+        with open(out) as f:
+            results = json.load(f)["results"]
+        if not any(r["mutation"] == only for r in results) or not any(m[0] == only for m in MUTATIONS):
+            sys.exit(f"tracer_mutations.py: no mutation '{only}'")
     for name, rel, old, new in MUTATIONS:
+        if only and name != only:
+            continue
         path = os.path.join(root, rel)
         with open(path) as f:
             text = f.read()
@@ -73,7 +85,11 @@ def run(build, out):
             with open(path, "w") as f:
                 f.write(text)
         print(f"{name}: caught by {', '.join(caught) if caught else 'NOTHING'}", flush=True)
-        results.append({"mutation": name, "file": rel, "caught_by": caught})
+        row = {"mutation": name, "file": rel, "caught_by": caught, "commit": commit}
+        if only:
+            results = [row if r["mutation"] == name else r for r in results]
+        else:
+            results.append(row)
     subprocess.run(["ninja", "-C", build], capture_output=True, check=True)
     with open(out, "w") as f:
         json.dump({"tests": TESTS, "results": results}, f, indent=1)
@@ -84,9 +100,10 @@ def table(path, doc):
     with open(path) as f:
         data = json.load(f)
     begin, end = "<!-- tracer-mutations begin -->", "<!-- tracer-mutations end -->"
-    rows = [begin, "", "| mutation of the tracer | tests that catch it (besides `golden`) |", "|---|---|"]
+    rows = [begin, "", "| mutation of the tracer | tests that catch it (besides `golden`) | run at |", "|---|---|---|"]
     for r in data["results"]:
-        rows.append(f"| {r['mutation']} (`{r['file']}`) | {', '.join('`' + t + '`' for t in r['caught_by']) or '**none**'} |")
+        rows.append(f"| {r['mutation']} (`{r['file']}`) | {', '.join('`' + t + '`' for t in r['caught_by']) or '**none**'} "
+                    f"| {r.get('commit', '-')} |")
     rows += ["", f"Tests run for each: {', '.join('`' + t + '`' for t in data['tests'])} (`{path}`).", "", end]
     with open(doc) as f:
         text = f.read()
@@ -97,8 +114,8 @@ def table(path, doc):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 4 and sys.argv[1] == "run":
-        run(sys.argv[2], sys.argv[3])
+    if len(sys.argv) in (4, 5) and sys.argv[1] == "run":
+        run(sys.argv[2], sys.argv[3], sys.argv[4] if len(sys.argv) == 5 else None)
     elif len(sys.argv) == 4 and sys.argv[1] == "table":
         table(sys.argv[2], sys.argv[3])
     else:
