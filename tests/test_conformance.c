@@ -490,24 +490,10 @@ static void test_tie_order(void **state)
     (void)state;
     float pos[9] = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
     uint32_t idx[6] = {0, 1, 2, 0, 1, 2};
-    rto_mesh mesh;
-    memset(&mesh, 0, sizeof mesh);
-    mesh.vertex_count = 3;
-    mesh.positions = pos;
-    mesh.triangle_count = 2;
-    mesh.indices = idx;
-    mesh.material = -1;
-    rto_instance inst;
-    memset(&inst, 0, sizeof inst);
-    const double id[3][4] = {{1, 0, 0, 0.5}, {0, 1, 0, 0}, {0, 0, 1, -2}};
-    assert_int_equal(rto_instance_set_transform(&inst, id, NULL), RTO_OK);
-    inst.mask = 0xFF;
-    rto_scene sc;
-    memset(&sc, 0, sizeof sc);
-    sc.meshes = &mesh;
-    sc.mesh_count = 1;
-    sc.instances = &inst;
-    sc.instance_count = 1;
+    const double xf[3][4] = {{1, 0, 0, 0.5}, {0, 1, 0, 0}, {0, 0, 1, -2}};
+    tu_scene1 one;
+    tu_scene1_make(&one, pos, 3, idx, 2, xf);
+    const rto_scene sc = one.scene;
     for (int layout = 0; layout < 2; layout++) {
         const rto_accel_desc ad = {layout ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, 1};
         rto_accel *acc = NULL;

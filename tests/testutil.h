@@ -285,4 +285,31 @@ static inline rto_hit_record tu_miss_record(float t_max)
     return h;
 }
 
+/* A scene of one mesh (the caller's positions and indices, not copied) and one instance of it through xf, mask
+ * 0xFF. The scene points into the struct: make it where it stays. */
+typedef struct tu_scene1 {
+    rto_mesh mesh;
+    rto_instance inst;
+    rto_scene scene;
+} tu_scene1;
+
+static inline void tu_scene1_make(tu_scene1 *s, float *pos, uint32_t nv, uint32_t *idx, uint32_t nt,
+                                  const double xf[3][4])
+{
+    memset(s, 0, sizeof *s);
+    s->mesh.vertex_count = nv;
+    s->mesh.positions = pos;
+    s->mesh.triangle_count = nt;
+    s->mesh.indices = idx;
+    s->mesh.material = -1;
+    rto_msg msg = {{0}};
+    if (rto_instance_set_transform(&s->inst, xf, &msg))
+        fail_msg("tu_scene1_make: %s", msg.text);
+    s->inst.mask = 0xFF;
+    s->scene.meshes = &s->mesh;
+    s->scene.mesh_count = 1;
+    s->scene.instances = &s->inst;
+    s->scene.instance_count = 1;
+}
+
 #endif
