@@ -33,8 +33,7 @@ static const char check_hits_epilog[] =
     "Fault classes, in priority order: size, miss-flag, instance, prim, t, bary, custom-index, hit-group,\n"
     "transform. The report names the highest-priority fault of the first wrong ray and lists every class\n"
     "seen. Exit status: 0 valid (differences the model allows included), 1 a fault was found, 2 bad usage or\n"
-    "input (including a\n"
-    "bundle whose arrays disagree with its manifest).\n";
+    "input (including a bundle whose arrays disagree with its manifest).\n";
 
 /* What check-hits reads from a trace bundle, each array validated before use. */
 typedef struct trace_arrays {
