@@ -307,9 +307,6 @@ void *rto_alloc(size_t count, size_t size);
 /** rto_alloc for big buffers (frames): from 4 MiB up aligned to 2 MiB and advised as transparent huge pages, which
  * makes their first touch several times cheaper. Release with free(). */
 void *rto__alloc_large(size_t count, size_t size);
-/** realloc to count * size bytes (overflow-checked; p may be NULL), advising the new block's whole huge pages as
- * rto__alloc_large does. For large blocks glibc moves pages rather than copying them. */
-void *rto__realloc_large(void *p, size_t count, size_t size);
 
 #if defined(__GNUC__)
 #pragma GCC visibility pop

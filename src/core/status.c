@@ -68,24 +68,6 @@ void *rto__alloc_large(size_t count, size_t size)
     return p;
 }
 
-void *rto__realloc_large(void *p, size_t count, size_t size)
-{
-    if (size != 0 && count > SIZE_MAX / size)
-        return NULL;
-    const size_t bytes = count * size;
-    unsigned char *q = realloc(p, bytes ? bytes : 1);
-    if (!q || bytes < HUGE_FROM)
-        return q;
-#ifdef MADV_HUGEPAGE
-    /* the whole huge pages inside the block (realloc keeps 16-byte alignment only) */
-    const uintptr_t begin = ((uintptr_t)q + HUGE_PAGE - 1) & ~(uintptr_t)(HUGE_PAGE - 1);
-    const uintptr_t end = ((uintptr_t)q + bytes) & ~(uintptr_t)(HUGE_PAGE - 1);
-    if (end > begin)
-        madvise((void *)begin, end - begin, MADV_HUGEPAGE);
-#endif
-    return q;
-}
-
 /* The cgroup v2 memory limit of this process's group as the group sees itself (a container's limit); 0 when there
  * is none ("max") or no cgroup v2 file. */
 static uint64_t cgroup_memory_max(void)
