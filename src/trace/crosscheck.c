@@ -9,8 +9,9 @@
 
 const char *xc_class_name(xc_class c)
 {
-    static const char *const names[XC_CLASS_COUNT] = {"agree",       "tie",         "coplanar", "crossing",
-                                                      "t-rounding",  "robust-only", "grazing",  "unexplained"};
+    static const char *const names[XC_CLASS_COUNT] = {"agree",      "tie",         "coplanar",      "crossing",
+                                                      "t-rounding", "robust-only", "surface-start", "grazing",
+                                                      "sliver",     "unexplained"};
     return (unsigned)c < XC_CLASS_COUNT ? names[c] : "?";
 }
 
@@ -333,6 +334,59 @@ static const char *side_name(const xc_input *in, int oracle)
     return oracle ? "the oracle" : in->other ? in->other : "Embree";
 }
 
+/* The model's intervals for a record's triangle (bound tMax); 0 without a model or a triangle. */
+static int model_of(const xc_input *in, const rto_hit_record *h, cf_prim *p)
+{
+    if (!in->model || !names_tri(h) || !valid_tri(in->scene, h->instance_id, h->prim_id))
+        return 0;
+    cf_prim_eval(in->model, h->instance_id, h->prim_id, in->ray, in->ray->t_max, p);
+    return p->valid && !p->masked;
+}
+
+static int overlap(cf_iv a, cf_iv b) { return a.lo <= b.hi && b.lo <= a.hi; }
+
+/* How far x lies from c in units of the interval's spread about c (the larger distance from c to an end); infinite
+ * when the interval is a point and x is not c. */
+static double spreads(cf_iv iv, double c, double x)
+{
+    const double s = fmax(c - iv.lo, iv.hi - c);
+    return s > 0 ? fabs(x - c) / s : (x == c ? 0 : INFINITY);
+}
+
+/* A sliver: the record's t lies within XC_MODEL_K spreads of the model's t interval about the binary64 crossing, and
+ * the interval is wider than the fixed t rule (the triangle is ill-conditioned for this ray). */
+static int sliver_t(const xc_input *in, const rto_hit_record *h, const cf_prim *p, double *k)
+{
+    double t, u, v;
+    if (!xc_plane_hit(in->scene, h->instance_id, h->prim_id, in->ray, &t, &u, &v))
+        return 0;
+    *k = spreads(p->tri.t, t, h->t);
+    return *k <= XC_MODEL_K && p->tri.t.hi - p->tri.t.lo > 2 * XC_T_REL * fmax(1, fabs(t));
+}
+
+/* plausible(), or under the model: a triangle a conforming implementation may hit, at a t within XC_MODEL_K spreads
+ * of the model's interval about the binary64 crossing. */
+static int plausible_in(const xc_input *in, const rto_hit_record *h, const cf_prim *p)
+{
+    if (plausible(in->scene, in->ray, h, XC_PARALLEL_COS))
+        return 1;
+    double t, u, v;
+    return p && p->hit != CF_NEVER && xc_plane_hit(in->scene, h->instance_id, h->prim_id, in->ray, &t, &u, &v) &&
+           spreads(p->tri.t, t, h->t) <= XC_MODEL_K;
+}
+
+/* A sliver: the hit's binary64 crossing lies within XC_MODEL_K spreads of the model's u, v or u + v interval from the
+ * edge (0, 0 or 1), so another binary32 evaluation may decide the edge the other way. */
+static int sliver_edge(const xc_input *in, const rto_hit_record *h, const cf_prim *p, double *k)
+{
+    double t, u, v;
+    if (!xc_plane_hit(in->scene, h->instance_id, h->prim_id, in->ray, &t, &u, &v))
+        return 0;
+    const double ku = spreads(p->tri.u, u, 0), kv = spreads(p->tri.v, v, 0), kw = spreads(p->tri.uv, u + v, 1);
+    *k = fmin(ku, fmin(kv, kw));
+    return *k <= XC_MODEL_K;
+}
+
 void xc_classify(const xc_input *in, xc_result *out)
 {
     memset(out, 0, sizeof *out);
@@ -346,11 +400,12 @@ void xc_classify(const xc_input *in, xc_result *out)
     /* The triangle Embree hit, where it names one. */
     const rto_hit_record *et = names_tri(e) ? e : (is_hit(e) && names_tri(in->embree_closest) ? in->embree_closest : NULL);
     char why[200] = "";
+    cf_prim po, pe;
+    const int have_po = model_of(in, o, &po), have_pe = et && model_of(in, et, &pe);
 
-    if (is_hit(o) && is_hit(e) && et && t_close(o->t, et->t) &&
+    if (is_hit(o) && is_hit(e) && et && (t_close(o->t, et->t) || (have_po && have_pe && overlap(po.tri.t, pe.tri.t))) &&
         (o->instance_id != et->instance_id || o->prim_id != et->prim_id) &&
-        plausible(sc, ray, o, XC_PARALLEL_COS) &&
-        plausible(sc, ray, et, XC_PARALLEL_COS)) {
+        plausible_in(in, o, have_po ? &po : NULL) && plausible_in(in, et, have_pe ? &pe : NULL)) {
         if (share_vertex(sc, o, et, why, sizeof why)) {
             set(out, XC_TIE, "t %.9g / %.9g: %s", o->t, et->t, why);
             return;
@@ -365,14 +420,30 @@ void xc_classify(const xc_input *in, xc_result *out)
         }
     }
 
-    /* The same triangle at t beyond the t tolerance: within the rounding of the coordinates? */
+    /* The same triangle at t beyond the t tolerance: a t §6's arithmetic may give (the model), or within the rounding
+     * of the coordinates? */
     if (names_tri(o) && et == e && names_tri(e) && o->instance_id == e->instance_id && o->prim_id == e->prim_id &&
         valid_tri(sc, o->instance_id, o->prim_id)) {
         double dt = (double)e->t - o->t, rel = xc_t_rounding(sc, o->instance_id, o->prim_id, ray, dt);
+        if (have_pe && cf_in(pe.tri.t, e->t) && cf_in(pe.tri.t, o->t)) {
+            out->edge_rel = rel;
+            set(out, XC_T_ROUNDING, "triangle %u of instance %u at t %.9g / %.9g: both within [%.9g, %.9g], the t a "
+                "conforming implementation of §6 may compute", o->prim_id, o->instance_id, o->t, e->t, pe.tri.t.lo,
+                pe.tri.t.hi);
+            return;
+        }
         if (rel <= XC_EDGE_REL) {
             out->edge_rel = rel;
             set(out, XC_T_ROUNDING, "triangle %u of instance %u at t %.9g / %.9g: the two hit points lie %.3g "
                 "(relative to the coordinates) apart across its plane", o->prim_id, o->instance_id, o->t, e->t, rel);
+            return;
+        }
+        double k, ko;
+        if (have_pe && sliver_t(in, e, &pe, &k) && sliver_t(in, o, &pe, &ko)) {
+            k = fmax(k, ko);
+            out->edge_rel = rel;
+            set(out, XC_SLIVER, "triangle %u of instance %u at t %.9g / %.9g: %.2g times the spread of t that §6's "
+                "binary32 arithmetic has on this ill-conditioned triangle", o->prim_id, o->instance_id, o->t, e->t, k);
             return;
         }
     }
@@ -391,6 +462,7 @@ void xc_classify(const xc_input *in, xc_result *out)
 
     /* The hit(s) the other side did not find. */
     const rto_hit_record *cand[2] = {NULL, NULL};
+    const cf_prim *cand_model[2] = {NULL, NULL};
     int cand_oracle[2] = {0, 0};
     if (is_hit(o) && !is_hit(e)) {
         cand[0] = o;
@@ -398,7 +470,7 @@ void xc_classify(const xc_input *in, xc_result *out)
     } else if (!is_hit(o) && is_hit(e)) {
         cand[0] = et;
     } else if (et) { /* both hit, different triangles or t */
-        if (t_close(o->t, et->t)) {
+        if (t_close(o->t, et->t) || (have_po && have_pe && overlap(po.tri.t, pe.tri.t))) {
             cand[0] = o;
             cand_oracle[0] = 1;
             cand[1] = et;
@@ -409,9 +481,36 @@ void xc_classify(const xc_input *in, xc_result *out)
             cand[0] = et;
         }
     }
+    for (int c = 0; c < 2; c++)
+        if (cand[c])
+            cand_model[c] = cand[c] == o ? (have_po ? &po : NULL) : (have_pe ? &pe : NULL);
+    /* the ray starts on the triangle it hits: the triangle's plane crossing lies within rounding of tMin */
     for (int c = 0; c < 2; c++) {
         const rto_hit_record *h = cand[c];
+        double t, u, v;
+        if (!h || !xc_plane_hit(sc, h->instance_id, h->prim_id, ray, &t, &u, &v) ||
+            !plausible_in(in, h, cand_model[c]))
+            continue;
+        const double rel = xc_t_rounding(sc, h->instance_id, h->prim_id, ray, t - ray->t_min);
+        if (rel <= XC_EDGE_REL || (cand_model[c] && cand_model[c]->tri.t.lo <= (double)ray->t_min)) {
+            out->edge_rel = rel;
+            set(out, XC_SURFACE_START, "%s's hit (triangle %u of instance %u, t %.9g) lies within rounding of the "
+                "ray's start (tMin %.9g): the ray starts on its surface", side_name(in, cand_oracle[c]), h->prim_id,
+                h->instance_id, h->t, ray->t_min);
+            return;
+        }
+    }
+    for (int c = 0; c < 2; c++) {
+        const rto_hit_record *h = cand[c];
+        const cf_prim *p = cand_model[c];
         double rel;
+        if (h && p && (p->hit == CF_POSSIBLE || (p->hit == CF_CERTAIN && p->reached == CF_POSSIBLE)) &&
+            plausible_in(in, h, p)) {
+            set(out, XC_GRAZING, "%s's hit (triangle %u of instance %u, t %.9g) is one a conforming implementation of "
+                "§6 may %s", side_name(in, cand_oracle[c]), h->prim_id, h->instance_id, h->t,
+                p->hit == CF_POSSIBLE ? "hit or miss (an edge within rounding)" : "reach or not (a box at its edge)");
+            return;
+        }
         if (h && xc_grazing_hit(sc, ray, h, 0, &rel)) {
             out->edge_rel = rel;
             if (rel == 0)
@@ -420,6 +519,16 @@ void xc_classify(const xc_input *in, xc_result *out)
             else
                 set(out, XC_GRAZING, "%s's hit (triangle %u of instance %u, t %.9g) lies %.3g (relative) from an "
                     "edge", side_name(in, cand_oracle[c]), h->prim_id, h->instance_id, h->t, rel);
+            return;
+        }
+    }
+    for (int c = 0; c < 2; c++) {
+        const rto_hit_record *h = cand[c];
+        double k;
+        if (h && cand_model[c] && sliver_edge(in, h, cand_model[c], &k) && plausible_in(in, h, cand_model[c])) {
+            set(out, XC_SLIVER, "%s's hit (triangle %u of instance %u, t %.9g) lies %.2g times the spread of §6's "
+                "binary32 barycentrics from an edge of this ill-conditioned triangle", side_name(in, cand_oracle[c]),
+                h->prim_id, h->instance_id, h->t, k);
             return;
         }
     }

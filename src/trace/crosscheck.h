@@ -1,8 +1,7 @@
-/* Per-ray comparison of the oracle's hit records with another tracer's (Embree's, or a GPU's), and the
- * classification of every disagreement (docs/trace.md "crosscheck"). Pure functions of the scene, the ray and the
- * records, so the classes are tested on hand-made cases (tests/test_embree.c) as well as used by `rtoracle
- * crosscheck` and, for its grazing class, by rto_hits_check (a GPU's division and fused multiply-adds decide edges
- * differently from the oracle, as Embree's arithmetic does).
+/* Per-ray comparison of the oracle's hit records with another tracer's (Embree's), and the classification of every
+ * disagreement (docs/trace.md "crosscheck"). Pure functions of the scene, the ray and the records (and the
+ * conformance model's view of the scene, conform.h, which GPU records are judged by in check_hits.c), so the classes
+ * are tested on hand-made cases (tests/test_embree.c) as well as used by `rtoracle crosscheck`.
  *
  * A ray agrees when both miss, or both hit the same (instance, primitive) with |t_oracle - t_embree| <=
  * 1e-5 max(1, |t_oracle|) (DESIGN.md §9; Embree's t differs by rounding: it inverts objToWorld itself and uses other
@@ -17,29 +16,39 @@
  *                on both triangles (within the grazing distance): the ray meets the line where two triangles that
  *                share no vertex touch or cross (interpenetrating parts, T-junctions). Like a tie, both answers are
  *                right (DESIGN.md §9 accepts any primitive at the same t).
- *   t-rounding   both hit the same primitive but t differs by more than the t tolerance, and the two hit points lie
- *                within XC_EDGE_REL S of each other across the triangle's plane (|dt| |d'| |cos a| <= XC_EDGE_REL S,
- *                S and a as for grazing): the difference is the rounding of coordinates much larger than t (an
- *                origin far from a near hit) or the ill-conditioning of t for a ray at a shallow angle, which the
- *                fixed §9 t rule does not allow for
+ *   t-rounding   both hit the same primitive but t differs by more than the t tolerance, and both t lie in the
+ *                model's t interval for it (conform.h: a t a conforming implementation of §6 may compute), or the two
+ *                hit points lie within XC_EDGE_REL S of each other across the triangle's plane
+ *                (|dt| |d'| |cos a| <= XC_EDGE_REL S, S and a as for grazing): the rounding of coordinates much larger
+ *                than t (an origin far from a near hit) or the ill-conditioning of t at a shallow angle
  *   robust-only  only when comparing against Embree's default mode: Embree default missed the oracle's triangle (or
  *                found another one) and Embree robust agrees with the oracle (default's non-watertight intersection
  *                or box test missed the hit)
- *   grazing      the hit one side found and the other did not lies near the boundary of its triangle: its distance
- *                to the nearest edge line is at most XC_EDGE_REL S / |cos a| in object space, where S = max(1, the
- *                largest coordinate magnitude of the object-space origin, hit point and vertices) and a is the angle
- *                between the ray and the triangle's normal; or the ray runs nearly parallel to the triangle's plane
- *                (|cos a| <= XC_PARALLEL_COS), where neither side's binary32 arithmetic decides hit or miss. When both
- *                hit different triangles, the nearer hit is the one the other side missed; with equal t, either.
- *                Everything is recomputed in binary64 from the scene's vertices and worldToObj.
+ *   surface-start  the hit one side found and the other did not (or the nearer of two) lies on a plane the ray
+ *                starts on: the triangle's binary64 plane crossing within the t-rounding bound of tMin, or the
+ *                model's t interval reaching tMin
+ *   grazing      the hit one side found and the other did not is one the model says a conforming implementation may
+ *                hit or miss (an edge within rounding) or reach or not (a box at its edge); or it lies near the
+ *                boundary of its triangle: its distance to the nearest edge line is at most XC_EDGE_REL S / |cos a|
+ *                in object space, where S = max(1, the largest coordinate magnitude of the object-space origin, hit
+ *                point and vertices) and a is the angle between the ray and the triangle's normal; or the ray runs
+ *                nearly parallel to the triangle's plane (|cos a| <= XC_PARALLEL_COS). When both hit different
+ *                triangles, the nearer hit is the one the other side missed; with equal t (or overlapping model
+ *                intervals), either. Everything is recomputed in binary64 from the scene's vertices and worldToObj.
+ *   sliver       an ill-conditioned triangle whose model intervals are wider than the fixed rules: both t within
+ *                XC_MODEL_K spreads of the model's t interval about the binary64 crossing, or a hit the other side
+ *                missed whose binary64 barycentrics lie within XC_MODEL_K spreads of the model's u, v or u + v
+ *                interval from an edge. Embree's arithmetic is not §6's, but its rounding is of the same order.
  *   unexplained  anything else: a bug in one of the two tracers, or a case the classes above do not cover.
- * tie, coplanar, crossing and grazing explain a disagreement by the triangles the records name, so each such record
- * must first be one its triangle can give: the ray meets the triangle's plane at the record's t (within the t
- * tolerance or the t-rounding bound) at a point inside the triangle or within the grazing distance of it (rays
+ * tie, coplanar, crossing, surface-start, grazing and sliver explain a disagreement by the triangles the records
+ * name, so each such record must first be one its triangle can give: the ray meets the triangle's plane at the
+ * record's t (within the t tolerance, the t-rounding bound, or XC_MODEL_K spreads of the model's interval where the
+ * model says the triangle may be hit) at a point inside the triangle or within the grazing distance of it (rays
  * within XC_PARALLEL_COS of the plane pass). A record naming a wrong triangle is therefore never explained away. */
 #ifndef RTO_TRACE_CROSSCHECK_H
 #define RTO_TRACE_CROSSCHECK_H
 
+#include "conform.h"
 #include "rtoracle.h"
 
 #include <stddef.h>
@@ -51,6 +60,7 @@
 #define XC_PLANE_REL 1e-6    /* coplanar: distance to the other plane <= XC_PLANE_REL max(1, largest coordinate) */
 #define XC_EDGE_REL 1e-5     /* grazing: distance to an edge <= XC_EDGE_REL S / |cos a| (relative to S) */
 #define XC_PARALLEL_COS 1e-4 /* grazing: the ray nearly parallel to the triangle's plane */
+#define XC_MODEL_K 4.0       /* sliver: another binary32 evaluation lies within this many times the model's spread */
 
 typedef enum xc_class {
     XC_AGREE = 0,
@@ -59,10 +69,12 @@ typedef enum xc_class {
     XC_CROSSING = 3,
     XC_T_ROUNDING = 4,
     XC_ROBUST_ONLY = 5,
-    XC_GRAZING = 6,
-    XC_UNEXPLAINED = 7
+    XC_SURFACE_START = 6,
+    XC_GRAZING = 7,
+    XC_SLIVER = 8,
+    XC_UNEXPLAINED = 9
 } xc_class;
-#define XC_CLASS_COUNT 8
+#define XC_CLASS_COUNT 10
 
 /** "agree", "tie", "coplanar", "crossing", "t-rounding", "robust-only", "grazing", "unexplained". */
 const char *xc_class_name(xc_class c);
@@ -79,6 +91,8 @@ typedef struct xc_input {
     /* Comparing against Embree default: the robust mirror's record of the ray (NULL when not traced). */
     const rto_hit_record *robust;
     const char *other; /* how `why` names the other tracer: NULL means "Embree" */
+    /* The scene as the conformance model reads it (cf_scene_init): the model's classes need it; NULL skips them. */
+    const cf_scene *model;
 } xc_input;
 
 typedef struct xc_result {
