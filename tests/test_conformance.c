@@ -19,7 +19,10 @@ typedef struct sim {
     fuse fuse;
     int div_ulps; /* the reciprocal moved by this many ulps (each within WGSL's 2.5) */
     uint64_t rng; /* FUSE_RANDOM's choices */
+    int tree;     /* 0: brute force; 1: §6's traversal of the sweep TLAS and the BLAS; 2: of the Karras TLAS */
 } sim;
+
+static const char *const tree_names[] = {"brute force", "sweep TLAS", "Karras TLAS"};
 
 static const char *const fuse_names[] = {"none", "first", "second", "random"};
 
@@ -176,11 +179,220 @@ static rto_hit_record sim_trace(sim *s, const rto_scene *sc, tri_box *const *box
 }
 
 /* ------------------------------------------------------------------------------------------------------------------ */
+/* A simulated GPU traversing the accel's own trees (the bytes a build bundle holds), §6 as DESIGN.md states it      */
+
+/* §2: a direction component below 1e-20 in magnitude becomes copysign(1e-20, d), +1e-20 for +-0, before 1 / d */
+static float sim_inv(const sim *s, float d)
+{
+    const float c = d == 0.0f ? 1e-20f : fabsf(d) < 1e-20f ? copysignf(1e-20f, d) : d;
+    return recip(s, c);
+}
+
+/* tNear = max(max3(min(t0, t1)), tMin), tFar = min(min3(max(t0, t1)), bestT); hit iff tNear <= tFar */
+static int sim_slab(const float mn[3], const float mx[3], const float o[3], const float inv[3], float t_min,
+                    float best, float *t_near)
+{
+    float near = -INFINITY, far = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        const float t0 = (mn[a] - o[a]) * inv[a], t1 = (mx[a] - o[a]) * inv[a];
+        near = fmaxf(near, fminf(t0, t1));
+        far = fminf(far, fmaxf(t0, t1));
+    }
+    near = fmaxf(near, t_min);
+    far = fminf(far, best);
+    *t_near = near;
+    return near <= far;
+}
+
+typedef struct sim_stack {
+    uint32_t ref[256];
+    float t[256];
+    int n;
+} sim_stack;
+
+static void sim_push(sim_stack *st, uint32_t ref, float t)
+{
+    assert_true(st->n < 256);
+    st->ref[st->n] = ref;
+    st->t[st->n++] = t;
+}
+
+/* Both children of an internal node: push the farther (if hit), then the nearer; equal entry t: the left first. */
+static void sim_children(sim_stack *st, int hl, float tl, uint32_t l, int hr, float tr, uint32_t r)
+{
+    if (hl && hr) {
+        if (tr < tl) {
+            sim_push(st, l, tl);
+            sim_push(st, r, tr);
+        } else {
+            sim_push(st, r, tr);
+            sim_push(st, l, tl);
+        }
+    } else if (hl) {
+        sim_push(st, l, tl);
+    } else if (hr) {
+        sim_push(st, r, tr);
+    }
+}
+
+typedef struct sim_best {
+    rto_hit_record rec;
+    float t;
+    int done;              /* TERMINATE_ON_FIRST_HIT found one */
+    rto_trace_counters c;  /* §6's counters, counted as DESIGN.md states them */
+} sim_best;
+
+static void sim_triangle_of(sim *s, const rto_scene *sc, uint32_t k, uint32_t p, const float o[3], const float d[3],
+                            const rto_wf_ray *ray, sim_best *b)
+{
+    const rto_instance *in = &sc->instances[k];
+    const rto_mesh *mesh = &sc->meshes[in->blas];
+    const uint32_t *ix = &mesh->indices[3 * (size_t)p];
+    sim_hit h;
+    b->c.triangle_tests++;
+    if (!sim_triangle(s, &mesh->positions[3 * (size_t)ix[0]], &mesh->positions[3 * (size_t)ix[1]],
+                      &mesh->positions[3 * (size_t)ix[2]], o, d, ray->t_min, b->t, &h))
+        return;
+    if (((ray->flags & RTO_RAY_FLAG_CULL_BACK_FACING) && h.det < 0.0f) ||
+        ((ray->flags & RTO_RAY_FLAG_CULL_FRONT_FACING) && h.det > 0.0f))
+        return;
+    b->rec = tu_hit_record(in, k, p, h.t, h.u, h.v);
+    b->t = h.t;
+    b->done = (ray->flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0;
+}
+
+/* The ray through instance k's worldToObj as the simulator evaluates it (rows ((m0 x + m1 y) + m2 z) + m3) */
+static void sim_object_ray(sim *s, const rto_instance *in, const rto_wf_ray *ray, float o[3], float d[3])
+{
+    const float(*m)[4] = in->world_to_obj.m;
+    for (int r = 0; r < 3; r++) {
+        o[r] = plus(s, sum2(s, m[r][0], ray->origin[0], m[r][1], ray->origin[1]), m[r][2], ray->origin[2]) + m[r][3];
+        d[r] = plus(s, sum2(s, m[r][0], ray->dir[0], m[r][1], ray->dir[1]), m[r][2], ray->dir[2]);
+    }
+}
+
+/* One instance's BLAS, run to its end with the shared best t */
+static void sim_blas(sim *s, const rto_scene *sc, const rto_accel *acc, uint32_t k, const rto_wf_ray *ray,
+                     sim_best *b)
+{
+    const rto_instance *in = &sc->instances[k];
+    if (!(in->mask & ray->cull_mask))
+        return;
+    const rto_accel_blas *bl = rto_accel_get_blas(acc, in->blas);
+    if (!bl->triangle_count)
+        return;
+    float o[3], d[3], inv[3];
+    sim_object_ray(s, in, ray, o, d);
+    for (int a = 0; a < 3; a++)
+        inv[a] = sim_inv(s, d[a]);
+    b->c.instance_entries++;
+    if (bl->triangle_count == 1) {
+        sim_triangle_of(s, sc, k, bl->order[0], o, d, ray, b);
+        return;
+    }
+    sim_stack st = {.n = 0};
+    sim_push(&st, 0, ray->t_min);
+    while (st.n && !b->done) {
+        st.n--;
+        const uint32_t ref = st.ref[st.n];
+        if (st.t[st.n] > b->t)
+            continue;
+        b->c.nodes_visited++;
+        if (ref & RTO_BVH_LEAF_BIT) {
+            sim_triangle_of(s, sc, k, bl->order[ref & ~RTO_BVH_LEAF_BIT], o, d, ray, b);
+            continue;
+        }
+        const rto_bvh_node *nd = &bl->nodes[ref];
+        float tl, tr;
+        b->c.box_tests += 2;
+        const int hl = sim_slab(nd->lmin, nd->lmax, o, inv, ray->t_min, b->t, &tl);
+        const int hr = sim_slab(nd->rmin, nd->rmax, o, inv, ray->t_min, b->t, &tr);
+        sim_children(&st, hl, tl, nd->left, hr, tr, nd->right);
+    }
+}
+
+/* The whole traversal: TLAS (sweep or Karras, as built), then each instance's BLAS */
+static rto_hit_record sim_tree_trace(sim *s, const rto_scene *sc, const rto_accel *acc, const rto_wf_ray *ray,
+                                     rto_trace_counters *counters)
+{
+    const rto_accel_tlas *tl = rto_accel_get_tlas(acc);
+    sim_best b = {tu_miss_record(ray->t_max), ray->t_max, 0, {0, 0, 0, 0}};
+    *counters = (rto_trace_counters){0, 0, 0, 0};
+    float inv[3];
+    for (int a = 0; a < 3; a++)
+        inv[a] = sim_inv(s, ray->dir[a]);
+    sim_stack st = {.n = 0};
+    if (tl->kind == RTO_TLAS_SWEEP) {
+        const rto_tlas_node *nodes = tl->sweep_nodes;
+        const uint32_t first_leaf = tl->n_padded - 1;
+        float t0;
+        if (nodes[0].item != RTO_TLAS_EMPTY && (b.c.box_tests++, 1) &&
+            sim_slab(nodes[0].min, nodes[0].max, ray->origin, inv, ray->t_min, b.t, &t0))
+            sim_push(&st, 0, t0);
+        while (st.n && !b.done) {
+            st.n--;
+            const uint32_t i = st.ref[st.n];
+            if (st.t[st.n] > b.t)
+                continue;
+            b.c.nodes_visited++;
+            if (i >= first_leaf) {
+                sim_blas(s, sc, acc, nodes[i].item, ray, &b);
+                continue;
+            }
+            const uint32_t l = 2 * i + 1, r = 2 * i + 2;
+            float tlft = 0, trgt = 0;
+            int hl = 0, hr = 0;
+            if (nodes[l].item != RTO_TLAS_EMPTY) {
+                b.c.box_tests++;
+                hl = sim_slab(nodes[l].min, nodes[l].max, ray->origin, inv, ray->t_min, b.t, &tlft);
+            }
+            if (nodes[r].item != RTO_TLAS_EMPTY) {
+                b.c.box_tests++;
+                hr = sim_slab(nodes[r].min, nodes[r].max, ray->origin, inv, ray->t_min, b.t, &trgt);
+            }
+            sim_children(&st, hl, tlft, l, hr, trgt, r);
+        }
+        *counters = b.c;
+        return b.rec;
+    }
+    if (tl->key_count == 0)
+        return b.rec;
+    if (tl->key_count == 1) {
+        sim_blas(s, sc, acc, tl->sorted_keys[0] & 0xFFFF, ray, &b);
+        *counters = b.c;
+        return b.rec;
+    }
+    sim_push(&st, 0, ray->t_min);
+    while (st.n && !b.done) {
+        st.n--;
+        const uint32_t ref = st.ref[st.n];
+        if (st.t[st.n] > b.t)
+            continue;
+        b.c.nodes_visited++;
+        if (ref & RTO_BVH_LEAF_BIT) {
+            sim_blas(s, sc, acc, tl->sorted_keys[ref & ~RTO_BVH_LEAF_BIT] & 0xFFFF, ray, &b);
+            continue;
+        }
+        const rto_bvh_node *nd = &tl->karras_nodes[ref];
+        float tlft, trgt;
+        b.c.box_tests += 2;
+        const int hl = sim_slab(nd->lmin, nd->lmax, ray->origin, inv, ray->t_min, b.t, &tlft);
+        const int hr = sim_slab(nd->rmin, nd->rmax, ray->origin, inv, ray->t_min, b.t, &trgt);
+        sim_children(&st, hl, tlft, nd->left, hr, trgt, nd->right);
+    }
+    *counters = b.c;
+    return b.rec;
+}
+
+/* ------------------------------------------------------------------------------------------------------------------ */
 /* Rays                                                                                                               */
+
+/* Rays made_rays makes per triangle, at most */
+#define MADE_PER 7
 
 /* Rays made here for n random triangles: at a vertex, at an edge's midpoint, from a point on the triangle itself
  * (a surface start, tMin 0) outwards and inwards, and through the inside with tMax set to 1.0 (ending at the plane
- * when the origin is one unit away). Flags vary: culling, first hit. */
+ * when the origin is one unit away). Flags vary: culling, first hit; and cull masks. */
 static size_t made_rays(const rto_scene *sc, uint64_t seed, size_t n, rto_wf_ray *out)
 {
     size_t m = 0;
@@ -204,12 +416,15 @@ static size_t made_rays(const rto_scene *sc, uint64_t seed, size_t n, rto_wf_ray
             targets[2][a] = (w[0][a] + w[1][a] + w[2][a]) / 3;   /* the centroid */
         }
         const uint32_t flags = flag_sets[tu_rng_next(&seed) % 4];
+        /* one group in three sees some instances only */
+        const uint32_t cull = tu_rng_next(&seed) % 3 ? 0xFF : (uint32_t)(1 + tu_rng_next(&seed) % 255);
         for (int t = 0; t < 3; t++) {
             double d[3], o[3];
             tu_rng_dir(&seed, d);
             for (int a = 0; a < 3; a++)
                 o[a] = targets[t][a] - 2.0 * d[a];
-            out[m++] = tu_ray(o, d, 0.0f, 1e30f, flags);
+            out[m] = tu_ray(o, d, 0.0f, 1e30f, flags);
+            out[m++].cull_mask = cull;
         }
         /* surface starts, both ways */
         double d[3];
@@ -247,20 +462,26 @@ typedef struct family_totals {
     size_t rays, records, differing;
 } family_totals;
 
-/* Traces the rays with the oracle and with each simulated GPU; check-hits must accept every GPU. */
-static void run_case(const rto_scene *sc, tri_box *const *boxes, const rto_accel *acc, const char *label,
+/* Traces the rays with the oracle and with each simulated GPU; check-hits must accept every GPU. accs: the scene's
+ * accel with the sweep TLAS (the oracle's) and with the Karras TLAS. */
+static void run_case(const rto_scene *sc, tri_box *const *boxes, rto_accel *const accs[2], const char *label,
                      const rto_wf_ray *rays, size_t n, const sim *sims, size_t nsims, family_totals *tot)
 {
     rto_hit_record *expected = calloc(n ? n : 1, sizeof *expected), *gpu = calloc(n ? n : 1, sizeof *gpu);
     assert_true(expected && gpu);
     rto_msg msg = {{0}};
-    if (rto_trace(acc, rays, n, NULL, expected, NULL, &msg))
+    if (rto_trace(accs[0], rays, n, NULL, expected, NULL, &msg))
         fail_msg("%s: rto_trace: %s", label, msg.text);
+    size_t differing = 0, hits = 0;
+    for (size_t i = 0; i < n; i++)
+        hits += expected[i].miss_flag == 0;
     for (size_t v = 0; v < nsims; v++) {
         sim s = sims[v];
-        size_t differing = 0;
+        if (!s.tree && !boxes)
+            continue; /* brute force only where the scene is small */
         for (size_t i = 0; i < n; i++) {
-            gpu[i] = sim_trace(&s, sc, boxes, &rays[i]);
+            rto_trace_counters c;
+            gpu[i] = s.tree ? sim_tree_trace(&s, sc, accs[s.tree - 1], &rays[i], &c) : sim_trace(&s, sc, boxes, &rays[i]);
             differing += memcmp(&gpu[i], &expected[i], offsetof(rto_hit_record, obj_to_world)) != 0;
         }
         rto_hits_check_desc d;
@@ -277,31 +498,57 @@ static void run_case(const rto_scene *sc, tri_box *const *boxes, const rto_accel
         rto_report r;
         const rto_status st = rto_hits_check(&d, &r, &msg);
         if (st != RTO_OK)
-            fail_msg("%s, GPU fuse %s, reciprocal %+d ulp: rejected (%s): %s %s", label, fuse_names[s.fuse],
-                     s.div_ulps, rto_status_string(st), r.summary, st == RTO_ERR_MISMATCH ? "" : msg.text);
+            fail_msg("%s, GPU (%s, fuse %s, reciprocal %+d ulp): rejected (%s): %s %s", label, tree_names[s.tree],
+                     fuse_names[s.fuse], s.div_ulps, rto_status_string(st), r.summary,
+                     st == RTO_ERR_MISMATCH ? "" : msg.text);
         tot->records += n;
-        tot->differing += differing;
     }
+    tot->differing += differing;
     tot->rays += n;
-    print_message("%-44s %6zu rays x %zu simulated GPUs: all accepted\n", label, n, nsims);
+    size_t gpus = 0;
+    for (size_t v = 0; v < nsims; v++)
+        gpus += sims[v].tree || boxes;
+    print_message("%-46s %6zu rays %6zu hits x %zu GPUs = %7zu records, %6zu differing: all accepted\n", label, n,
+                  hits, gpus, n * gpus, differing);
     free(expected);
     free(gpu);
 }
 
-static void family(const char *spec, size_t made, size_t generated, family_totals *tot)
+/* Instance masks for scenes that come with 0xFF everywhere: instance k gets bit k % 8, so rays with a cull mask of
+ * some bits see some instances. */
+static void spread_masks(rto_scene *sc)
+{
+    int all = 1;
+    for (uint32_t k = 0; k < sc->instance_count; k++)
+        all &= sc->instances[k].mask == 0xFF;
+    if (all && sc->instance_count > 1)
+        for (uint32_t k = 0; k < sc->instance_count; k++)
+            sc->instances[k].mask = 1u << (k % 8);
+}
+
+/* brute: also the brute-force GPUs (small scenes only) */
+static void family(const char *spec, size_t made, size_t generated, int brute, family_totals *tot)
 {
     rto_scene *sc = tu_load(spec);
-    rto_accel *acc = NULL;
+    spread_masks(sc);
+    rto_accel *accs[2] = {NULL, NULL};
     rto_msg msg = {{0}};
-    if (rto_accel_build(sc, NULL, &acc, &msg))
+    const rto_accel_desc karras = {RTO_TLAS_KARRAS, 0};
+    if (rto_accel_build(sc, NULL, &accs[0], &msg) || rto_accel_build(sc, &karras, &accs[1], &msg))
         fail_msg("build %s: %s", spec, msg.text);
-    tri_box **boxes = calloc(sc->mesh_count ? sc->mesh_count : 1, sizeof *boxes);
-    assert_non_null(boxes);
-    for (uint32_t m = 0; m < sc->mesh_count; m++)
-        boxes[m] = mesh_boxes(&sc->meshes[m]);
-    /* each case meets four GPUs: none fused with the reciprocal 2 ulp up, the first or second product fused with
-     * it 1 or 2 ulp down, and per-site choices */
-    const sim sims[4] = {{FUSE_NONE, 2, 1}, {FUSE_FIRST, -1, 2}, {FUSE_SECOND, -2, 3}, {FUSE_RANDOM, 1, 4}};
+    tri_box **boxes = NULL;
+    if (brute) {
+        boxes = calloc(sc->mesh_count ? sc->mesh_count : 1, sizeof *boxes);
+        assert_non_null(boxes);
+        for (uint32_t m = 0; m < sc->mesh_count; m++)
+            boxes[m] = mesh_boxes(&sc->meshes[m]);
+    }
+    /* each case meets nine GPUs: brute force with none fused and the reciprocal 2 ulp up, the first or second
+     * product fused with it 1 or 2 ulp down, and per-site choices; the traversal of the trees, sweep and Karras TLAS,
+     * with per-site choices and each product fused */
+    const sim sims[9] = {{FUSE_NONE, 2, 1, 0},   {FUSE_FIRST, -1, 2, 0},  {FUSE_SECOND, -2, 3, 0},
+                         {FUSE_RANDOM, 1, 4, 0}, {FUSE_RANDOM, 2, 5, 1},  {FUSE_FIRST, -2, 6, 1},
+                         {FUSE_SECOND, 1, 7, 1}, {FUSE_RANDOM, -1, 8, 2}, {FUSE_FIRST, 2, 9, 2}};
     for (int set = 0; set < RTO_RAY_SET_COUNT; set++) {
         rto_rays_desc rd;
         memset(&rd, 0, sizeof rd);
@@ -314,24 +561,25 @@ static void family(const char *spec, size_t made, size_t generated, family_total
         rto_wf_ray *rays = calloc(cap ? cap : 1, sizeof *rays);
         size_t n = 0;
         assert_non_null(rays);
-        if (rto_rays_generate(acc, &rd, rays, cap, &n, NULL, &msg))
+        if (rto_rays_generate(accs[0], &rd, rays, cap, &n, NULL, &msg))
             fail_msg("%s %s rays: %s", spec, rto_ray_set_name(rd.set), msg.text);
         char label[96];
         snprintf(label, sizeof label, "%s %s", spec, rto_ray_set_name(rd.set));
-        run_case(sc, boxes, acc, label, rays, n, sims, 4, tot);
+        run_case(sc, boxes, accs, label, rays, n, sims, 9, tot);
         free(rays);
     }
-    rto_wf_ray *rays = calloc(7 * made + 1, sizeof *rays);
+    rto_wf_ray *rays = calloc(MADE_PER * made + 1, sizeof *rays);
     assert_non_null(rays);
     const size_t n = made_rays(sc, 77, made, rays);
     char label[96];
     snprintf(label, sizeof label, "%s vertex/edge/surface/range", spec);
-    run_case(sc, boxes, acc, label, rays, n, sims, 4, tot);
+    run_case(sc, boxes, accs, label, rays, n, sims, 9, tot);
     free(rays);
-    for (uint32_t m = 0; m < sc->mesh_count; m++)
+    for (uint32_t m = 0; boxes && m < sc->mesh_count; m++)
         free(boxes[m]);
     free(boxes);
-    rto_accel_destroy(acc);
+    rto_accel_destroy(accs[0]);
+    rto_accel_destroy(accs[1]);
     rto_scene_destroy(sc);
 }
 
@@ -340,13 +588,18 @@ static void test_simulated_gpus_accepted(void **state)
     (void)state;
     family_totals tot = {0, 0, 0};
     const size_t made = TU_SIZED(60, 15), generated = TU_SIZED(500, 100);
-    family("Box/glTF/Box.gltf", made, generated, &tot);
-    family("Duck/glTF/Duck.gltf", made, generated, &tot);
-    family("CornellBox-nvpro-glTF/cornellBox.gltf", made, generated, &tot);
-    family("sphere:2", made, generated, &tot);
-    family("random:3", made, generated, &tot);
-    family("random:5", made, generated, &tot);
-    family("random:13", made, generated, &tot);
+    family("Box/glTF/Box.gltf", made, generated, 1, &tot);
+    family("SimpleMeshes/glTF/SimpleMeshes.gltf", made, generated, 1, &tot);
+    family("Duck/glTF/Duck.gltf", made, generated, 1, &tot);
+    family("CornellBox-nvpro-glTF/cornellBox.gltf", made, generated, 1, &tot);
+    family("Suzanne/glTF/Suzanne.gltf", made, generated, 1, &tot);
+    family("WaterBottle/glTF/WaterBottle.gltf", made, generated, 1, &tot);
+    family("StanfordBunny/bunny.gltf", made, generated, 0, &tot);
+    family("sphere:2", made, generated, 1, &tot);
+    family("random:3", made, generated, 1, &tot);
+    family("random:5", made, generated, 1, &tot);
+    family("random:13", made, generated, 1, &tot);
+    family("rtstress:2", made, generated, 1, &tot);
     print_message("simulated GPUs: %zu rays, %zu records checked, %zu of them not the oracle's bit for bit: all "
                   "accepted\n", tot.rays, tot.records, tot.differing);
     assert_true(tot.differing > 0); /* the freedoms did change records: the test saw differences */
@@ -447,11 +700,11 @@ static void test_exact_arithmetic(void **state)
         rto_scene *sc = tu_load(scenes[k]);
         rto_accel *acc = NULL;
         assert_int_equal(rto_accel_build(sc, NULL, &acc, NULL), RTO_OK);
-        rto_wf_ray rays[7 * 60];
+        rto_wf_ray rays[MADE_PER * 60];
         const size_t n = made_rays(sc, 31 + k, 60, rays);
-        rto_hit_record e[7 * 60];
+        rto_hit_record e[MADE_PER * 60];
         assert_int_equal(rto_trace(acc, rays, n, NULL, e, NULL, NULL), RTO_OK);
-        sim exact = {FUSE_NONE, 0, 0};
+        sim exact = {FUSE_NONE, 0, 0, 0};
         for (size_t i = 0; i < n; i++) {
             if (e[i].miss_flag)
                 continue;
@@ -480,6 +733,79 @@ static void test_exact_arithmetic(void **state)
     }
     print_message("%zu hits: the oracle's t, u, v are §6's bit for bit\n", checked);
     assert_true(checked > 200);
+}
+
+/* With no freedom taken, the simulated traversal is §6 itself: over the oracle's own trees (sweep and Karras TLAS),
+ * every record and every counter (nodes visited, box tests, triangle tests, instance entries) equals the oracle's.
+ * This holds the oracle's traversal to DESIGN.md's words — nearer child first, the left on equal entry t, the pop-time
+ * skip, tNear from tMin, EMPTY items skipped without a box test, the masks, culling after Möller–Trumbore, first-hit
+ * termination — independently of its code. */
+static void test_exact_traversal(void **state)
+{
+    (void)state;
+    static const char *const scenes[] = {"Box/glTF/Box.gltf", "CornellBox-nvpro-glTF/cornellBox.gltf", "sphere:2",
+                                         "random:5", "random:13", "rtstress:2", "triangle"};
+    size_t checked = 0, hits = 0;
+    for (size_t k = 0; k < sizeof scenes / sizeof scenes[0]; k++) {
+        rto_scene *sc = tu_load(scenes[k]);
+        spread_masks(sc);
+        for (int layout = 0; layout < 2; layout++) {
+            const rto_accel_desc ad = {layout ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, 1};
+            rto_accel *acc = NULL;
+            assert_int_equal(rto_accel_build(sc, &ad, &acc, NULL), RTO_OK);
+            for (int set = 0; set <= RTO_RAY_SET_COUNT; set++) {
+                rto_wf_ray *rays;
+                size_t n = 0;
+                if (set < RTO_RAY_SET_COUNT) {
+                    rto_rays_desc rd;
+                    memset(&rd, 0, sizeof rd);
+                    rd.set = (rto_ray_set)set;
+                    rd.seed = 5;
+                    rd.width = 24;
+                    rd.height = 16;
+                    rd.count = 300;
+                    const size_t cap = rto_rays_capacity(&rd);
+                    rays = calloc(cap ? cap : 1, sizeof *rays);
+                    assert_non_null(rays);
+                    assert_int_equal(rto_rays_generate(acc, &rd, rays, cap, &n, NULL, NULL), RTO_OK);
+                } else {
+                    rays = calloc(MADE_PER * 40, sizeof *rays);
+                    assert_non_null(rays);
+                    n = made_rays(sc, 91 + k, 40, rays);
+                }
+                rto_hit_record *e = calloc(n ? n : 1, sizeof *e);
+                rto_trace_counters *ec = calloc(n ? n : 1, sizeof *ec);
+                assert_true(e && ec);
+                assert_int_equal(rto_trace(acc, rays, n, NULL, e, ec, NULL), RTO_OK);
+                sim exact = {FUSE_NONE, 0, 0, layout + 1};
+                for (size_t i = 0; i < n; i++) {
+                    rto_trace_counters c;
+                    const rto_hit_record g = sim_tree_trace(&exact, sc, acc, &rays[i], &c);
+                    if (memcmp(&g, &e[i], offsetof(rto_hit_record, obj_to_world)))
+                        fail_msg("%s, %s, set %d, ray %zu: §6 over the trees gives %s triangle %u of instance %u at t "
+                                 "%.9g, the oracle %s triangle %u of instance %u at t %.9g", scenes[k],
+                                 tree_names[layout + 1], set, i, g.miss_flag ? "a miss," : "", g.prim_id,
+                                 g.instance_id, (double)g.t, e[i].miss_flag ? "a miss," : "", e[i].prim_id,
+                                 e[i].instance_id, (double)e[i].t);
+                    if (memcmp(&c, &ec[i], sizeof c))
+                        fail_msg("%s, %s, set %d, ray %zu: §6 counts nodes %u, boxes %u, triangles %u, instances %u; "
+                                 "the oracle %u, %u, %u, %u", scenes[k], tree_names[layout + 1], set, i,
+                                 c.nodes_visited, c.box_tests, c.triangle_tests, c.instance_entries,
+                                 ec[i].nodes_visited, ec[i].box_tests, ec[i].triangle_tests, ec[i].instance_entries);
+                    hits += g.miss_flag == 0;
+                }
+                checked += n;
+                free(e);
+                free(ec);
+                free(rays);
+            }
+            rto_accel_destroy(acc);
+        }
+        rto_scene_destroy(sc);
+    }
+    print_message("%zu rays (%zu hits) over both TLAS layouts: records and counters are §6's bit for bit\n", checked,
+                  hits);
+    assert_true(hits > checked / 4);
 }
 
 /* Ties (§6): two copies of one triangle in one mesh are hit at the same t; their leaves have equal boxes and equal
@@ -537,6 +863,7 @@ int main(void)
         cmocka_unit_test(test_simulated_gpus_accepted),
         cmocka_unit_test(test_twice_the_bound_fails),
         cmocka_unit_test(test_exact_arithmetic),
+        cmocka_unit_test(test_exact_traversal),
         cmocka_unit_test(test_tie_order),
         cmocka_unit_test(test_slab_range),
     };
