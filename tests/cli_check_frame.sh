@@ -89,6 +89,11 @@ fails duplicate 0 queue
 fails ray-dir 0 queue && has "differs: dir.x" out
 fails payload 1 payload
 fails prim 0 hits && has "prim: ray $(word ray)" out
+# the record faults of the fault corpus (tests/test_conformance.c plants them in simulated GPUs for check-hits):
+# each named at its bounce with its class and ray
+for m in hit-uv:bary hit-custom:custom-index hit-group:hit-group hit-transform:transform hit-tmin:t; do
+    fails "${m%%:*}" 0 hits && has "${m#*:}: ray $(word ray)" out
+done
 fails emit 0 emit-count
 fails emit 1 emit-count && has "emit_counts 101" out
 fails indirect 1 indirect-args && has "\[3, 1, 1\] in the GPU's dump, the oracle's \[2, 1, 1\]" out

@@ -20,7 +20,24 @@ typedef struct sim {
     int div_ulps; /* the reciprocal moved by this many ulps (each within WGSL's 2.5) */
     uint64_t rng; /* FUSE_RANDOM's choices */
     int tree;     /* 0: brute force; 1: §6's traversal of the sweep TLAS and the BLAS; 2: of the Karras TLAS */
+    int fault;    /* a planted GPU fault (gpu_fault, the fault corpus); 0 for a conforming GPU */
 } sim;
+
+/* Faults a GPU's trace kernel may have: the fault corpus every verdict must catch and name. */
+typedef enum gpu_fault {
+    GF_NONE = 0,
+    GF_TIE_LATER,        /* t <= bestT: of equal t, the later triangle (a freedom of §9, not a fault: named a tie) */
+    GF_TRANSLATION_FIRST, /* the ray transform adds the translation first: ((m3 + m0 x) + m1 y) + m2 z */
+    GF_SWAP_UV,          /* u and v swapped in the record */
+    GF_NO_TMIN,          /* tMin dropped from the triangle test */
+    GF_CULL_WRONG,       /* CULL_BACK_FACING culls front faces */
+    GF_CULL_IGNORED,     /* culling flags ignored: back faces hit under CULL_BACK_FACING */
+    GF_MASK_IGNORED,     /* instances entered whatever their mask */
+    GF_CUSTOM_INDEX,     /* customIndex of the next instance */
+    GF_HIT_GROUP,        /* hitGroup from the mask */
+    GF_OBJ_TO_WORLD,     /* objToWorld's column 2, row 1 (m[1][2]) written from m[2][1]: one transposed element */
+    GF_COUNT
+} gpu_fault;
 
 static const char *const tree_names[] = {"brute force", "sweep TLAS", "Karras TLAS"};
 
@@ -88,6 +105,10 @@ static int sim_triangle(sim *s, const float *v0, const float *v1, const float *v
     h->u = dot(s, sv, p) * inv;
     h->v = dot(s, d, q) * inv;
     h->t = dot(s, e2, q) * inv;
+    if (s->fault == GF_TIE_LATER)
+        return h->u >= 0.0f && h->v >= 0.0f && h->u + h->v <= 1.0f && t_min <= h->t && h->t <= best;
+    if (s->fault == GF_NO_TMIN)
+        return h->u >= 0.0f && h->v >= 0.0f && h->u + h->v <= 1.0f && h->t < best;
     return h->u >= 0.0f && h->v >= 0.0f && h->u + h->v <= 1.0f && t_min <= h->t && h->t < best;
 }
 
@@ -253,10 +274,21 @@ static void sim_triangle_of(sim *s, const rto_scene *sc, uint32_t k, uint32_t p,
     if (!sim_triangle(s, &mesh->positions[3 * (size_t)ix[0]], &mesh->positions[3 * (size_t)ix[1]],
                       &mesh->positions[3 * (size_t)ix[2]], o, d, ray->t_min, b->t, &h))
         return;
-    if (((ray->flags & RTO_RAY_FLAG_CULL_BACK_FACING) && h.det < 0.0f) ||
-        ((ray->flags & RTO_RAY_FLAG_CULL_FRONT_FACING) && h.det > 0.0f))
+    const float back = s->fault == GF_CULL_WRONG ? -h.det : h.det;
+    if (s->fault != GF_CULL_IGNORED && (((ray->flags & RTO_RAY_FLAG_CULL_BACK_FACING) && back < 0.0f) ||
+                                        ((ray->flags & RTO_RAY_FLAG_CULL_FRONT_FACING) && h.det > 0.0f)))
         return;
     b->rec = tu_hit_record(in, k, p, h.t, h.u, h.v);
+    switch (s->fault) {
+    case GF_SWAP_UV:
+        b->rec.bary[0] = h.v;
+        b->rec.bary[1] = h.u;
+        break;
+    case GF_CUSTOM_INDEX: b->rec.custom_index = sc->instances[(k + 1) % sc->instance_count].custom_index; break;
+    case GF_HIT_GROUP: b->rec.hit_group = in->mask; break;
+    case GF_OBJ_TO_WORLD: b->rec.obj_to_world[2][1] = in->obj_to_world.m[2][1]; break;
+    default: break;
+    }
     b->t = h.t;
     b->done = (ray->flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0;
 }
@@ -267,6 +299,8 @@ static void sim_object_ray(sim *s, const rto_instance *in, const rto_wf_ray *ray
     const float(*m)[4] = in->world_to_obj.m;
     for (int r = 0; r < 3; r++) {
         o[r] = plus(s, sum2(s, m[r][0], ray->origin[0], m[r][1], ray->origin[1]), m[r][2], ray->origin[2]) + m[r][3];
+        if (s->fault == GF_TRANSLATION_FIRST)
+            o[r] = ((m[r][3] + m[r][0] * ray->origin[0]) + m[r][1] * ray->origin[1]) + m[r][2] * ray->origin[2];
         d[r] = plus(s, sum2(s, m[r][0], ray->dir[0], m[r][1], ray->dir[1]), m[r][2], ray->dir[2]);
     }
 }
@@ -276,7 +310,7 @@ static void sim_blas(sim *s, const rto_scene *sc, const rto_accel *acc, uint32_t
                      sim_best *b)
 {
     const rto_instance *in = &sc->instances[k];
-    if (!(in->mask & ray->cull_mask))
+    if (!(in->mask & ray->cull_mask) && s->fault != GF_MASK_IGNORED)
         return;
     const rto_accel_blas *bl = rto_accel_get_blas(acc, in->blas);
     if (!bl->triangle_count)
@@ -546,9 +580,9 @@ static void family(const char *spec, size_t made, size_t generated, int brute, f
     /* each case meets nine GPUs: brute force with none fused and the reciprocal 2 ulp up, the first or second
      * product fused with it 1 or 2 ulp down, and per-site choices; the traversal of the trees, sweep and Karras TLAS,
      * with per-site choices and each product fused */
-    const sim sims[9] = {{FUSE_NONE, 2, 1, 0},   {FUSE_FIRST, -1, 2, 0},  {FUSE_SECOND, -2, 3, 0},
-                         {FUSE_RANDOM, 1, 4, 0}, {FUSE_RANDOM, 2, 5, 1},  {FUSE_FIRST, -2, 6, 1},
-                         {FUSE_SECOND, 1, 7, 1}, {FUSE_RANDOM, -1, 8, 2}, {FUSE_FIRST, 2, 9, 2}};
+    const sim sims[9] = {{FUSE_NONE, 2, 1, 0, 0},   {FUSE_FIRST, -1, 2, 0, 0},  {FUSE_SECOND, -2, 3, 0, 0},
+                         {FUSE_RANDOM, 1, 4, 0, 0}, {FUSE_RANDOM, 2, 5, 1, 0},  {FUSE_FIRST, -2, 6, 1, 0},
+                         {FUSE_SECOND, 1, 7, 1, 0}, {FUSE_RANDOM, -1, 8, 2, 0}, {FUSE_FIRST, 2, 9, 2, 0}};
     for (int set = 0; set < RTO_RAY_SET_COUNT; set++) {
         rto_rays_desc rd;
         memset(&rd, 0, sizeof rd);
@@ -704,7 +738,7 @@ static void test_exact_arithmetic(void **state)
         const size_t n = made_rays(sc, 31 + k, 60, rays);
         rto_hit_record e[MADE_PER * 60];
         assert_int_equal(rto_trace(acc, rays, n, NULL, e, NULL, NULL), RTO_OK);
-        sim exact = {FUSE_NONE, 0, 0, 0};
+        sim exact = {FUSE_NONE, 0, 0, 0, 0};
         for (size_t i = 0; i < n; i++) {
             if (e[i].miss_flag)
                 continue;
@@ -777,7 +811,7 @@ static void test_exact_traversal(void **state)
                 rto_trace_counters *ec = calloc(n ? n : 1, sizeof *ec);
                 assert_true(e && ec);
                 assert_int_equal(rto_trace(acc, rays, n, NULL, e, ec, NULL), RTO_OK);
-                sim exact = {FUSE_NONE, 0, 0, layout + 1};
+                sim exact = {FUSE_NONE, 0, 0, layout + 1, 0};
                 for (size_t i = 0; i < n; i++) {
                     rto_trace_counters c;
                     const rto_hit_record g = sim_tree_trace(&exact, sc, acc, &rays[i], &c);
@@ -806,6 +840,249 @@ static void test_exact_traversal(void **state)
     print_message("%zu rays (%zu hits) over both TLAS layouts: records and counters are §6's bit for bit\n", checked,
                   hits);
     assert_true(hits > checked / 4);
+}
+
+/* ------------------------------------------------------------------------------------------------------------------ */
+/* The fault corpus                                                                                                   */
+
+static const char *const fault_names[GF_COUNT] = {"none", "t <= bestT", "translation first", "u and v swapped",
+                                                  "tMin dropped", "CULL_BACK culls front faces",
+                                                  "back faces under CULL_BACK", "masks ignored",
+                                                  "customIndex of the next instance", "hitGroup from the mask",
+                                                  "a transposed objToWorld element"};
+
+/* Whether a faulty GPU's record departs from the conforming one evidently (far beyond any rounding): another
+ * primitive, instance or hit / miss, t or a barycentric off by more than 1e-3, or an exact field different. */
+static int evident(const rto_hit_record *good, const rto_hit_record *bad)
+{
+    if (good->miss_flag != bad->miss_flag)
+        return 1;
+    if (good->miss_flag)
+        return 0;
+    if (good->instance_id != bad->instance_id || good->prim_id != bad->prim_id ||
+        good->custom_index != bad->custom_index || good->hit_group != bad->hit_group)
+        return 1;
+    if (fabs((double)good->t - bad->t) > 1e-3 * fmax(1, fabs((double)good->t)) ||
+        fabs((double)good->bary[0] - bad->bary[0]) > 1e-3 || fabs((double)good->bary[1] - bad->bary[1]) > 1e-3)
+        return 1;
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 3; r++)
+            if (good->obj_to_world[c][r] != bad->obj_to_world[c][r])
+                return 1;
+    return 0;
+}
+
+/* The fault class check-hits must name for an evident departure: the identity first (DESIGN.md §9's priority), then
+ * the fields. */
+static rto_hit_fault expected_class(gpu_fault f, const rto_hit_record *good, const rto_hit_record *bad)
+{
+    if (good->miss_flag || bad->miss_flag)
+        return RTO_HIT_MISS_FLAG;
+    if (good->instance_id != bad->instance_id)
+        return RTO_HIT_INSTANCE;
+    if (good->prim_id != bad->prim_id)
+        return RTO_HIT_PRIM;
+    switch (f) {
+    case GF_SWAP_UV: return RTO_HIT_BARY;
+    case GF_CUSTOM_INDEX: return RTO_HIT_CUSTOM_INDEX;
+    case GF_HIT_GROUP: return RTO_HIT_HIT_GROUP;
+    case GF_OBJ_TO_WORLD: return RTO_HIT_TRANSFORM;
+    default: return fabs((double)good->t - bad->t) > 1e-3 * fmax(1, fabs((double)good->t)) ? RTO_HIT_T : RTO_HIT_BARY;
+    }
+}
+
+/* Rays for the corpus, from a scene's primary and random sets: one in four with CULL_BACK_FACING, one in four with a
+ * cull mask of four bits, one in four with tMin just past the conforming GPU's first hit (so a dropped tMin returns
+ * that hit, before tMin). */
+static size_t corpus_rays(const rto_scene *sc, const rto_accel *acc, rto_wf_ray **out)
+{
+    rto_wf_ray *all = NULL;
+    size_t n = 0;
+    for (int k = 0; k < 2; k++) {
+        rto_rays_desc rd;
+        memset(&rd, 0, sizeof rd);
+        rd.set = k ? RTO_RAYS_RANDOM : RTO_RAYS_PRIMARY;
+        rd.seed = 3;
+        rd.width = 40;
+        rd.height = 30;
+        rd.count = 1200;
+        const size_t cap = rto_rays_capacity(&rd);
+        all = realloc(all, (n + cap) * sizeof *all);
+        assert_non_null(all);
+        size_t got = 0;
+        assert_int_equal(rto_rays_generate(acc, &rd, all + n, cap, &got, NULL, NULL), RTO_OK);
+        n += got;
+    }
+    sim good = {FUSE_NONE, 0, 0, 1, GF_NONE};
+    for (size_t i = 0; i < n; i++) {
+        all[i].flags &= ~(uint32_t)RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT;
+        switch (i % 4) {
+        case 1: all[i].flags |= RTO_RAY_FLAG_CULL_BACK_FACING; break;
+        case 2: all[i].cull_mask = 0x0F << (i / 4 % 5); break;
+        case 3: {
+            rto_trace_counters c;
+            const rto_hit_record h = sim_tree_trace(&good, sc, acc, &all[i], &c);
+            if (!h.miss_flag)
+                all[i].t_min = h.t + 1e-2f * fmaxf(1.0f, h.t);
+            break;
+        }
+        default: break;
+        }
+    }
+    *out = all;
+    return n;
+}
+
+/* The translation fault's scene: a 0.05-unit triangle under an instance whose worldToObj's first row is
+ * (1, 1, 0, 0.1), with rays from world origins near (1e4, -1e4): §6's (wx + wy) + 0.1 cancels exactly before the one
+ * rounding, while (0.1 + wx) + wy rounds at 1e4 (up to 4.9e-4): the translation added first moves the object-space
+ * origin by up to a hundredth of the triangle. Rays straight down in object space over the triangle's box. */
+static size_t shear_case(tu_scene1 *one, float *pos, uint32_t *idx, rto_wf_ray *rays, size_t n)
+{
+    static const float tri[9] = {0.28f, 0.18f, 0, 0.33f, 0.18f, 0, 0.28f, 0.23f, 0};
+    memcpy(pos, tri, sizeof tri);
+    idx[0] = 0, idx[1] = 1, idx[2] = 2;
+    const double xf[3][4] = {{0, 1, 0, 1e4}, {1, -1, 0, -10000.1}, {0, 0, 1, 0}};
+    tu_scene1_make(one, pos, 3, idx, 1, xf);
+    uint64_t seed = 41;
+    for (size_t i = 0; i < n; i++) {
+        const double ox = 0.28 + 0.05 * tu_rng_unit(&seed), oy = 0.18 + 0.05 * tu_rng_unit(&seed);
+        const double o[3] = {oy + 1e4, ox - oy - 10000.1, 3}, d[3] = {0, 0, -1};
+        rays[i] = tu_ray(o, d, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE);
+    }
+    return n;
+}
+
+/* Plants fault f in the simulated GPU (the traversal of the trees, otherwise §6 exactly) over the rays: check-hits
+ * must fail and name the class the departure has at the first ray where the faulty GPU's record departs evidently
+ * from the conforming one. Returns 0 when no record departs evidently (the fault does not show on these rays). */
+static int corpus_case(const char *label, const rto_scene *sc, const rto_accel *acc, const rto_wf_ray *rays, size_t n,
+                       gpu_fault f)
+{
+    rto_hit_record *expected = calloc(n, sizeof *expected), *good = calloc(n, sizeof *good),
+                   *bad = calloc(n, sizeof *bad);
+    assert_true(expected && good && bad);
+    assert_int_equal(rto_trace(acc, rays, n, NULL, expected, NULL, NULL), RTO_OK);
+    sim conforming = {FUSE_NONE, 0, 0, 1, GF_NONE}, faulty = {FUSE_NONE, 0, 0, 1, f};
+    size_t first = n;
+    for (size_t i = 0; i < n; i++) {
+        rto_trace_counters c;
+        good[i] = sim_tree_trace(&conforming, sc, acc, &rays[i], &c);
+        bad[i] = sim_tree_trace(&faulty, sc, acc, &rays[i], &c);
+        if (first == n && evident(&good[i], &bad[i]))
+            first = i;
+    }
+    if (first == n) { /* the fault never fires here (a flat box keeps a dropped tMin from mattering on cubes) */
+        print_message("%-38s %-34s changes no record evidently\n", label, fault_names[f]);
+        free(expected);
+        free(good);
+        free(bad);
+        return 0;
+    }
+    rto_hits_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.rays = rays;
+    d.ray_count = n;
+    d.expected = expected;
+    d.gpu = bad;
+    d.gpu_count = n;
+    d.instances = sc->instances;
+    d.instance_count = sc->instance_count;
+    d.meshes = sc->meshes;
+    d.mesh_count = sc->mesh_count;
+    rto_report r;
+    rto_msg msg = {{0}};
+    const rto_status st = rto_hits_check(&d, &r, &msg);
+    if (st != RTO_ERR_MISMATCH)
+        fail_msg("%s: the fault '%s' (first evident at ray %zu) not caught: %s", label, fault_names[f], first,
+                 rto_status_string(st));
+    int64_t where = -1;
+    assert_true(rto_report_where(&r, "ray", &where));
+    const rto_hit_fault want = expected_class(f, &good[first], &bad[first]);
+    if (where != (int64_t)first || r.code != (int)want)
+        fail_msg("%s: '%s' first departs at ray %zu (%s); check-hits says: %s", label, fault_names[f], first,
+                 rto_hit_fault_name(want), r.summary);
+    char at[48];
+    snprintf(at, sizeof at, "ray %zu", first);
+    assert_non_null(strstr(r.summary, at));
+    print_message("%-38s %-34s caught: %.140s\n", label, fault_names[f], r.summary);
+    free(expected);
+    free(good);
+    free(bad);
+    return 1;
+}
+
+/* Every fault of the corpus on scenes with instances of several masks, mirrors and back faces, each caught on every
+ * scene where it changes a record evidently and shown on one at least (the translation
+ * fault on the one scene made for it: elsewhere its rounding stays within the model's bounds, where no verdict can
+ * tell it from a conforming GPU's). t <= bestT is a freedom of §9, not a fault: check-hits accepts it and names
+ * each such record a tie (test_tie_freedom_named). */
+static void test_fault_corpus(void **state)
+{
+    (void)state;
+    static const char *const scenes[] = {"rtstress:2", "random:13", "CornellBox-nvpro-glTF/cornellBox.gltf",
+                                         "Duck/glTF/Duck.gltf"};
+    int shown[GF_COUNT] = {0};
+    for (size_t k = 0; k < sizeof scenes / sizeof scenes[0]; k++) {
+        rto_scene *sc = tu_load(scenes[k]);
+        spread_masks(sc);
+        rto_accel *acc = NULL;
+        assert_int_equal(rto_accel_build(sc, NULL, &acc, NULL), RTO_OK);
+        rto_wf_ray *rays = NULL;
+        const size_t n = corpus_rays(sc, acc, &rays);
+        for (int f = GF_SWAP_UV; f < GF_COUNT; f++)
+            shown[f] += corpus_case(scenes[k], sc, acc, rays, n, (gpu_fault)f);
+        free(rays);
+        rto_accel_destroy(acc);
+        rto_scene_destroy(sc);
+    }
+    tu_scene1 one;
+    float pos[9];
+    uint32_t idx[3];
+    rto_wf_ray rays[400];
+    const size_t n = shear_case(&one, pos, idx, rays, 400);
+    rto_accel *acc = NULL;
+    assert_int_equal(rto_accel_build(&one.scene, NULL, &acc, NULL), RTO_OK);
+    shown[GF_TRANSLATION_FIRST] += corpus_case("a shear 1e4 from the origin", &one.scene, acc, rays, n,
+                                               GF_TRANSLATION_FIRST);
+    rto_accel_destroy(acc);
+    for (int f = GF_TRANSLATION_FIRST; f < GF_COUNT; f++)
+        if (!shown[f])
+            fail_msg("the fault '%s' showed on no scene of the corpus", fault_names[f]);
+}
+
+/* t <= bestT keeps the later of two triangles at one t: a tie, which §9 lets any GPU answer either way. check-hits
+ * accepts it and names it (the "ties" fact). */
+static void test_tie_freedom_named(void **state)
+{
+    (void)state;
+    float pos[9] = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
+    uint32_t idx[6] = {0, 1, 2, 0, 1, 2};
+    const double xf[3][4] = {{1, 0, 0, 0.5}, {0, 1, 0, 0}, {0, 0, 1, -2}};
+    tu_scene1 one;
+    tu_scene1_make(&one, pos, 3, idx, 2, xf);
+    const rto_scene sc = one.scene;
+    rto_accel *acc = NULL;
+    assert_int_equal(rto_accel_build(&sc, NULL, &acc, NULL), RTO_OK);
+    const double o1[3] = {0.5, 0, 3}, d1[3] = {0, 0, -1};
+    const rto_wf_ray ray = tu_ray(o1, d1, 0.0f, 1e30f, RTO_RAY_FLAG_OPAQUE);
+    rto_hit_record e, g;
+    assert_int_equal(rto_trace(acc, &ray, 1, NULL, &e, NULL, NULL), RTO_OK);
+    sim later = {FUSE_NONE, 0, 0, 1, GF_TIE_LATER};
+    rto_trace_counters c;
+    g = sim_tree_trace(&later, &sc, acc, &ray, &c);
+    assert_int_equal(e.prim_id, 0);
+    assert_int_equal(g.prim_id, 1); /* the fault did fire */
+    rto_report r;
+    assert_int_equal(check_one(&sc, &ray, &e, &g, &r), RTO_OK);
+    int found = 0;
+    for (uint32_t i = 0; i < r.nfacts; i++)
+        if (!strcmp(r.facts[i].name, "ties")) {
+            assert_int_equal(r.facts[i].value, 1);
+            found = 1;
+        }
+    assert_true(found);
+    rto_accel_destroy(acc);
 }
 
 /* Ties (§6): two copies of one triangle in one mesh are hit at the same t; their leaves have equal boxes and equal
@@ -864,6 +1141,8 @@ int main(void)
         cmocka_unit_test(test_twice_the_bound_fails),
         cmocka_unit_test(test_exact_arithmetic),
         cmocka_unit_test(test_exact_traversal),
+        cmocka_unit_test(test_fault_corpus),
+        cmocka_unit_test(test_tie_freedom_named),
         cmocka_unit_test(test_tie_order),
         cmocka_unit_test(test_slab_range),
     };

@@ -13,6 +13,10 @@
  *   payload D            the middle ray's first payload word + 1 (as a float)            -> ray= pixel=
  *   payload-small D      the same word moved by half the accum tolerance (1e-4 |e| + 1e-6) -> ray= pixel=
  *   prim D               the first hit at or after the middle of queue D: primId ^ 2     -> ray= pixel=
+ *   hit-uv D             the first hit at or after the middle with |u - v| > 0.01: u and v swapped
+ *   hit-custom D / hit-group D / hit-transform D   the same hit: customIndex + 1 / hitGroup + 3 / objToWorld's
+ *                        column 3, row 1 (the translation's y) + 1                      -> ray= pixel=
+ *   hit-tmin D           the same hit at t = tMin - 1 - |tMin| (before the ray starts)   -> ray= pixel=
  *   emit D               emit_counts[D] + 1
  *   indirect D           indirect_args[D][0] + 1
  *   accum-big / accum-small   the first comparable pixel at or after the middle, red channel moved by 10 / 0.5
@@ -244,7 +248,7 @@ int main(int argc, char **argv)
     if (!strcmp(mut, "copy")) {
     } else if (!strcmp(mut, "shuffle") || !strcmp(mut, "missing") || !strcmp(mut, "duplicate") ||
                !strcmp(mut, "ray-dir") || !strcmp(mut, "payload") || !strcmp(mut, "payload-small") ||
-               !strcmp(mut, "prim")) {
+               !strcmp(mut, "prim") || !strncmp(mut, "hit-", 4)) {
         queue q;
         queue_load(gpu, d, &q);
         if (!q.n)
@@ -281,13 +285,34 @@ int main(int argc, char **argv)
             if (!q.has_hits)
                 die("the queue has no hits");
             rto_hit_record *h = q.hits.data;
+            const int uv = !strcmp(mut, "hit-uv");
             size_t i = 0;
-            while (i < q.n && h[(mid + i) % q.n].miss_flag)
+            while (i < q.n && (h[(mid + i) % q.n].miss_flag ||
+                               (uv && fabsf(h[(mid + i) % q.n].bary[0] - h[(mid + i) % q.n].bary[1]) <= 0.01f)))
                 i++;
             if (i == q.n)
                 die("no hit to mutate");
-            print_ray(&q, (mid + i) % q.n);
-            h[(mid + i) % q.n].prim_id ^= 2u;
+            const size_t at = (mid + i) % q.n;
+            print_ray(&q, at);
+            rto_hit_record *r = &h[at];
+            if (uv) {
+                const float u = r->bary[0];
+                r->bary[0] = r->bary[1];
+                r->bary[1] = u;
+            } else if (!strcmp(mut, "hit-custom")) {
+                r->custom_index += 1;
+            } else if (!strcmp(mut, "hit-group")) {
+                r->hit_group += 3;
+            } else if (!strcmp(mut, "hit-transform")) {
+                r->obj_to_world[3][1] += 1.0f;
+            } else if (!strcmp(mut, "hit-tmin")) {
+                const float t_min = ((const rto_wf_ray *)q.rays.data)[at].t_min;
+                r->t = t_min - 1.0f - fabsf(t_min);
+            } else if (!strcmp(mut, "prim")) {
+                r->prim_id ^= 2u;
+            } else {
+                die("unknown mutation");
+            }
         }
         queue_save(gpu, d, &q, perm, m);
         free(perm);
