@@ -7,6 +7,7 @@ import os from 'node:os';
 import path from 'node:path';
 import {openDevice} from './lib/device.js';
 import {setKernelDir} from './lib/gpu.js';
+import {takeShaderError} from './lib/device.js';
 import {DEFAULT_RTORACLE, usage} from './lib/oracle.js';
 import {writeHtml} from './lib/report.js';
 import {Timer} from './lib/timing.js';
@@ -41,7 +42,8 @@ options:
   --shrink            on a failing sort or build case, bisect the size and report the smallest failing case
   --racy-scatter      radix: an unsynchronised scatter (the fault the oracle must diagnose)
   --drop-barrier P    bitonic-wg: leave out the barrier after pass P (0-based), a planted race
-  --kernels DIR       .wgsl files there replace the bundled kernels of the same name
+  --kernels DIR       .wgsl files there replace the bundled kernels of the same name (every one must name
+                      a bundled kernel; reports list the ones replaced)
   --rtoracle PATH     the rtoracle binary (default build/oracle/rtoracle)
   --out DIR           keep every case's inputs and dumps in DIR/<case> (default: a temporary directory, removed)
   --json FILE         write the results as JSON
@@ -107,10 +109,26 @@ function parseArgs(argv) {
     usage(`no rtoracle binary at ${o.rtoracle} (build it, or pass --rtoracle PATH)`);
   if (o.kernels && !fs.statSync(o.kernels, {throwIfNoEntry: false})?.isDirectory())
     usage(`--kernels: ${o.kernels} is not a directory`);
+  if (o.kernels) {
+    try {
+      o.userKernels = setKernelDir(path.resolve(o.kernels));
+    } catch (e) {
+      usage(e.message);
+    }
+  }
   return o;
 }
 
 const harnessFault = (diagnosis) => ({pass: false, check: 'harness', diagnosis});
+
+/** A kernel that does not compile or link is a setup error, not a data fault: its first WGSL error in one line
+ * (file:line:column), exit status 2, and no verdict for any case. */
+function setupCheck(ctx) {
+  const e = takeShaderError(ctx.device);
+  if (!e) return;
+  console.error(`gpu/run: ${e} (a kernel does not compile: no verdict)`);
+  process.exit(2);
+}
 
 /** fn's result, or a failure whose diagnosis is the error's first line (a harness fault, not the oracle's). */
 async function attempt(fn) {
@@ -158,6 +176,7 @@ async function runCase(ctx, mod, c, dir, repeat) {
   if (!split) {
     const r = await attempt(() => mod.run({...ctx, dir, dumpDir: dir}, c));
     await timer.collect();
+    setupCheck(ctx);
     return {passes: r.pass ? 1 : 0, first: r.pass ? null : r, last: r, gpu_ms: timer.take()};
   }
   const record = path.join(dir, 'repeats.json');
@@ -175,6 +194,7 @@ async function runCase(ctx, mod, c, dir, repeat) {
         await mod.dump({...ctx, dir, dumpDir}, c);
         await timer.collect();
       });
+      setupCheck(ctx);
       if (err && err.pass === false) {
         fs.writeFileSync(path.join(dumpDir, 'harness-error.txt'), err.diagnosis + '\n');
         same.push(r);
@@ -226,7 +246,6 @@ async function shrink(ctx, mod, c, caseDir) {
 
 async function main() {
   const opts = parseArgs(process.argv.slice(2));
-  if (opts.kernels) setKernelDir(path.resolve(opts.kernels));
   const root = opts.out ? path.resolve(opts.out) : fs.mkdtempSync(path.join(os.tmpdir(), 'rto-gpu-'));
   fs.mkdirSync(root, {recursive: true});
   // --check-only and --prepare-only need no GPU; --check-only reports the device that made the dumps.
@@ -251,6 +270,16 @@ async function main() {
   const ctx = {device: dev.device, backend, rtoracle: opts.rtoracle, opts, timer};
   console.log(`device: ${backend}${adapter ? ` (${adapter})` : ''}${opts.timestamps && dev.device
     ? timer.on ? ', timestamps on' : ', no timestamp-query: no GPU times' : ''}`);
+  const userKernels = opts.userKernels ? opts.userKernels.map((f) => path.join(path.resolve(opts.kernels), f)) : [];
+  if (userKernels.length) console.log(`your kernels: ${userKernels.join(', ')} (the rest bundled)`);
+  // llvmpipe runs a workgroup's invocations one group of lanes after another and executes a barrier even inside a
+  // branch, so a barrier moved, dropped or made conditional passes there: a user's kernel with barriers gets a caveat.
+  const warnings = [];
+  const barriered = userKernels.filter((f) => /\b(workgroupBarrier|storageBarrier)\s*\(/.test(fs.readFileSync(f, 'utf8')));
+  if (barriered.length && /llvmpipe/i.test(adapter))
+    warnings.push(`llvmpipe cannot show barrier races: ${barriered.map((f) => path.basename(f)).join(', ')} ` +
+      `${barriered.length > 1 ? 'use' : 'uses'} barriers, and a pass here is not a pass on a GPU; run on a GPU`);
+  for (const w of warnings) console.log(`warning: ${w}`);
 
   const results = [];
   const started = Date.now();
@@ -288,9 +317,10 @@ async function main() {
   }
   console.log(`${results.length - failed}/${results.length} cases pass on ${backend}` +
     (flaky ? ` (${flaky} flaky: passed some of ${opts.repeat} runs)` : '') +
-    ` in ${((Date.now() - started) / 1000).toFixed(1)} s`);
+    ` in ${((Date.now() - started) / 1000).toFixed(1)} s` + (warnings.length ? ` (${warnings.length} warning` +
+    `${warnings.length > 1 ? 's' : ''}: ${warnings.join('; ')})` : ''));
   const summary = {backend, adapter, repeat: opts.repeat, timestamps: timer.on, subset: opts.subset,
-    families: opts.families, cases: results.length, failed, flaky, results};
+    families: opts.families, user_kernels: userKernels, warnings, cases: results.length, failed, flaky, results};
   if (opts.json) fs.writeFileSync(opts.json, JSON.stringify(summary, null, 2) + '\n');
   if (opts.html) writeHtml(opts.html, summary);
   if (!opts.out) fs.rmSync(root, {recursive: true, force: true});

@@ -64,3 +64,40 @@ for args in "--repeat 0" "--families nope" "--subset most" "--kernels /nonexiste
         { cat "$out/usage.log" >&2; echo "FAIL: gpu/run $args: status $status, not one line and 2" >&2; exit 1; }
 done
 echo "gpu: bad usage gets one line and status 2"
+
+# A user's kernel under a name no bundled kernel has is refused (it would be ignored and the run pass): status 2, one
+# line listing the names.
+rm -rf "$out/misnamed" && mkdir -p "$out/misnamed"
+cp gpu/kernels/radix_hist.wgsl "$out/misnamed/radix-hist.wgsl"
+status=0
+run --families radix --kernels "$out/misnamed" >"$out/misnamed.log" 2>&1 || status=$?
+[ "$status" = 2 ] && [ "$(wc -l <"$out/misnamed.log")" = 1 ] && grep -q "radix-hist.wgsl names no bundled kernel; the kernels are .*radix_hist.wgsl" "$out/misnamed.log" ||
+    { cat "$out/misnamed.log" >&2; echo "FAIL: a misnamed kernel: status $status" >&2; exit 1; }
+echo "gpu: a misnamed kernel is refused: $(cut -c1-100 "$out/misnamed.log")..."
+
+# A kernel that does not compile is a setup error: status 2, its first WGSL error once (file and line), no verdict.
+rm -rf "$out/broken" && mkdir -p "$out/broken"
+awk 'NR == 5 { print "fn broken( {" } { print }' gpu/kernels/radix_common.wgsl >"$out/broken/radix_common.wgsl"
+status=0
+run --families radix --dists random --sizes 4096 --kernels "$out/broken" >"$out/broken.log" 2>&1 || status=$?
+[ "$status" = 2 ] && [ "$(grep -c "error:" "$out/broken.log")" = 1 ] &&
+    grep -q "^gpu/run: .*/broken/radix_common.wgsl:5:12: error: " "$out/broken.log" &&
+    ! grep -qE " (pass|FAIL) [0-9]+/[0-9]+" "$out/broken.log" ||
+    { cat "$out/broken.log" >&2; echo "FAIL: a kernel that does not compile: status $status" >&2; exit 1; }
+echo "gpu: $(grep "^gpu/run:" "$out/broken.log")"
+
+# A barrier made conditional passes on llvmpipe, which executes it anyway: the report says llvmpipe cannot show that
+# (text and JSON); on a GPU it would be a race.
+rm -rf "$out/barrier" && mkdir -p "$out/barrier"
+sed 's/^    storageBarrier();/    if (kj.y == 1u) { storageBarrier(); }/' gpu/kernels/bitonic_wg.wgsl >"$out/barrier/bitonic_wg.wgsl"
+! cmp -s gpu/kernels/bitonic_wg.wgsl "$out/barrier/bitonic_wg.wgsl" || { echo "FAIL: the planted barrier" >&2; exit 1; }
+run --families bitonic-wg --dists random --sizes 4096 --kernels "$out/barrier" --json "$out/barrier.json" \
+    >"$out/barrier.log" 2>&1 || true
+if grep -q "^device: opengl" "$out/barrier.log"; then
+    grep -q "^warning: llvmpipe cannot show barrier races: bitonic_wg.wgsl uses barriers" "$out/barrier.log" &&
+        node -e 'const s = require(process.argv[1]);
+            process.exit(s.warnings.length === 1 && /llvmpipe cannot show barrier races/.test(s.warnings[0]) &&
+                s.user_kernels.length === 1 ? 0 : 1)' "$(realpath "$out/barrier.json")" ||
+        { cat "$out/barrier.log" >&2; echo "FAIL: no llvmpipe barrier warning" >&2; exit 1; }
+    echo "gpu: a conditional barrier on llvmpipe: $(grep "cases pass" "$out/barrier.log")"
+fi

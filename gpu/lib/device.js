@@ -3,6 +3,8 @@
 // EGL_PLATFORM=surfaceless).
 import {create, globals} from 'webgpu';
 
+import {shaderError} from './gpu.js';
+
 Object.assign(globalThis, globals);
 
 /** {device, adapter, backend}: backend 'vulkan' or 'opengl' (RTO_GPU_BACKEND forces one). */
@@ -16,7 +18,27 @@ export async function openDevice() {
     if (!adapter) continue;
     const features = adapter.features.has('timestamp-query') ? ['timestamp-query'] : [];
     const device = await adapter.requestDevice({requiredFeatures: features});
+    // Uncaptured errors: a kernel's WGSL or pipeline error is kept for takeShaderError (a setup error, reported once
+    // by gpu/run, with no verdict); what follows from it ("invalid due to a previous error") is dropped; any other
+    // error is printed as Dawn would.
+    device.rtoShaderErrors = [];
+    device.addEventListener('uncapturederror', (ev) => {
+      ev.preventDefault();
+      const msg = String(ev.error && ev.error.message || ev.error);
+      const line = shaderError(msg);
+      if (line) device.rtoShaderErrors.push(line);
+      else if (!device.rtoShaderErrors.length || !/previous error|Invalid/.test(msg))
+        console.error(`${ev.error && ev.error.constructor ? ev.error.constructor.name : 'error'}: ${msg.trim()}`);
+    });
     return {device, adapter, backend, gpu};
   }
   throw new Error('no WebGPU adapter (neither Vulkan nor OpenGL/llvmpipe)');
+}
+
+/** The first WGSL or pipeline error the device reported since the last call (one line), or null; clears the list. */
+export function takeShaderError(device) {
+  if (!device || !device.rtoShaderErrors || !device.rtoShaderErrors.length) return null;
+  const first = device.rtoShaderErrors[0];
+  device.rtoShaderErrors.length = 0;
+  return first;
 }

@@ -6,9 +6,24 @@ import path from 'node:path';
 const KERNELS = path.join(path.dirname(new URL(import.meta.url).pathname), '..', 'kernels');
 let overrides = process.env.RTO_GPU_KERNELS || null;
 
-/** A directory whose .wgsl files replace the bundled kernels of the same name (gpu/run --kernels DIR). */
+/** The names of the bundled kernels (gpu/kernels/*.wgsl), sorted. */
+export function bundledKernels() {
+  return fs.readdirSync(KERNELS).filter((f) => f.endsWith('.wgsl')).sort();
+}
+
+/** A directory whose .wgsl files replace the bundled kernels of the same name (gpu/run --kernels DIR). Every .wgsl
+ * file there must name a bundled kernel: returns the sorted names it replaces, or throws naming the first unknown
+ * one and the names known (a misnamed file would otherwise be ignored and the run pass on the bundled kernel). */
 export function setKernelDir(dir) {
+  const known = bundledKernels();
+  const mine = fs.readdirSync(dir).filter((f) => f.endsWith('.wgsl')).sort();
+  const unknown = mine.filter((f) => !known.includes(f));
+  if (unknown.length)
+    throw new Error(`--kernels ${dir}: ${unknown.join(', ')} ${unknown.length > 1 ? 'name' : 'names'} no bundled ` +
+      `kernel; the kernels are ${known.join(', ')}`);
+  if (!mine.length) throw new Error(`--kernels ${dir}: no .wgsl file there`);
   overrides = dir;
+  return mine;
 }
 
 function kernelPath(name) {
@@ -18,25 +33,62 @@ function kernelPath(name) {
 
 /** The WGSL text of kernels/FILE (or the override directory's) with every line `// #include "other.wgsl"` replaced
  * by that file (once each), after a `const NAME = value;` line for every entry of defines (booleans as they are,
- * integers as u32, other values as written), which a kernel tests like any constant. */
-export function wgsl(file, defines = {}) {
+ * integers as u32, other values as written), which a kernel tests like any constant. With the source of each line:
+ * {code, origin}, origin[i] = [path, line] of line i + 1 (the defines: ['(defines)', k]). */
+function expandWgsl(file, defines) {
   const seen = new Set();
+  const lines = [], origin = [];
   const expand = (name) => {
-    if (seen.has(name)) return '';
+    if (seen.has(name)) return;
     seen.add(name);
-    const text = fs.readFileSync(kernelPath(name), 'utf8');
-    return text.replace(/^\/\/ #include "([^"]+)"$/mg, (_, inc) => expand(inc));
+    const src = kernelPath(name);
+    fs.readFileSync(src, 'utf8').split('\n').forEach((line, i) => {
+      const inc = /^\/\/ #include "([^"]+)"$/.exec(line);
+      if (inc) return expand(inc[1]);
+      lines.push(line);
+      origin.push([src, i + 1]);
+    });
   };
-  const consts = Object.entries(defines).map(([k, v]) =>
-    `const ${k} = ${typeof v === 'boolean' ? v : typeof v === 'number' && Number.isInteger(v) ? `${v >>> 0}u` : v};\n`);
-  return consts.join('') + expand(file);
+  Object.entries(defines).forEach(([k, v], i) => {
+    lines.push(`const ${k} = ${typeof v === 'boolean' ? v : typeof v === 'number' && Number.isInteger(v)
+      ? `${v >>> 0}u` : v};`);
+    origin.push(['(defines)', i + 1]);
+  });
+  expand(file);
+  return {code: lines.join('\n'), origin};
 }
 
-/** A compute pipeline for kernels/FILE (entry point `entry`, layout 'auto'); compile errors throw with the log. */
+export function wgsl(file, defines = {}) {
+  return expandWgsl(file, defines).code;
+}
+
+/** The line origins of every module made by pipeline(), by label (the kernel's file name). */
+const origins = new Map();
+
+/** A compute pipeline for kernels/FILE (entry point `entry`, layout 'auto'). A WGSL error surfaces as the device's
+ * uncaptured error, which shaderError() turns into one line. */
 export function pipeline(device, file, {entry = 'main', defines = {}} = {}) {
-  const module = device.createShaderModule({code: wgsl(file, defines), label: file});
+  const {code, origin} = expandWgsl(file, defines);
+  origins.set(file, origin);
+  const module = device.createShaderModule({code, label: file});
   return device.createComputePipeline({layout: 'auto', compute: {module, entryPoint: entry},
     label: `${file}:${entry}`});
+}
+
+/** Whether a device error is about a kernel's source or its pipeline (a setup error, not a data fault), and then one
+ * line naming the file and line of the first WGSL error: "FILE:LINE:COL: error: ..."; null for other errors. */
+export function shaderError(message) {
+  const label = /(?:ShaderModuleDescriptor|ComputePipelineDescriptor) ""([^":]+)(?::[^"]*)?""/.exec(message);
+  const wgslErr = /(?:^|: ):(\d+):(\d+) (error: .*)$/m.exec(message);
+  if (wgslErr) {
+    const origin = label && origins.get(label[1]);
+    const at = origin && origin[Number(wgslErr[1]) - 1];
+    const where = at ? `${at[0]}:${at[1]}:${wgslErr[2]}` : `${label ? label[1] : 'a kernel'}:${wgslErr[1]}:${wgslErr[2]}`;
+    return `${where}: ${wgslErr[3]}`;
+  }
+  if (label || /CreateShaderModule|CreateComputePipeline|Invalid ShaderModule/.test(message))
+    return `${label ? label[1] : 'a kernel'}: ${message.split('\n').find((l) => l.trim()) || 'invalid'}`;
+  return null;
 }
 
 export const STORAGE = () => GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_SRC | GPUBufferUsage.COPY_DST;

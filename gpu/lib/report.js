@@ -34,12 +34,15 @@ export function writeHtml(file, summary) {
 body { font: 14px sans-serif; margin: 1em; } table { border-collapse: collapse; }
 td, th { border: 1px solid #ccc; padding: 3px 6px; vertical-align: top; text-align: left; }
 tr.pass td:nth-child(2) { color: #070; } tr.fail td:nth-child(2) { color: #b00; font-weight: bold; }
-tr.flaky td:nth-child(2) { color: #c60; font-weight: bold; } img { width: 128px; image-rendering: pixelated; }
+tr.flaky td:nth-child(2) { color: #c60; font-weight: bold; } p.warning { color: #c60; } img { width: 128px; image-rendering: pixelated; }
 </style></head><body>
 <h1>rtoracle GPU run</h1>
 <p>Device: ${esc(summary.backend)} ${esc(summary.adapter || '')}. ${summary.cases - summary.failed} of
 ${summary.cases} cases pass${summary.flaky ? `, ${summary.flaky} flaky` : ''}; every case run ${summary.repeat}
 time(s)${summary.timestamps ? '; GPU times per run from timestamp-query' : ''}.</p>
+<p>Kernels: ${summary.user_kernels && summary.user_kernels.length ? `yours: ${summary.user_kernels.map(esc).join(', ')};
+the rest bundled` : 'all bundled'}.</p>
+${(summary.warnings || []).map((w) => `<p class="warning"><b>Warning:</b> ${esc(w)}</p>`).join('\n')}
 <table><tr><th>case</th><th>result</th><th>check</th><th>oracle's diagnosis</th><th>GPU time per kernel</th>
 <th>expected</th><th>actual</th><th>diff</th></tr>
 ${rows}
