@@ -8,6 +8,7 @@ import path from 'node:path';
 import {openDevice} from './lib/device.js';
 import {setKernelDir} from './lib/gpu.js';
 import {takeShaderError} from './lib/device.js';
+import {patterns} from './lib/patterns.js';
 import {DEFAULT_RTORACLE, usage} from './lib/oracle.js';
 import {writeHtml} from './lib/report.js';
 import {Timer} from './lib/timing.js';
@@ -319,8 +320,11 @@ async function main() {
     (flaky ? ` (${flaky} flaky: passed some of ${opts.repeat} runs)` : '') +
     ` in ${((Date.now() - started) / 1000).toFixed(1)} s` + (warnings.length ? ` (${warnings.length} warning` +
     `${warnings.length > 1 ? 's' : ''}: ${warnings.join('; ')})` : ''));
+  const found = patterns(results);
+  for (const p of found) console.log(`pattern: ${p}`);
   const summary = {backend, adapter, repeat: opts.repeat, timestamps: timer.on, subset: opts.subset,
-    families: opts.families, user_kernels: userKernels, warnings, cases: results.length, failed, flaky, results};
+    families: opts.families, user_kernels: userKernels, warnings, patterns: found, cases: results.length, failed,
+    flaky, results};
   if (opts.json) fs.writeFileSync(opts.json, JSON.stringify(summary, null, 2) + '\n');
   if (opts.html) writeHtml(opts.html, summary);
   if (!opts.out) fs.rmSync(root, {recursive: true, force: true});

@@ -65,6 +65,23 @@ for args in "--repeat 0" "--families nope" "--subset most" "--kernels /nonexiste
 done
 echo "gpu: bad usage gets one line and status 2"
 
+# The pattern across failing cases (gpu/lib/patterns.js) on made-up rows: a size rule, a distribution, a shared stage.
+node --input-type=module -e '
+    import {patterns} from "./gpu/lib/patterns.js";
+    const row = (n, pass, dist = "random") => ({family: "radix", params: {size: n, dist}, pass,
+        check: pass ? null : "check-sort", fault: pass ? null : "pass",
+        diagnosis: pass ? "" : `pass: radix pass 0 is the first to diverge at slot ${n - 3}`});
+    const want = (rows, re) => { const p = patterns(rows);
+        if (p.length !== 1 || !re.test(p[0])) { console.error(`patterns: ${JSON.stringify(p)} !~ ${re}`); process.exit(1); } };
+    want([row(256, true), row(257, false), row(512, true), row(300, false), row(4097, false)],
+        /^radix: 3 of 5 cases fail; fails only when n % 256 != 0; first bad check always check-sort pass: pass: radix pass # is the first to diverge at slot #$/);
+    want([row(256, true), row(512, true), row(4096, false), row(8192, false)], /fails only above n = 512 \(from n = 4096\)/);
+    want([row(256, true, "sorted"), row(256, false, "clustered"), row(512, false, "clustered"), row(512, true, "sorted")],
+        /fails only for clustered/);
+    if (patterns([row(256, true), row(257, false)]).length) process.exit(1); // one failure: its own diagnosis
+' || { echo "FAIL: gpu/lib/patterns.js" >&2; exit 1; }
+echo "gpu: patterns across failing cases named (size rule, distribution, shared stage)"
+
 # A user's kernel under a name no bundled kernel has is refused (it would be ignored and the run pass): status 2, one
 # line listing the names.
 rm -rf "$out/misnamed" && mkdir -p "$out/misnamed"

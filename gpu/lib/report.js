@@ -43,6 +43,7 @@ time(s)${summary.timestamps ? '; GPU times per run from timestamp-query' : ''}.<
 <p>Kernels: ${summary.user_kernels && summary.user_kernels.length ? `yours: ${summary.user_kernels.map(esc).join(', ')};
 the rest bundled` : 'all bundled'}.</p>
 ${(summary.warnings || []).map((w) => `<p class="warning"><b>Warning:</b> ${esc(w)}</p>`).join('\n')}
+${(summary.patterns || []).map((w) => `<p><b>Pattern:</b> ${esc(w)}</p>`).join('\n')}
 <table><tr><th>case</th><th>result</th><th>check</th><th>oracle's diagnosis</th><th>GPU time per kernel</th>
 <th>expected</th><th>actual</th><th>diff</th></tr>
 ${rows}
