@@ -9,6 +9,7 @@ import {openDevice} from './lib/device.js';
 import {setKernelDir} from './lib/gpu.js';
 import {takeShaderError} from './lib/device.js';
 import {patterns} from './lib/patterns.js';
+import {sizeRanges, sweepSizes} from './lib/matrix.js';
 import {DEFAULT_RTORACLE, usage} from './lib/oracle.js';
 import {writeHtml} from './lib/report.js';
 import {Timer} from './lib/timing.js';
@@ -17,7 +18,7 @@ const FAMILIES = ['bitonic', 'bitonic-wg', 'radix', 'build', 'trace', 'frame'];
 
 const HELP = `usage: gpu/run [--families LIST] [--subset ci|full] [--dists LIST] [--sizes LIST] [--scenes LIST]
                [--repeat K] [--timestamps] [--shrink] [--racy-scatter] [--drop-barrier PASS]
-               [--kernels DIR] [--rtoracle PATH] [--out DIR] [--json FILE] [--html FILE]
+               [--sweep SPECS] [--kernels DIR] [--rtoracle PATH] [--out DIR] [--json FILE] [--html FILE]
                [--prepare-only | --dump-only | --check-only]
 
 Runs the WGSL kernels under gpu/kernels on a WebGPU device (Dawn: Vulkan when a GPU is there, else Mesa llvmpipe
@@ -43,6 +44,10 @@ options:
   --shrink            on a failing sort or build case, bisect the size and report the smallest failing case
   --racy-scatter      radix: an unsynchronised scatter (the fault the oracle must diagnose)
   --drop-barrier P    bitonic-wg: leave out the barrier after pass P (0-based), a planted race
+  --sweep SPECS       bitonic and radix over generated sizes instead of the matrix (keys made on the fly, the
+                      final sort checked with check-sort --input; distributions from --dists, default random):
+                      tile:P every n in [P, 2P + 1], pow2:K 2^k - 1, 2^k, 2^k + 1 for k <= K (<= 25), n:A-B;
+                      comma-separated; the summary gives per-size pass counts
   --kernels DIR       .wgsl files there replace the bundled kernels of the same name (every one must name
                       a bundled kernel; reports list the ones replaced)
   --rtoracle PATH     the rtoracle binary (default build/oracle/rtoracle)
@@ -92,6 +97,13 @@ function parseArgs(argv) {
       case '--dists': o.dists = list(v); break;
       case '--sizes': o.sizes = list(v).map((s) => count('--sizes', s, 1, 1 << 24)); break;
       case '--scenes': o.scenes = list(v); break;
+      case '--sweep':
+        try {
+          o.sweep = sweepSizes(v);
+        } catch (e) {
+          usage(e.message);
+        }
+        break;
       case '--repeat': o.repeat = count('--repeat', v, 1, 1000); break;
       case '--drop-barrier': o.dropBarrier = count('--drop-barrier', v, 0, 1000); break;
       case '--kernels': o.kernels = v; break;
@@ -108,6 +120,9 @@ function parseArgs(argv) {
   if (o.checkOnly && !fs.existsSync(o.out)) usage(`--check-only: no directory ${o.out}`);
   if (!o.dumpOnly && !fs.existsSync(o.rtoracle))
     usage(`no rtoracle binary at ${o.rtoracle} (build it, or pass --rtoracle PATH)`);
+  if (o.sweep && o.families.some((f) => f !== 'bitonic' && f !== 'radix'))
+    usage('--sweep applies to the bitonic and radix families (pass --families bitonic,radix)');
+  if (o.sweep && o.sizes) usage('--sweep and --sizes exclude each other');
   if (o.kernels && !fs.statSync(o.kernels, {throwIfNoEntry: false})?.isDirectory())
     usage(`--kernels: ${o.kernels} is not a directory`);
   if (o.kernels) {
@@ -322,9 +337,23 @@ async function main() {
     `${warnings.length > 1 ? 's' : ''}: ${warnings.join('; ')})` : ''));
   const found = patterns(results);
   for (const p of found) console.log(`pattern: ${p}`);
+  // a sweep: per family and distribution, the sizes that pass and the ones that fail, as ranges
+  const sweeps = [];
+  for (const fam of opts.sweep ? opts.families : []) {
+    for (const dist of [...new Set(results.filter((r) => r.family === fam).map((r) => r.params.dist))]) {
+      const rows = results.filter((r) => r.family === fam && r.params.dist === dist);
+      const bad = rows.filter((r) => !r.pass).map((r) => r.params.size);
+      sweeps.push({family: fam, dist, sizes: rows.length, pass: rows.length - bad.length, failing: bad});
+      console.log(`sweep ${fam}/${dist}: ${rows.length - bad.length} of ${rows.length} sizes pass` +
+        (bad.length ? `; failing n: ${sizeRanges(bad)}` : ''));
+    }
+  }
+  if (opts.sweep && opts.sweep.dropped.length)
+    console.log(`sweep: n = ${sizeRanges(opts.sweep.dropped)} left out (above 2^25 keys, WebGPU's default ` +
+      'storage-buffer limit)');
   const summary = {backend, adapter, repeat: opts.repeat, timestamps: timer.on, subset: opts.subset,
-    families: opts.families, user_kernels: userKernels, warnings, patterns: found, cases: results.length, failed,
-    flaky, results};
+    families: opts.families, user_kernels: userKernels, warnings, patterns: found, sweeps, cases: results.length,
+    failed, flaky, results};
   if (opts.json) fs.writeFileSync(opts.json, JSON.stringify(summary, null, 2) + '\n');
   if (opts.html) writeHtml(opts.html, summary);
   if (!opts.out) fs.rmSync(root, {recursive: true, force: true});

@@ -56,7 +56,8 @@ expect_fault drop-barrier check-sort pass '^pass: checkpoint pass 1[01] \(k=32, 
     --families bitonic-wg --dists sorted --sizes 4096 --drop-barrier 10
 
 # Bad usage: one line, status 2.
-for args in "--repeat 0" "--families nope" "--subset most" "--kernels /nonexistent" "--check-only"; do
+for args in "--repeat 0" "--families nope" "--subset most" "--kernels /nonexistent" "--check-only" \
+    "--families radix --sweep pow2:26" "--families radix --sweep tile:x" "--sweep n:5-9"; do
     status=0
     # shellcheck disable=SC2086
     run $args >"$out/usage.log" 2>&1 || status=$?
@@ -81,6 +82,28 @@ node --input-type=module -e '
     if (patterns([row(256, true), row(257, false)]).length) process.exit(1); // one failure: its own diagnosis
 ' || { echo "FAIL: gpu/lib/patterns.js" >&2; exit 1; }
 echo "gpu: patterns across failing cases named (size rule, distribution, shared stage)"
+
+# Size sweeps (keys made on the fly, check-sort --input): both sorts pass around a tile and around powers of two; a
+# histogram kernel whose partial last tile loses its last key (only with more than one tile) fails exactly from 257
+# on, the summary says so per size, and --shrink takes each failure down to 257.
+run --families bitonic,radix --sweep n:250-262,pow2:10 --json "$out/sweep.json" >"$out/sweep.log" 2>&1 ||
+    { cat "$out/sweep.log" >&2; echo "FAIL: gpu/run --sweep" >&2; exit 1; }
+grep -q "^sweep radix/random: 39 of 39 sizes pass$" "$out/sweep.log" &&
+    grep -q "^sweep bitonic/random: 39 of 39 sizes pass$" "$out/sweep.log" ||
+    { cat "$out/sweep.log" >&2; echo "FAIL: the sweep's per-size summary" >&2; exit 1; }
+rm -rf "$out/tail" && mkdir -p "$out/tail"
+sed 's/  for (var i = tile \* TILE + t; i < min(p.n, (tile + 1u) \* TILE); i += WG) {/  let end = select(p.n, p.n - 1u, tile > 0u \&\& p.n % TILE != 0u);\n  for (var i = tile * TILE + t; i < min(end, (tile + 1u) * TILE); i += WG) {/' \
+    gpu/kernels/radix_hist.wgsl >"$out/tail/radix_hist.wgsl"
+! cmp -s gpu/kernels/radix_hist.wgsl "$out/tail/radix_hist.wgsl" || { echo "FAIL: the planted tail tile" >&2; exit 1; }
+status=0
+run --families radix --sweep n:250-262 --shrink --kernels "$out/tail" --json "$out/tail.json" >"$out/tail.log" 2>&1 ||
+    status=$?
+[ "$status" = 1 ] && grep -q "^sweep radix/random: 7 of 13 sizes pass; failing n: 257-262$" "$out/tail.log" &&
+    node -e 'const s = require(process.argv[1]); const bad = s.results.filter((r) => !r.pass);
+        process.exit(bad.length === 6 && bad.every((r) => r.shrunk && r.shrunk.size === 257) &&
+            s.sweeps[0].failing.join() === "257,258,259,260,261,262" ? 0 : 1)' "$(realpath "$out/tail.json")" ||
+    { cat "$out/tail.log" >&2; echo "FAIL: the planted tail-tile bug (status $status)" >&2; exit 1; }
+echo "gpu: sweeps pass; a tail-tile bug: $(grep "^sweep" "$out/tail.log"), shrunk to 257"
 
 # A user's kernel under a name no bundled kernel has is refused (it would be ignored and the run pass): status 2, one
 # line listing the names.

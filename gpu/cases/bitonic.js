@@ -3,16 +3,16 @@
 // every pass, rtoracle check-sort validates both.
 import fs from 'node:fs';
 import path from 'node:path';
-import {sortDists, sortSizes} from '../lib/matrix.js';
+import {sortCases} from '../lib/matrix.js';
 import {readNpy, writeNpy} from '../lib/npy.js';
 import {check, rtoracle} from '../lib/oracle.js';
 import {bitonicSort} from '../lib/sort.js';
 
 export const family = 'bitonic';
 
-/** Every (distribution, size) of the matrix. */
+/** Every (distribution, size) of the matrix, or of --sweep. */
 export function list(opts) {
-  return sortDists(opts).flatMap((dist) => sortSizes(opts).map((n) => resize({family, dist}, n)));
+  return sortCases(opts, (dist, n, sweep) => resize({family, dist, sweep}, n));
 }
 
 /** The same case at another size (for --shrink). */
@@ -28,7 +28,7 @@ export function prepare(ctx, c) {
 /** The GPU's buffer after the sort (sorted.npy, n_padded slots) and after every pass (passes.npy). */
 export async function dump(ctx, c) {
   const {sorted, passes, passTable} = await bitonicSort(ctx.device, readNpy(path.join(ctx.dir, 'keys.npy')).data,
-    {dumpPasses: c.size <= ctx.opts.passDumpLimit, timer: ctx.timer});
+    {dumpPasses: !c.sweep && c.size <= ctx.opts.passDumpLimit, timer: ctx.timer});
   writeNpy(path.join(ctx.dumpDir, 'sorted.npy'), sorted);
   if (passes) writeNpy(path.join(ctx.dumpDir, 'passes.npy'), passes, [passTable.length, sorted.length]);
 }

@@ -9,23 +9,25 @@ import {Bundle} from '../lib/bundle.js';
 import {readNpy, writeNpy} from '../lib/npy.js';
 import {check, rtoracle} from '../lib/oracle.js';
 import {RADIX_BITS, RADIX_PASSES, RADIX_TILE, radixSort} from '../lib/sort.js';
-import {sortDists, sortSizes} from '../lib/matrix.js';
+import {sortCases} from '../lib/matrix.js';
 
 export const family = 'radix';
 
 const RADIX = 1 << RADIX_BITS;
 const ORACLE_ARGS = ['--algo', 'radix', '--radix-bits', String(RADIX_BITS), '--tile', String(RADIX_TILE)];
 
-const caseOf = (dist, n, racy) => ({family, id: `radix/${dist}/${n}${racy ? '/racy' : ''}`, dist, size: n, racy});
+const caseOf = (dist, n, racy, sweep) => ({family, id: `radix/${dist}/${n}${racy ? '/racy' : ''}`, dist, size: n,
+  racy, sweep});
 
-/** Every (distribution, size) of the matrix; --racy-scatter plants the unsynchronised scatter in all of them. */
+/** Every (distribution, size) of the matrix, or of --sweep; --racy-scatter plants the unsynchronised scatter in all
+ * of them. */
 export function list(opts) {
-  return sortDists(opts).flatMap((dist) => sortSizes(opts).map((n) => caseOf(dist, n, opts.racyScatter)));
+  return sortCases(opts, (dist, n, sweep) => caseOf(dist, n, opts.racyScatter, sweep));
 }
 
 /** The same case at another size (for --shrink). */
 export function resize(c, n) {
-  return caseOf(c.dist, n, c.racy);
+  return caseOf(c.dist, n, c.racy, c.sweep);
 }
 
 const bits = (p) => `digit bits ${p * RADIX_BITS}..${p * RADIX_BITS + RADIX_BITS - 1}`;
@@ -65,7 +67,7 @@ function stageResult(d, sorted) {
 export function prepare(ctx, c) {
   const keys = path.join(ctx.dir, 'keys.npy');
   rtoracle(ctx.rtoracle, ['keys', '--dist', c.dist, '--n', String(c.size), '-o', keys]);
-  rtoracle(ctx.rtoracle, ['sort', keys, ...ORACLE_ARGS, '-o', path.join(ctx.dir, 'oracle')]);
+  if (!c.sweep) rtoracle(ctx.rtoracle, ['sort', keys, ...ORACLE_ARGS, '-o', path.join(ctx.dir, 'oracle')]);
 }
 
 /** The GPU's sorted keys and source indices, every pass's keys and indices, histograms, prefix and tile bases. */
@@ -76,6 +78,7 @@ export async function dump(ctx, c) {
   const n = c.size, tiles = gpu.tiles;
   writeNpy(file('sorted.npy'), gpu.keys);
   writeNpy(file('values.npy'), gpu.values);
+  if (c.sweep) return; /* a sweep checks the final sort alone */
   writeNpy(file('passes.npy'), gpu.passes, [RADIX_PASSES, n]);
   writeNpy(file('pass_values.npy'), gpu.passValues, [RADIX_PASSES, n]);
   writeNpy(file('radix_hist.npy'), gpu.hist, [RADIX_PASSES, tiles, RADIX]);
@@ -85,6 +88,10 @@ export async function dump(ctx, c) {
 
 export function validate(ctx, c) {
   const file = (name) => path.join(ctx.dumpDir, name);
+  if (c.sweep)
+    return {...check(ctx.rtoracle, 'check-sort', ['--input', path.join(ctx.dir, 'keys.npy'), '--gpu',
+      file('sorted.npy'), '--gpu-values', file('values.npy'), '--stable', ...ORACLE_ARGS, '--no-artifacts']),
+    check: 'check-sort'};
   const hist = readNpy(file('radix_hist.npy'));
   const gpu = {hist: hist.data, prefix: readNpy(file('radix_prefix.npy')).data,
     base: readNpy(file('radix_base.npy')).data, passes: readNpy(file('passes.npy')).data, passValues: readNpy(file('pass_values.npy')).data};

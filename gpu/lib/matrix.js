@@ -15,3 +15,50 @@ export function sortSizes(opts) {
 export function sortDists(opts) {
   return opts.dists || SORT_DISTS;
 }
+
+/** The largest sweep size: WebGPU's default maxStorageBufferBindingSize (128 MiB) holds 2^25 u32 keys, and the
+ * bitonic network pads n to a power of two. */
+export const SWEEP_MAX_N = 1 << 25;
+
+/** --sweep SPECS (comma-separated): tile:P every n in [P, 2P + 1]; pow2:K 2^k - 1, 2^k and 2^k + 1 for k = 1 .. K;
+ * n:A-B every n in [A, B]. The sizes, sorted and unique, those above SWEEP_MAX_N left out ({sizes, dropped}); throws
+ * on a bad spec. */
+export function sweepSizes(spec) {
+  const set = new Set();
+  for (const part of spec.split(',').filter((x) => x.length)) {
+    let m;
+    const int = (x) => (/^\d+$/.test(x) ? Number(x) : NaN);
+    if ((m = /^tile:(.+)$/.exec(part)) && int(m[1]) >= 1 && int(m[1]) <= SWEEP_MAX_N) {
+      for (let n = int(m[1]); n <= 2 * int(m[1]) + 1; n++) set.add(n);
+    } else if ((m = /^pow2:(.+)$/.exec(part)) && int(m[1]) >= 1 && int(m[1]) <= 25) {
+      for (let k = 1; k <= int(m[1]); k++) [2 ** k - 1, 2 ** k, 2 ** k + 1].forEach((n) => set.add(n));
+    } else if ((m = /^n:(\d+)-(\d+)$/.exec(part)) && int(m[1]) >= 1 && int(m[1]) <= int(m[2]) &&
+               int(m[2]) - int(m[1]) < 1 << 20) {
+      for (let n = int(m[1]); n <= int(m[2]); n++) set.add(n);
+    } else {
+      throw new Error(`--sweep: '${part}' is none of tile:P, pow2:K (K <= 25), n:A-B`);
+    }
+  }
+  const all = [...set].sort((a, b) => a - b);
+  return {sizes: all.filter((n) => n <= SWEEP_MAX_N), dropped: all.filter((n) => n > SWEEP_MAX_N)};
+}
+
+/** Sizes as ranges: [1, 2, 3, 7, 9, 10] -> "1-3, 7, 9-10". */
+export function sizeRanges(sizes) {
+  const out = [];
+  for (let i = 0; i < sizes.length; i++) {
+    let j = i;
+    while (j + 1 < sizes.length && sizes[j + 1] === sizes[j] + 1) j++;
+    out.push(j > i ? `${sizes[i]}-${sizes[j]}` : `${sizes[i]}`);
+    i = j;
+  }
+  return out.join(', ');
+}
+
+/** The cases of a sort family: the matrix (every distribution x size), or with --sweep the sweep's sizes over the
+ * given distributions (default random), marked sweep: keys made on the fly, only the final sort checked
+ * (check-sort --input: no stored golden, no per-pass dumps). */
+export function sortCases(opts, make) {
+  if (opts.sweep) return (opts.dists || ['random']).flatMap((d) => opts.sweep.sizes.map((n) => make(d, n, true)));
+  return sortDists(opts).flatMap((d) => sortSizes(opts).map((n) => make(d, n, false)));
+}
