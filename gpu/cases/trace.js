@@ -51,7 +51,7 @@ function makeCase(scene, rays, size, tlas = 'sweep', edit = null) {
 export function list(opts) {
   if (!opts.scenes && opts.subset === 'ci') return CI.map((c) => makeCase(...c));
   if (!opts.scenes) return FULL.map((c) => makeCase(...c)).concat(GOLDEN.map((g) => ({family, id: `trace/golden/${g}`,
-    golden: path.join(REPO, 'fixtures', 'golden', g)})));
+    golden: g})));
   checkScenes(opts.rtoracle, opts.scenes);
   return opts.scenes.flatMap((s) => [makeCase(s, 'primary', '64x64'), makeCase(s, 'random', 4096)]);
 }
@@ -89,16 +89,20 @@ function editRefused(words) {
   return out;
 }
 
-/** The bundle of a case: a committed golden, or the one prepare() wrote. */
-function bundleOf(ctx, c) {
-  return new Bundle(c.golden || path.join(ctx.dir, 'bundle'));
+/** The bundle of a case, in the case's directory (a committed golden is copied there by prepare(), so a prepared
+ * directory holds everything it needs and can move to another path or host). */
+function bundleOf(ctx) {
+  return new Bundle(path.join(ctx.dir, 'bundle'));
 }
 
 /** The oracle's side: a generated ray set's bundle, or its flag-edited ray file traced again; for the 'refused' case
  * also the edited rays and the oracle's refusal of them (oracle_refusal.txt). */
 export function prepare(ctx, c) {
-  if (c.golden) return;
   const out = path.join(ctx.dir, 'bundle');
+  if (c.golden) {
+    fs.cpSync(path.join(REPO, 'fixtures', 'golden', c.golden), out, {recursive: true});
+    return;
+  }
   const base = [scenePath(c.scene), '--tlas', c.tlas, '--threads', '1'];
   if (c.edit === 'flags') {
     const gen = path.join(ctx.dir, 'generated');
