@@ -356,6 +356,9 @@ static int in_child(void (*fn)(const char *, void *), const char *spec, void *ou
 static void golden_fn(const char *spec, void *out) { *(golden_result *)out = child_golden(spec); }
 static void timing_fn(const char *spec, void *out) { *(timing_result *)out = child_timing(spec); }
 
+/* --json's detail: one object per scene with the figures docs/frame.md's table shows (bench/frame_table.py). */
+static json_t *detail_scenes;
+
 static void bench_scene(const char *spec, const char *label)
 {
     golden_result g;
@@ -385,6 +388,25 @@ static void bench_scene(const char *spec, const char *label)
     }
     const double mb = 1.0 / (1024.0 * 1024.0);
     const double bytes_mb = (double)g.bundle_bytes * mb, rss_mb = (double)g.rss_peak_kb / 1024.0;
+    json_t *sc = json_pack("{s:s, s:I, s:I, s:i}", "scene", label, "primary_rays", (json_int_t)t.primary,
+                           "shadow_rays", (json_int_t)t.shadow, "threads_all", hw_threads);
+    for (int d = 0; d < 2 && sc; d++) {
+        const double *st = t.stage[d];
+        json_object_set_new(sc, d ? "all_threads" : "one_thread",
+                            json_pack("{s:f, s:f, s:f, s:f, s:f, s:f, s:f, s:f}", "total_s", t.total[d], "no_stage_kept_s",
+                                      t.lean[d], "generate_ms", st[RTO_STAGE_GENERATE] * 1e3, "trace_ms",
+                                      st[RTO_STAGE_TRACE] * 1e3, "shade_ms", st[RTO_STAGE_SHADE] * 1e3, "resolve_ms",
+                                      st[RTO_STAGE_RESOLVE] * 1e3, "embree_ms", t.embree[d] * 1e3,
+                                      "trace_over_embree", st[RTO_STAGE_TRACE] / t.embree[d]));
+    }
+    if (sc && !no_golden)
+        json_object_set_new(sc, "golden", json_pack("{s:f, s:I, s:f, s:f}", "bundle_mib", bytes_mb, "files",
+                                                     (json_int_t)g.bundle_files, "write_s", g.write_s,
+                                                     "peak_rss_mib", rss_mb));
+    if (!sc || json_array_append_new(detail_scenes, sc)) {
+        fprintf(stderr, "bench_frame: out of memory\n");
+        exit(1);
+    }
     if (!no_golden)
         printf("%-19s golden: camera '%s', %u instances, %llu triangles; queues %llu / %llu / %llu rays; render %.2f "
                "s, bundle %.1f MiB in %llu files written in %.2f s; peak RSS %.1f MiB after the frame, %.1f MiB after "
@@ -466,11 +488,13 @@ int main(int argc, char **argv)
            "frame/", "nokeep");
     printf("%-19s %-7s %8s %8s %7s %7s %8s %8s %7s %8s %8s %8s %8s %6s %6s %6s\n", "", "", "rays", "rays", "ms", "ms",
            "ms", "ms", "ms", "ms", "total ms", "ms", "ms", "emb", "emb", "/emb");
+    detail_scenes = json_array();
     for (int i = 0; i < nscenes; i++) {
         const char *base = strrchr(scenes[i], '/');
         bench_scene(scenes[i], base ? base + 1 : scenes[i]);
     }
     print_load("after");
-    bench_finish("frame", runs, NULL);
+    bench_finish("frame", runs, json_pack("{s:i, s:i, s:o}", "width", width, "height", height, "scenes",
+                                          detail_scenes));
     return 0;
 }
