@@ -5,7 +5,7 @@
  * otherwise: exit status 1. */
 #include "cli.h"
 #include "trace/crosscheck.h"
-#include "embree.h"
+#include "embree_module.h"
 
 #include <jansson.h>
 #include <math.h>
@@ -69,6 +69,7 @@ typedef struct detail {
 } detail;
 
 typedef struct run {
+    const emb_module *E; /* Embree, loaded on demand (embree_module.h) */
     const rto_scene *scene;
     const rto_accel *accel;
     emb_device *dev;
@@ -119,7 +120,7 @@ static rto_status ensure_mirror(run *r, emb_scene **m, bool robust, rto_msg *msg
     if (*m)
         return RTO_OK;
     emb_scene_desc desc = {EMB_QUALITY_DEFAULT, robust, r->culling};
-    return emb_scene_create(r->dev, r->scene, &desc, m, msg);
+    return r->E->scene_create(r->dev, r->scene, &desc, m, msg);
 }
 
 /* Compares and classifies n rays already traced by both sides. */
@@ -143,13 +144,13 @@ static rto_status compare(run *r, const char *set, const rto_wf_ray *rays, size_
         rto_hit_record closest, robust;
         bool have_closest = false;
         if ((ray->flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) && eh[i].miss_flag == 0) {
-            emb_trace_closest(r->mirror, ray, &closest);
+            r->E->trace_closest(r->mirror, ray, &closest);
             have_closest = true;
         }
         rto_status st;
         if (!r->robust_mode) {
             if ((st = ensure_mirror(r, &r->robust, true, msg)) ||
-                (st = emb_trace(r->robust, r->dev, ray, 1, 1, &robust, msg)))
+                (st = r->E->trace(r->robust, r->dev, ray, 1, 1, &robust, msg)))
                 return st;
         }
         xc_input in = {r->scene, ray, &oh[i], &eh[i], have_closest ? &closest : NULL, r->robust_mode ? NULL : &robust,
@@ -186,7 +187,7 @@ static rto_status trace_both(run *r, const char *set, const rto_wf_ray *rays, si
     if (!st)
         st = ensure_mirror(r, &r->mirror, r->robust_mode, msg);
     if (!st)
-        st = emb_trace(r->mirror, r->dev, rays, n, r->threads, eh, msg);
+        st = r->E->trace(r->mirror, r->dev, rays, n, r->threads, eh, msg);
     if (!st)
         st = compare(r, set, rays, n, oh, eh, msg);
     free(oh);
@@ -243,11 +244,11 @@ static void print_text(const run *r, const char *scene_name, const char *mode)
     uint64_t tris = 0;
     for (uint32_t i = 0; i < r->scene->instance_count; i++)
         tris += r->scene->meshes[r->scene->instances[i].blas].triangle_count;
-    const uint32_t threads = emb_thread_count(r->threads);
-    printf("crosscheck %s: %u instance%s, %llu triangle%s; Embree %d.%d.%d %s (build quality %s), %u thread%s\n",
+    const uint32_t threads = r->E->thread_count(r->threads);
+    printf("crosscheck %s: %u instance%s, %llu triangle%s; Embree %s %s (build quality %s), %u thread%s\n",
            scene_name, r->scene->instance_count, r->scene->instance_count == 1 ? "" : "s", (unsigned long long)tris,
-           tris == 1 ? "" : "s", RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH, mode,
-           emb_quality_name(EMB_QUALITY_DEFAULT), threads, threads == 1 ? "" : "s");
+           tris == 1 ? "" : "s", r->E->version, mode,
+           r->E->quality_name(EMB_QUALITY_DEFAULT), threads, threads == 1 ? "" : "s");
     printf("%-12s %9s %9s", "rays", "count", "hits");
     for (int c = 0; c < XC_CLASS_COUNT; c++)
         printf(" %*s", class_width(c), xc_class_name((xc_class)c));
@@ -326,13 +327,11 @@ static int print_json(const run *r, const char *scene_name, const char *mode)
     json_object_set_new(root, "command", json_string("crosscheck"));
     json_object_set_new(root, "scene", cli_json_text(scene_name));
     json_t *e = json_object();
-    char ver[32];
-    snprintf(ver, sizeof ver, "%d.%d.%d", RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH);
-    json_object_set_new(e, "version", json_string(ver));
+    json_object_set_new(e, "version", json_string(r->E->version));
     json_object_set_new(e, "mode", json_string(mode));
-    json_object_set_new(e, "build_quality", json_string(emb_quality_name(EMB_QUALITY_DEFAULT)));
+    json_object_set_new(e, "build_quality", json_string(r->E->quality_name(EMB_QUALITY_DEFAULT)));
     json_object_set_new(root, "embree", e);
-    json_object_set_new(root, "threads", json_integer(emb_thread_count(r->threads)));
+    json_object_set_new(root, "threads", json_integer(r->E->thread_count(r->threads)));
     json_t *tol = json_object();
     json_object_set_new(tol, "t_rel", json_real(XC_T_REL));
     json_object_set_new(tol, "shared_vertex_rel", json_real(XC_SHARED_REL));
@@ -501,6 +500,9 @@ int cmd_crosscheck(int argc, char **argv)
 
     const char *spec = args.arg[0];
     rto_msg msg = {{0}};
+    const emb_module *E = emb_module_load(&msg);
+    if (!E)
+        return cli_fail("crosscheck", "%s", msg.text);
     rto_scene *sc = NULL;
     if (rto_scene_load(spec, &sc, &msg))
         return cli_fail("crosscheck", "%s", msg.text);
@@ -508,6 +510,7 @@ int cmd_crosscheck(int argc, char **argv)
         fprintf(stderr, "rtoracle crosscheck: warning: %s\n", sc->warnings[w]);
     run r;
     memset(&r, 0, sizeof r);
+    r.E = E;
     r.scene = sc;
     r.robust_mode = robust != 0;
     r.threads = threads;
@@ -516,7 +519,7 @@ int cmd_crosscheck(int argc, char **argv)
     if (!st)
         st = cf_scene_init(&r.model, sc, &msg);
     if (!st)
-        st = emb_device_create(threads, NULL, &r.dev, &msg);
+        st = E->device_create(threads, NULL, &r.dev, &msg);
     if (st) {
         rc = cli_status("crosscheck", st, &msg);
         goto out;
@@ -530,9 +533,9 @@ int cmd_crosscheck(int argc, char **argv)
             rc = EXIT_MISMATCH;
     }
 out:
-    emb_scene_destroy(r.mirror);
-    emb_scene_destroy(r.robust);
-    emb_device_destroy(r.dev);
+    E->scene_destroy(r.mirror);
+    E->scene_destroy(r.robust);
+    E->device_destroy(r.dev);
     cf_scene_free(&r.model);
     rto_accel_destroy(acc);
     rto_scene_destroy(sc);

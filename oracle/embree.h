@@ -32,14 +32,13 @@
 #ifndef RTO_ORACLE_EMBREE_H
 #define RTO_ORACLE_EMBREE_H
 
+#include "embree_module.h"
 #include "rtoracle.h"
 
 #include <embree3/rtcore.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
-
-typedef struct emb_device emb_device;
 
 /**
  * Creates a device: config "threads=N" for threads > 0, Embree's default (every hardware thread) for 0, then
@@ -60,27 +59,9 @@ bool emb_device_ray_masks(const emb_device *d);
  */
 rto_status emb_device_check(emb_device *d, const char *what, rto_msg *msg);
 
-/** Build quality of every scene and geometry of a mirror. Zero means the default (MEDIUM, Embree's own default). */
-typedef enum emb_quality {
-    EMB_QUALITY_DEFAULT = 0,
-    EMB_QUALITY_LOW = 1,    /* Morton builder (both scene and geometry must ask for it) */
-    EMB_QUALITY_MEDIUM = 2, /* binned SAH */
-    EMB_QUALITY_HIGH = 3    /* SAH with spatial splits */
-} emb_quality;
 /** "low", "medium", "high" (the default prints as "medium"). */
 const char *emb_quality_name(emb_quality q);
 enum RTCBuildQuality emb_quality_rtc(emb_quality q);
-
-/** How to mirror a scene. Zero-initialised means the defaults (MEDIUM, not robust, no culling). */
-typedef struct emb_scene_desc {
-    emb_quality quality; /* set on every scene (rtcSetSceneBuildQuality) and every geometry
-                          * (rtcSetGeometryBuildQuality): Embree takes the geometry's builder only when both ask */
-    bool robust;         /* RTC_SCENE_FLAG_ROBUST on every scene: watertight Plücker triangle tests and conservative
-                          * box tests, the mode the oracle's results are checked against by default */
-    bool culling;        /* intersection filters that honour CULL_BACK_FACING / CULL_FRONT_FACING (slower) */
-} emb_scene_desc;
-
-typedef struct emb_scene emb_scene;
 
 /**
  * Mirrors a scene into Embree and commits it (meshes first, then the top scene). The mirror borrows the scene (for

@@ -105,6 +105,25 @@ run --families radix --sweep n:250-262 --shrink --kernels "$out/tail" --json "$o
     { cat "$out/tail.log" >&2; echo "FAIL: the planted tail-tile bug (status $status)" >&2; exit 1; }
 echo "gpu: sweeps pass; a tail-tile bug: $(grep "^sweep" "$out/tail.log"), shrunk to 257"
 
+# The dump-there / check-here flow of a GPU host: cases prepared here and moved to another path, dumped there, then
+# checked by an installed rtoracle copied to another prefix (its own image module beside it; it links no Embree).
+build=$(dirname "$(dirname "$(realpath "$rto")")")
+rm -rf "$out/host-root" "$out/host" "$out/prep"
+meson install -C "$build" --destdir "$out/host-root" --no-rebuild --quiet >"$out/host-install.log" 2>&1 ||
+    { cat "$out/host-install.log" >&2; echo "FAIL: meson install" >&2; exit 1; }
+prefix=$(meson introspect "$build" --buildoptions |
+    python3 -c 'import json,sys; print([o["value"] for o in json.load(sys.stdin) if o["name"]=="prefix"][0])')
+cp -a "$out/host-root$prefix" "$out/host"
+rm -rf "$out/host-root"
+run --families trace,frame --subset ci --prepare-only --out "$out/prep" >"$out/host.log" 2>&1 &&
+    mv "$out/prep" "$out/host/cases" &&
+    gpu/run --families trace,frame --subset ci --dump-only --out "$out/host/cases" >>"$out/host.log" 2>&1 &&
+    gpu/run --rtoracle "$out/host/bin/rtoracle" --families trace,frame --subset ci --check-only \
+        --out "$out/host/cases" >>"$out/host.log" 2>&1 &&
+    ! ldd "$out/host/bin/rtoracle" | grep -qi embree ||
+    { cat "$out/host.log" >&2; echo "FAIL: the moved prepared cases checked by the installed rtoracle" >&2; exit 1; }
+echo "gpu: cases prepared here, moved, dumped, checked by a relocated installed rtoracle: $(grep "cases pass" "$out/host.log")"
+
 # A user's kernel under a name no bundled kernel has is refused (it would be ignored and the run pass): status 2, one
 # line listing the names.
 rm -rf "$out/misnamed" && mkdir -p "$out/misnamed"

@@ -29,4 +29,23 @@ nm -D --defined-only "$libdir/librtoracle.so" | awk '{print $3}' | while read -r
 done | head -5 >"$T/extra"
 [ -s "$T/extra" ] && fail "librtoracle.so exports symbols the header does not declare: $(tr '\n' ' ' <"$T/extra")"
 LD_LIBRARY_PATH=$libdir run 0 "$root/bin/rtoracle" --version && has rtoracle out
-finish "install: rtoracle, librtoracle (.so, .a), rtoracle.h and rtoracle.pc installed; a pkg-config build links and runs"
+
+# The command does not link Embree (crosscheck loads the module librto_embree.so on demand), and an installed tree
+# copied to another prefix uses its own modules: the image module for check-frame and compare, Embree's for crosscheck.
+ldd "$root/bin/rtoracle" | grep -qi embree && fail "the installed rtoracle links Embree"
+[ -f "$libdir/rtoracle/librto_embree.so" ] && [ -f "$libdir/rtoracle/librto_image.so" ] ||
+    fail "the modules are not installed in $libdir/rtoracle"
+cp -a "$root" "$T/moved"
+moved_lib=$T/moved/${libdir#"$root"/}
+# loaded LIB ARGS...: the moved rtoracle runs ARGS, and the dynamic loader opened LIB from the moved tree
+loaded() {
+    local lib=$1
+    shift
+    LD_LIBRARY_PATH=$moved_lib LD_DEBUG=files run 0 "$T/moved/bin/rtoracle" "$@" &&
+        grep -q "file=$T/moved/.*rtoracle/$lib" "$T/err" ||
+        { fail "the moved rtoracle $1 did not load its own $lib"; grep "$lib" "$T/err" | head -3 | sed 's/^/    | /'; }
+}
+printf 'P3\n2 1\n255\n0 0 0 255 255 255\n' >"$T/a.ppm"
+loaded librto_image.so compare "$T/a.ppm" "$T/a.ppm"
+loaded librto_embree.so crosscheck triangle --count 16 --width 4 --height 4 --threads 1
+finish "install: rtoracle, librtoracle (.so, .a), rtoracle.h, rtoracle.pc and the two modules installed; a pkg-config build links and runs; a copied tree uses its own modules"

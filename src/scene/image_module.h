@@ -3,8 +3,9 @@
  *
  * It is a separate shared module, loaded with dlopen the first time an image is touched, because linking
  * OpenImageIO into the library would make every rtoracle process load its ~260 shared libraries (all bound at load
- * time, ~0.2 s) even for commands that never touch an image. Search order: $RTO_IMAGE_MODULE, the build tree, the
- * install directory (paths fixed at configure time). The loader (image_module_load.c) is the one place that opens
+ * time, ~0.2 s) even for commands that never touch an image. Search order: $RTO_IMAGE_MODULE, beside the running
+ * executable, the install layout's place relative to it (<exe>/../<libdir>/rtoracle/), then the build tree and the
+ * install directory (paths fixed at configure time): a relocated install uses its own module. The loader (image_module_load.c) is the one place that opens
  * it; the glTF shim and io/image.c both go through it.
  *
  * Every function below never throws, writes nothing to stdout or stderr, and reports failure with a one-line reason

@@ -27,23 +27,52 @@ static int symbol(void *h, const char *name, void *fn, size_t size)
     return 1;
 }
 
-const char *rto__image_module_path(void)
+/* The places searched, in order: $RTO_IMAGE_MODULE, next to the running executable, the install layout's place
+ * relative to it (<exe dir>/../<libdir>/rtoracle/librto_image.so), then the build tree and the install directory:
+ * an installed tree copied to another prefix, or a binary copied with the module beside it, uses its own module. */
+static size_t module_paths(const char *paths[5], char rel[2][4096])
 {
     const char *env = getenv("RTO_IMAGE_MODULE");
-    const char *paths[] = {env && *env ? env : NULL, RTO_IMAGE_MODULE_BUILD, RTO_IMAGE_MODULE_INSTALL};
-    for (size_t i = 0; i < sizeof paths / sizeof paths[0]; i++)
-        if (paths[i] && access(paths[i], R_OK) == 0)
+    size_t n = 0;
+    if (env && *env)
+        paths[n++] = env;
+    char exe[4096];
+    const ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (len > 0) {
+        exe[len] = 0;
+        char *slash = strrchr(exe, '/');
+        if (slash) {
+            *slash = 0;
+            if (snprintf(rel[0], sizeof rel[0], "%s/librto_image.so", exe) < (int)sizeof rel[0])
+                paths[n++] = rel[0];
+            if (snprintf(rel[1], sizeof rel[1], "%s/../%s", exe, RTO_IMAGE_MODULE_RELATIVE) < (int)sizeof rel[1])
+                paths[n++] = rel[1];
+        }
+    }
+    paths[n++] = RTO_IMAGE_MODULE_BUILD;
+    paths[n++] = RTO_IMAGE_MODULE_INSTALL;
+    return n;
+}
+
+const char *rto__image_module_path(void)
+{
+    static char rel[2][4096];
+    const char *paths[5];
+    const size_t n = module_paths(paths, rel);
+    for (size_t i = 0; i < n; i++)
+        if (access(paths[i], R_OK) == 0)
             return paths[i];
     return NULL;
 }
 
 static void load(void)
 {
-    const char *env = getenv("RTO_IMAGE_MODULE");
-    const char *paths[] = {env && *env ? env : NULL, RTO_IMAGE_MODULE_BUILD, RTO_IMAGE_MODULE_INSTALL};
-    for (size_t i = 0; i < sizeof paths / sizeof paths[0]; i++) {
+    static char rel[2][4096];
+    const char *paths[5];
+    const size_t n = module_paths(paths, rel);
+    for (size_t i = 0; i < n; i++) {
         const char *p = paths[i];
-        if (!p || access(p, R_OK) != 0)
+        if (access(p, R_OK) != 0)
             continue;
         void *h = dlopen(p, RTLD_NOW | RTLD_LOCAL);
         if (!h) {
@@ -69,7 +98,9 @@ static void load(void)
         g_loaded = &g_module; /* the module stays loaded for the life of the process */
         return;
     }
-    snprintf(g_error, sizeof g_error, "image module librto_image.so not found (set RTO_IMAGE_MODULE)");
+    snprintf(g_error, sizeof g_error, "image module librto_image.so not found (looked beside the executable, in ../%s "
+             "from it, in the build tree and in %s; set RTO_IMAGE_MODULE)", RTO_IMAGE_MODULE_RELATIVE,
+             RTO_IMAGE_MODULE_INSTALL);
 }
 
 const rto_image_module *rto__image_module(const char **error)
