@@ -327,6 +327,9 @@ async function main() {
   }
   const failed = results.filter((r) => !r.pass).length;
   const flaky = results.filter((r) => !r.pass && r.passes > 0).length;
+  const quantum = timer.quantumNs();
+  if (quantum !== null)
+    console.log(`timestamps: resolution ${quantum} ns as the values show it (the gcd of every timestamp read)`);
   if (opts.prepareOnly || opts.dumpOnly) {
     console.log(`${opts.prepareOnly ? 'inputs' : 'dumps'} in ${root}`);
     return;
@@ -351,7 +354,8 @@ async function main() {
   if (opts.sweep && opts.sweep.dropped.length)
     console.log(`sweep: n = ${sizeRanges(opts.sweep.dropped)} left out (above 2^25 keys, WebGPU's default ` +
       'storage-buffer limit)');
-  const summary = {backend, adapter, repeat: opts.repeat, timestamps: timer.on, subset: opts.subset,
+  const summary = {backend, adapter, repeat: opts.repeat, timestamps: timer.on, timestamp_quantum_ns: quantum,
+    subset: opts.subset,
     families: opts.families, user_kernels: userKernels, warnings, patterns: found, sweeps, cases: results.length,
     failed, flaky, results};
   if (opts.json) fs.writeFileSync(opts.json, JSON.stringify(summary, null, 2) + '\n');

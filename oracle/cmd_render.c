@@ -12,7 +12,7 @@ static const char render_usage[] =
     "usage: rtoracle render SCENE --program NAME|PLUGIN.so [--width W --height H] [--max-depth D]\n"
     "                       [--camera scene|auto|N|EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY] [--param NAME=V[,V..][:NAME=..]]\n"
     "                       [--stages LIST] [--tlas sweep|karras] [--threads N] [--memory-budget MiB]\n"
-    "                       [--no-timings] -o OUTDIR\n\n"
+    "                       [--timings] -o OUTDIR\n\n"
     "SCENE is a .gltf / .glb path, a procedural scene (see rtoracle info --help), or stage2 (seed 002's two\n"
     "spheres, box and ground slab, traced analytically with the seed's own intersection code).\n"
     "Programs: triangle (barycentric colours), sun-shadow (ambient + a shadow ray towards the sun, Reinhard and\n"
@@ -32,8 +32,9 @@ static const char render_usage[] =
     "  accum.npy, accum.exr       the linear accum buffer, f32 RGBA (H, W, 4)\n"
     "  image.png                  the resolved rgba8unorm image\n"
     "  not_comparable.npy         u8 (H, W): 1 = accumulate conflict, 2 = a ray dropped at capacity\n"
-    "  manifest.json              scene, program and parameters, camera, counters, per-stage wall times\n"
-    "Everything but the manifest's timings is byte-identical across runs and --threads (--no-timings omits them).\n"
+    "  manifest.json              scene, program and parameters, camera, counters (and with --timings the\n"
+    "                             per-stage wall times)\n"
+    "The bundle is byte-identical across runs and --threads; --timings adds wall-clock times, which are not.\n"
     "Memory: a frame may hold its queues at their capacity of 2 W H rays (64 bytes each, plus the payload) and\n"
     "every kept stage; the bound (DESIGN.md §7) is checked before the scene is loaded, and a frame over the budget\n"
     "(--memory-budget; default half the memory this process may use) is refused at once.\n"
@@ -129,7 +130,7 @@ int cmd_render(int argc, char **argv)
     const char *out = NULL, *program_arg = NULL, *camera_arg = NULL, *param_arg = NULL, *stages_arg = "all";
     uint64_t width = 160, height = 90, depth = 0, threads = 0, budget_mb = 0, memory_mb = 0;
     unsigned karras = 0;
-    bool no_timings = false, force = false;
+    bool timings = false, no_timings = false, force = false;
     const opt_spec opts[] = {
         OPT_STRING("program", &program_arg, "NAME", "triangle, sun-shadow, normals, a plugin .so, or list"),
         OPT_UINT("width", &width, 1, 65536, "W", "image width", "160"),
@@ -144,7 +145,8 @@ int cmd_render(int argc, char **argv)
         OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",
                  "decoded texture memory (RGBA8, MiB) the scene may take", "256"),
         OPT_UINT("memory-budget", &memory_mb, 0, CLI_MEMORY_BUDGET_MAX_MB, "MiB", CLI_MEMORY_BUDGET_HELP, "0"),
-        OPT_FLAG("no-timings", &no_timings, "leave the per-stage wall times out of the manifest"),
+        OPT_FLAG("timings", &timings, "put the per-stage wall times in the manifest (the bundle then differs run to run)"),
+        OPT_FLAG("no-timings", &no_timings, "the default: no wall times (accepted for scripts written before)"),
         OPT_FLAG("force", &force, "write the bundle even when OUTDIR is up to date"),
         OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
         OPT_END,
@@ -293,7 +295,7 @@ int cmd_render(int argc, char **argv)
     if (!s && !stage2)
         s = cli_write_geometry(b, sc, &msg);
     if (!s)
-        s = rto_frame_write_bundle(frame, !no_timings, b, &msg);
+        s = rto_frame_write_bundle(frame, timings && !no_timings, b, &msg);
     if (!s) {
         rto_bundle_set_str(b, "frame", "scene_kind", stage2 ? "stage2" : "mesh");
         if (stage2)

@@ -13,7 +13,8 @@ export async function openDevice() {
   const tries = want ? [want] : ['vulkan', 'opengl'];
   for (const backend of tries) {
     if (backend === 'opengl' && !process.env.EGL_PLATFORM) process.env.EGL_PLATFORM = 'surfaceless';
-    const gpu = create([`backend=${backend}`]);
+    // Dawn quantizes timestamp-query values (to 65,536 ns) unless told not to: --timestamps wants the real ones.
+    const gpu = create([`backend=${backend}`, 'disable-dawn-features=timestamp_quantization']);
     const adapter = await gpu.requestAdapter(backend === 'opengl' ? {featureLevel: 'compatibility'} : {});
     if (!adapter) continue;
     const features = adapter.features.has('timestamp-query') ? ['timestamp-query'] : [];

@@ -10,6 +10,7 @@ export class Timer {
     this.sets = [];
     this.labels = [];
     this.totals = new Map(); // label -> {ns, passes}
+    this.quantum = 0n; // the gcd of every raw timestamp read: the timer's effective resolution
   }
 
   /** enc.beginComputePass(), with timestamp writes attributed to `label` while measuring. */
@@ -38,6 +39,8 @@ export class Timer {
     const outs = await readBack(this.device, enc, bufs, bufs.map((b) => b.size));
     this.sets.forEach(({set, labels}, s) => {
       const t = new BigUint64Array(outs[s]);
+      const gcd = (a, b) => (b ? gcd(b, a % b) : a);
+      for (let k = 0; k < 2 * labels.length; k++) if (t[k]) this.quantum = gcd(t[k], this.quantum);
       labels.forEach((label, i) => {
         const ns = t[2 * i + 1] > t[2 * i] ? Number(t[2 * i + 1] - t[2 * i]) : 0;
         const cur = this.totals.get(label) || {ns: 0, passes: 0};
@@ -50,6 +53,13 @@ export class Timer {
     });
     this.sets = [];
     this.labels = [];
+  }
+
+  /** The timestamps' resolution in ns as the values show it (the gcd of all read, up to 2^20 ns), or null before any:
+   * Dawn quantizes timestamps (to 65,536 ns) unless its timestamp_quantization toggle is off, as openDevice asks. */
+  quantumNs() {
+    if (!this.quantum) return null;
+    return Number(this.quantum > 1n << 20n ? 1n << 20n : this.quantum);
   }
 
   /** {label: {ms, passes}} of everything collected so far, and resets. */
