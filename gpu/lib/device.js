@@ -13,8 +13,10 @@ export async function openDevice() {
   const tries = want ? [want] : ['vulkan', 'opengl'];
   for (const backend of tries) {
     if (backend === 'opengl' && !process.env.EGL_PLATFORM) process.env.EGL_PLATFORM = 'surfaceless';
-    // Dawn quantizes timestamp-query values (to 65,536 ns) unless told not to: --timestamps wants the real ones.
-    const gpu = create([`backend=${backend}`, 'disable-dawn-features=timestamp_quantization']);
+    // Dawn quantizes timestamp-query values (to 65,536 ns) unless told not to: --timestamps wants the real ones
+    // (RTO_GPU_QUANTIZED_TIMESTAMPS=1 keeps Dawn's default).
+    const flags = process.env.RTO_GPU_QUANTIZED_TIMESTAMPS ? [] : ['disable-dawn-features=timestamp_quantization'];
+    const gpu = create([`backend=${backend}`, ...flags]);
     const adapter = await gpu.requestAdapter(backend === 'opengl' ? {featureLevel: 'compatibility'} : {});
     if (!adapter) continue;
     const features = adapter.features.has('timestamp-query') ? ['timestamp-query'] : [];
