@@ -314,7 +314,7 @@ async function main() {
       const runs = r.runs || opts.repeat; // --check-only: as many as were dumped
       const row = {case: c.id, family, params: c, pass: r.passes === runs, passes: r.passes, repeat: runs,
         distinct_dumps: r.distinct || null, check: shown.check || null, fault: shown.fault || null,
-        diagnosis: shown.diagnosis || '', gpu_ms: r.gpu_ms || {}, wall_s: (Date.now() - t0) / 1000, dir: caseDir(c),
+        diagnosis: shown.diagnosis || '', gpu_ms: r.gpu_ms || {}, wall_s: (Date.now() - t0) / 1000, dir: opts.out ? caseDir(c) : null /* a temporary root is removed */,
         images: shown.images || null};
       if (!row.pass && opts.shrink && mod.resize && c.size > 1) row.shrunk = await shrink(ctx, mod, c, caseDir);
       results.push(row);

@@ -1,7 +1,9 @@
 /* Shared plumbing of the rtoracle command. */
 #include "cli.h"
 
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <inttypes.h>
 #include <jansson.h>
 #include <math.h>
@@ -10,6 +12,7 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 int cli_fail(const char *cmd, const char *fmt, ...)
@@ -285,6 +288,23 @@ const char *cli_npy_what(const rto_npy_desc *d, const char *layout, char *buf, s
                          d->ndim == 1 || i + 1 < d->ndim ? "," : "");
     if (used >= 0 && (size_t)used < cap)
         snprintf(buf + used, cap - (size_t)used, ")");
+    return buf;
+}
+
+const char *cli_dir_summary(const char *dir, char *buf, size_t cap)
+{
+    DIR *d = opendir(dir);
+    unsigned long long files = 0, bytes = 0;
+    for (struct dirent *e = d ? readdir(d) : NULL; e; e = readdir(d)) {
+        struct stat st;
+        if (fstatat(dirfd(d), e->d_name, &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISREG(st.st_mode)) {
+            files++;
+            bytes += (unsigned long long)st.st_size;
+        }
+    }
+    if (d)
+        closedir(d);
+    snprintf(buf, cap, "%llu file%s, %.1f MiB", files, files == 1 ? "" : "s", (double)bytes / (1024.0 * 1024.0));
     return buf;
 }
 

@@ -77,6 +77,9 @@ int cli_bundle_load(const cli_bundle *cb, const char *name, const rto_npy_desc *
  * force (--force) or a NULL request (out of memory): 0.
  */
 int cli_up_to_date(const char *cmd, const char *out, const char *request, bool force);
+/** What a bundle directory holds, as "N files, X MiB" (its plain files, not descending), for the line a command
+ * prints after writing one. */
+const char *cli_dir_summary(const char *dir, char *buf, size_t cap);
 /** Records request for the bundle's stamp (rto_bundle_set_request), with the scene's source files (sc may be NULL)
  * and one more input file (extra: a plugin, a ray file; NULL for none). A NULL request does nothing. */
 rto_status cli_set_request(rto_bundle *b, const char *request, const rto_scene *sc, const char *extra, rto_msg *msg);

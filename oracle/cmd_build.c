@@ -86,6 +86,11 @@ int cmd_build(int argc, char **argv)
         s = rto_bundle_commit(b, &msg);
     else
         rto_bundle_abort(b);
+    if (!s) {
+        char sum[64];
+        printf("build %s: %u instances, %u meshes -> %s (%s)\n", scene, sc->instance_count, sc->mesh_count, out,
+               cli_dir_summary(out, sum, sizeof sum));
+    }
     rto_accel_destroy(acc);
     rto_scene_destroy(sc);
     free(request);

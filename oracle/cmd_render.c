@@ -313,11 +313,12 @@ int cmd_render(int argc, char **argv)
             dropped += frame->counters[d].dropped;
             conflicts += frame->counters[d].conflicts;
         }
+        char sum[64];
         printf("render %s: %s %ux%u maxDepth %u: %llu rays traced (%llu hits), %llu emitted, %llu dropped, "
-               "%llu conflicts; %.2f s -> %s\n",
+               "%llu conflicts; %.2f s -> %s (%s)\n",
                spec, frame->program, frame->width, frame->height, frame->max_depth, (unsigned long long)traced,
                (unsigned long long)hits, (unsigned long long)emitted, (unsigned long long)dropped,
-               (unsigned long long)conflicts, now() - t0, out);
+               (unsigned long long)conflicts, now() - t0, out, cli_dir_summary(out, sum, sizeof sum));
     }
     rto_frame_destroy(frame);
     rto_accel_destroy(acc);

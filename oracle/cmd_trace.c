@@ -287,6 +287,10 @@ int cmd_trace(int argc, char **argv)
         s = rto_bundle_commit(b, &msg);
     else
         rto_bundle_abort(b);
+    if (!s) {
+        char sum[64];
+        printf("trace %s: %zu rays -> %s (%s)\n", args.arg[0], n, out, cli_dir_summary(out, sum, sizeof sum));
+    }
     free(rays);
     free(hits);
     free(counters);

@@ -34,7 +34,7 @@
  *     rto_accel_destroy(accel);                                   // before the scene it borrows
  *     rto_scene_destroy(scene);
  *
- * Conventions (STYLE.md): fallible calls return rto_status and, when given a non-NULL rto_msg, write a one-line
+ * Conventions: fallible calls return rto_status and, when given a non-NULL rto_msg, write a one-line
  * reason into it; outputs are caller-allocated and sized by the documented bound; inputs first, outputs last;
  * every *_free / *_destroy accepts NULL. Keys are passed as `const void *` with an rto_key_format saying whether
  * they are uint32_t or uint64_t. The header is clean C11 and C++.
@@ -331,7 +331,7 @@ typedef struct rto_report_row {
 } rto_report_row;
 
 /**
- * The result of a validator (check-sort, check-bvh; check-hits and check-frame to come). Filled by the validator;
+ * The result of a validator (check-sort, check-bvh, check-hits, check-frame). Filled by the validator;
  * rto_report_text and rto_report_json write it out. All strings are NUL-terminated.
  */
 typedef struct rto_report {

@@ -73,7 +73,7 @@ export function prepare(ctx, c) {
 /** The GPU's sorted keys and source indices, every pass's keys and indices, histograms, prefix and tile bases. */
 export async function dump(ctx, c) {
   const gpu = await radixSort(ctx.device, readNpy(path.join(ctx.dir, 'keys.npy')).data,
-    {timer: ctx.timer, racy: c.racy});
+    {timer: ctx.timer, racy: c.racy, passes: !c.sweep});
   const file = (name) => path.join(ctx.dumpDir, name);
   const n = c.size, tiles = gpu.tiles;
   writeNpy(file('sorted.npy'), gpu.keys);

@@ -5,8 +5,8 @@ struct Params { k: u32, j: u32, n: u32, pad: u32 }
 @group(0) @binding(1) var<uniform> p: Params;
 
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-  let i = gid.x;
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+  let i = gid.x + gid.y * nwg.x * 64u; // a 2-D grid past 65,535 workgroups (gpu.js grid())
   let l = i ^ p.j;
   if (i >= p.n || l <= i) { return; }
   let a = keys[i];

@@ -8,8 +8,10 @@
 var<workgroup> counts: array<atomic<u32>, RADIX>; // zero-initialised by WGSL
 
 @compute @workgroup_size(WG)
-fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) t: u32) {
-  let tile = wg.x;
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) t: u32) {
+  let tile = wg.x + wg.y * nwg.x; // a 2-D grid past 65,535 tiles (gpu.js grid())
+  if (tile >= p.tiles) { return; }
   for (var i = tile * TILE + t; i < min(p.n, (tile + 1u) * TILE); i += WG) {
     atomicAdd(&counts[digit_of(keys[i], p.shift)], 1u);
   }

@@ -44,8 +44,10 @@ fn put(slot: u32, i: u32) {
 }
 
 @compute @workgroup_size(WG)
-fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) t: u32) {
-  let tile = wg.x;
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) t: u32) {
+  let tile = wg.x + wg.y * nwg.x; // a 2-D grid past 65,535 tiles (gpu.js grid())
+  if (tile >= p.tiles) { return; }
   let row = tile_row(p, tile);
   let i0 = tile * TILE + 2u * t;
   let i1 = i0 + 1u;

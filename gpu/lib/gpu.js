@@ -91,6 +91,14 @@ export function shaderError(message) {
   return null;
 }
 
+/** A dispatch of `groups` workgroups as [x, y]: WebGPU allows at most 65,535 per dimension (the default
+ * maxComputeWorkgroupsPerDimension), so larger counts take rows of 32,768. A kernel reads its linear workgroup as
+ * wg.x + wg.y * nwg.x (num_workgroups) and returns early past the count. */
+export function grid(groups) {
+  if (groups <= 65535) return [groups, 1];
+  return [32768, Math.ceil(groups / 32768)];
+}
+
 export const STORAGE = () => GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_SRC | GPUBufferUsage.COPY_DST;
 
 /** A storage buffer of at least `bytes` (rounded up to 16, at least 16), optionally filled from a typed array. */

@@ -1,6 +1,6 @@
 // Sorts on a device (DESIGN.md §4): the canonical bitonic network with one dispatch per (k, j) pass or in one
 // workgroup with barriers between passes, and the LSD radix sort with every intermediate read back.
-import {buffer, bind, pipeline, readBack} from './gpu.js';
+import {buffer, bind, grid, pipeline, readBack} from './gpu.js';
 
 export const SENTINEL = 0xFFFFFFFF;
 
@@ -41,7 +41,7 @@ export function encodeBitonic(device, enc, buf, n, {timer = null, dump = null} =
     const pass = timer ? timer.pass(enc, 'bitonic_pass') : enc.beginComputePass();
     pass.setPipeline(pipe);
     pass.setBindGroup(0, bind(device, pipe, 0, [buf, {buffer: params, offset: 256 * p, size: 16}]));
-    pass.dispatchWorkgroups(Math.ceil(n / 64));
+    pass.dispatchWorkgroups(...grid(Math.ceil(n / 64)));
     pass.end();
     if (dump) enc.copyBufferToBuffer(buf, 0, dump, p * 4 * n, 4 * n);
   });
@@ -104,8 +104,10 @@ const RADIX = 1 << RADIX_BITS;
 /** Sorts keys (u32) by LSD radix with values = source indices, every intermediate kept on the device and read back:
  * {keys, values: the n sorted keys and their source indices, passes, passValues: (RADIX_PASSES x n) keys and values
  * after every pass's scatter, hist and base: (passes x tiles x 16) tile histograms and scatter bases, prefix:
- * (passes x 16) digit prefixes, tiles}. racy: the unsynchronised scatter (radix_scatter.wgsl's RACY_SCATTER). */
-export async function radixSort(device, keys, {timer = null, racy = false} = {}) {
+ * (passes x 16) digit prefixes, tiles}. racy: the unsynchronised scatter (radix_scatter.wgsl's RACY_SCATTER). passes
+ * false: no per-pass copies (passes and passValues empty), which a sweep of large sizes needs (8 copies of 2^24 keys
+ * exceed WebGPU's default maxBufferSize). Dispatches over more than 65,535 tiles use a 2-D grid (gpu.js grid()). */
+export async function radixSort(device, keys, {timer = null, racy = false, passes = true} = {}) {
   const n = keys.length;
   const tiles = Math.ceil(n / RADIX_TILE);
   const bytes = 4 * n;
@@ -121,8 +123,8 @@ export async function radixSort(device, keys, {timer = null, racy = false} = {})
   const hist = buffer(device, tableBytes);
   const base = buffer(device, tableBytes);
   const prefix = buffer(device, prefixBytes);
-  const dump = buffer(device, RADIX_PASSES * bytes);
-  const dumpValues = buffer(device, RADIX_PASSES * bytes);
+  const dump = buffer(device, passes ? RADIX_PASSES * bytes : 16);
+  const dumpValues = buffer(device, passes ? RADIX_PASSES * bytes : 16);
   const params = buffer(device, 256 * RADIX_PASSES, {usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST});
   const words = new Uint32Array(64 * RADIX_PASSES);
   for (let p = 0; p < RADIX_PASSES; p++) words.set([n, tiles, p * RADIX_BITS, p], 64 * p);
@@ -133,7 +135,7 @@ export async function radixSort(device, keys, {timer = null, racy = false} = {})
     const pass = timer ? timer.pass(enc, label) : enc.beginComputePass();
     pass.setPipeline(pipe);
     pass.setBindGroup(0, bind(device, pipe, 0, bufs));
-    pass.dispatchWorkgroups(groups);
+    pass.dispatchWorkgroups(...grid(groups));
     pass.end();
   };
   for (let p = 0; p < RADIX_PASSES; p++) {
@@ -142,16 +144,17 @@ export async function radixSort(device, keys, {timer = null, racy = false} = {})
     stage('radix_hist', pipes.hist, [kIn, hist, uniform], tiles);
     stage('radix_prefix', pipes.prefix, [hist, prefix, base, uniform], 1);
     stage('radix_scatter', pipes.scatter, [kIn, vIn, kOut, vOut, base, uniform], tiles);
-    if (n) {
+    if (n && passes) {
       enc.copyBufferToBuffer(kOut, 0, dump, p * bytes, bytes);
       enc.copyBufferToBuffer(vOut, 0, dumpValues, p * bytes, bytes);
     }
   }
   // An even pass count leaves the result where it started.
   const sides = [keyBufs[RADIX_PASSES % 2], valBufs[RADIX_PASSES % 2], dump, dumpValues, hist, prefix, base];
-  const out = await readBack(device, enc, sides, [bytes, bytes, RADIX_PASSES * bytes, RADIX_PASSES * bytes,
-    tableBytes, prefixBytes, tableBytes]);
+  const out = await readBack(device, enc, sides, [bytes, bytes, passes ? RADIX_PASSES * bytes : 0,
+    passes ? RADIX_PASSES * bytes : 0, tableBytes, prefixBytes, tableBytes]);
   for (const b of [...keyBufs, ...valBufs, hist, base, prefix, dump, dumpValues, params]) b.destroy();
-  const [k, v, passes, passValues, h, pre, b] = out.map((a) => new Uint32Array(a));
-  return {keys: k, values: v, passes, passValues, hist: h, prefix: pre, base: b, tiles};
+  const [k, v, kp, vp, h, pre, b] = out.map((a) => new Uint32Array(a));
+  return {keys: k, values: v, passes: passes ? kp : new Uint32Array(0), passValues: passes ? vp : new Uint32Array(0),
+    hist: h, prefix: pre, base: b, tiles};
 }
