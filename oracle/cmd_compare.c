@@ -11,24 +11,37 @@
 static const char compare_usage[] =
     "usage: rtoracle compare EXPECTED ACTUAL [--diff diff.png] [--diff-scale S] [--fail T] [--fail-percent P]\n"
     "                        [--hard-fail T] [--warn T] [--warn-percent P] [--hard-warn T] [--json]\n\n"
-    "Compares two images of the same size and channel count (PNG, OpenEXR, or any format OpenImageIO reads)\n"
-    "with OpenImageIO's ImageBufAlgo::compare, in [0, 1] units (8-bit values are divided by 255, so an 8-bit\n"
-    "image and a float one compare directly), and prints the mean, RMS and largest error (with its pixel and\n"
-    "channel), the PSNR (OpenImageIO's: 20 log10(peak / RMS), peak 1 unless a value is larger; inf for identical\n"
-    "images), the pixels over the fail and warn thresholds and the verdict.\n"
+    "Compares two images (PNG, OpenEXR, or any format OpenImageIO reads) as Debian's idiff 2.4.7 does, with\n"
+    "OpenImageIO's ImageBufAlgo::compare, in [0, 1] units (8-bit values are divided by 255, so an 8-bit image\n"
+    "and a float one compare directly), and prints the mean, RMS and largest error (with its pixel, channel and\n"
+    "both pixels' values), the PSNR (OpenImageIO's: 20 log10(peak / RMS), peak 1 unless a value is larger; inf\n"
+    "for identical images), the pixels over the fail and warn thresholds and the verdict. Images of different\n"
+    "sizes or channel counts are compared over the union of the two, a pixel or channel one lacks reading as 0\n"
+    "(percentages are of EXPECTED's pixels), as idiff does: they fail unless the extra values are 0.\n"
     "A pixel fails when any of its channels differs by more than --fail. The comparison FAILS when more than\n"
-    "--fail-percent % of the pixels fail or a channel differs by more than --hard-fail; otherwise it WARNS\n"
-    "likewise with --warn, --warn-percent and --hard-warn; otherwise it PASSES (idiff's rule and defaults).\n"
+    "--fail-percent % of the pixels fail or a channel differs by more than --hard-fail; otherwise it WARNS when\n"
+    "some pixel failed and more than --warn-percent % of the pixels differ by more than --warn or a channel by\n"
+    "more than --hard-warn; otherwise it PASSES. That is idiff 2.4.7's behaviour and defaults (its\n"
+    "documentation leaves out \"some pixel failed\": differences under --fail everywhere pass).\n"
     "--diff writes |EXPECTED - ACTUAL| x --diff-scale per channel (an alpha channel is written opaque) as an\n"
     "8-bit PNG or a float OpenEXR, chosen by the file's extension, atomically.\n";
 
 static const char compare_epilog[] =
     "idiff equivalents: -fail, -failpercent, -hardfail, -warn, -warnpercent, -hardwarn, -o, -scale (with -abs:\n"
     "the diff image is always absolute).\n"
-    "Exit status, as idiff's: 0 PASS, 1 WARNING, 2 FAILURE. Unlike idiff (3 for different sizes, 4 for a file\n"
-    "that cannot be read), images of different sizes or channel counts and bad input (a missing, corrupt or\n"
-    "truncated file, a FIFO, a directory, a bad option) also exit 2, after one line on stderr, as every\n"
-    "rtoracle command does.\n";
+    "Exit status, as idiff's: 0 PASS, 1 WARNING, 2 FAILURE, 4 the images could not be compared (a missing,\n"
+    "corrupt or truncated file, a FIFO, a directory, an image over the memory budget, a bad option), after one\n"
+    "line on stderr. compare is the one rtoracle command whose bad input exits 4 and not 2: 2 is FAILURE. idiff\n"
+    "2.4.7 never exits 3 (its code for different sizes): it compares them as above, and so does compare.\n"
+    "Where compare and idiff 2.4.7 differ: idiff reads a PNG with alpha as premultiplied (OpenImageIO's\n"
+    "default), compare reads the stored values (the same wherever alpha is 1, as in every image rtoracle\n"
+    "writes); idiff compares what libpng left of a truncated PNG, compare refuses the file (4).\n"
+    "tests/cli_compare.sh checks the exit statuses against idiff's where openimageio-tools is installed.\n";
+
+/* Exit status 4 for everything that is not a verdict (idiff's code for a file it cannot read): compare's 2 is
+ * FAILURE. */
+#define EXIT_COULD_NOT_COMPARE 4
+static int could_not_compare(int rc) { return rc == EXIT_PASS ? rc : EXIT_COULD_NOT_COMPARE; }
 
 static const char *type_name(rto_pixel_type t) { return t == RTO_PIXEL_U8 ? "8-bit" : "float"; }
 
@@ -114,6 +127,21 @@ static int print_json(const compare_run *c)
     return rc;
 }
 
+/* A pixel's channels in [0, 1] units, as idiff prints them ("none" outside the image). */
+static void pixel_values(const rto_image *im, uint32_t x, uint32_t y)
+{
+    if (x >= im->width || y >= im->height) {
+        printf("none");
+        return;
+    }
+    const size_t at = ((size_t)y * im->width + x) * im->channels;
+    for (uint32_t c = 0; c < im->channels; c++) {
+        const double v = im->type == RTO_PIXEL_U8 ? ((const uint8_t *)im->pixels)[at + c] / 255.0
+                                                  : (double)((const float *)im->pixels)[at + c];
+        printf("%s%.7g", c ? ", " : "", v);
+    }
+}
+
 static int print_text(const compare_run *c)
 {
     const rto_image_compare_result *r = c->r;
@@ -125,9 +153,14 @@ static int print_text(const compare_run *c)
     printf("  RMS error   %.6g\n", r->rms_error);
     printf("  PSNR        %.6g dB\n", r->psnr);
     printf("  max error   %.6g", r->max_error);
-    if (r->max_error != 0)
-        printf(" at pixel (%u, %u), channel %u (%s)", r->max_x, r->max_y, r->max_c,
-               channel_name(e->channels, r->max_c));
+    if (r->max_error != 0) {
+        const uint32_t nc = e->channels > c->actual->channels ? e->channels : c->actual->channels;
+        printf(" at pixel (%u, %u), channel %u (%s); values are ", r->max_x, r->max_y, r->max_c,
+               channel_name(nc, r->max_c));
+        pixel_values(c->expected, r->max_x, r->max_y);
+        printf(" vs ");
+        pixel_values(c->actual, r->max_x, r->max_y);
+    }
     printf("\n");
     printf("  %llu pixels (%.3g %%) over the fail threshold %g\n", (unsigned long long)r->fail_count,
            percent_of(r->fail_count, r->pixels), d->fail);
@@ -170,7 +203,7 @@ int cmd_compare(int argc, char **argv)
     opt_args args;
     int rc = opts_parse(&cmd, argc, argv, &args);
     if (rc >= 0)
-        return rc;
+        return could_not_compare(rc); /* --help: 0; a bad option: 4 */
     desc.hard_fail_set = opts_given(&cmd, &args, "hard-fail");
     desc.hard_warn_set = opts_given(&cmd, &args, "hard-warn");
     desc.diff_path = diff;
@@ -183,39 +216,34 @@ int cmd_compare(int argc, char **argv)
 
     rto_msg msg = {{0}};
     if (diff && rto_output_check(diff, 0, (const char *const[]){args.arg[0], args.arg[1]}, 2, &msg))
-        return cli_status("compare", RTO_ERR_INVALID_ARGUMENT, &msg);
-    /* Both headers first: images of different sizes are refused before either is decoded. */
+        return could_not_compare(cli_status("compare", RTO_ERR_INVALID_ARGUMENT, &msg));
     rto_image expected = {0}, actual = {0};
-    rto_status s = rto_image_probe(args.arg[0], &expected, &msg);
-    if (!s)
-        s = rto_image_probe(args.arg[1], &actual, &msg);
-    const bool same_size = !s && expected.width == actual.width && expected.height == actual.height &&
-                           expected.channels == actual.channels;
     const size_t budget = (size_t)budget_mib << 20;
-    if (same_size)
-        s = rto_image_read_budget(args.arg[0], budget, &expected, &msg);
-    if (same_size && !s)
+    rto_status s = rto_image_read_budget(args.arg[0], budget, &expected, &msg);
+    if (!s)
         s = rto_image_read_budget(args.arg[1], budget, &actual, &msg);
     if (s) {
         rto_image_free(&expected);
-        return cli_status("compare", s, &msg);
+        return could_not_compare(cli_status("compare", s, &msg));
     }
-    if (!same_size) {
-        rc = cli_fail("compare", "the images differ in size: %s is %ux%u with %u channel%s, %s is %ux%u with %u "
-                      "channel%s", args.arg[0], expected.width, expected.height, expected.channels,
-                      expected.channels == 1 ? "" : "s", args.arg[1], actual.width, actual.height, actual.channels,
-                      actual.channels == 1 ? "" : "s");
+    const bool same_geometry = expected.width == actual.width && expected.height == actual.height &&
+                               expected.channels == actual.channels;
+    if (!same_geometry)
+        fprintf(stderr, "rtoracle compare: the images differ in size (%ux%u with %u channel%s, %ux%u with %u "
+                "channel%s): compared over both, a missing value reading as 0, as idiff does%s\n", expected.width,
+                expected.height, expected.channels, expected.channels == 1 ? "" : "s", actual.width, actual.height,
+                actual.channels, actual.channels == 1 ? "" : "s", diff ? "; no diff image" : "");
+    rto_image_compare_result r;
+    s = rto_image_compare(&expected, &actual, &desc, &r, &msg);
+    if (s) {
+        rc = could_not_compare(cli_status("compare", s, &msg));
     } else {
-        rto_image_compare_result r;
-        s = rto_image_compare(&expected, &actual, &desc, &r, &msg);
-        if (s) {
-            rc = cli_status("compare", s, &msg);
-        } else {
-            const compare_run run = {args.arg[0], args.arg[1], &expected, &actual, &desc, &r};
-            rc = json ? print_json(&run) : print_text(&run);
-            if (rc == EXIT_PASS)
-                rc = (int)r.verdict; /* 0 PASS, 1 WARNING, 2 FAILURE, as idiff */
-        }
+        rto_image_compare_desc shown = desc;
+        if (!same_geometry)
+            shown.diff_path = NULL;
+        const compare_run run = {args.arg[0], args.arg[1], &expected, &actual, &shown, &r};
+        rc = json ? print_json(&run) : print_text(&run);
+        rc = rc == EXIT_PASS ? (int)r.verdict /* 0 PASS, 1 WARNING, 2 FAILURE, as idiff */ : could_not_compare(rc);
     }
     rto_image_free(&expected);
     rto_image_free(&actual);

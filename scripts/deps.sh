@@ -19,8 +19,9 @@ RTO_DEBS=(
 )
 
 # What the test command needs besides: clang, whose libFuzzer the sanitizer build's fuzz targets link, its linker,
-# and llvm-14's llvm-symbolizer, which names the functions in the sanitizers' reports (scripts/test.sh).
-RTO_TEST_DEBS=(clang-14 libclang-rt-14-dev lld-14 llvm-14)
+# llvm-14's llvm-symbolizer, which names the functions in the sanitizers' reports (scripts/test.sh), and Debian's
+# idiff, which cli.compare holds compare's exit statuses to.
+RTO_TEST_DEBS=(clang-14 libclang-rt-14-dev lld-14 llvm-14 openimageio-tools)
 
 # Where the apt and npm logs go (one file each, rewritten by every install).
 RTO_LOG_DIR=${RTO_LOG_DIR:-${TMPDIR:-/tmp}}

@@ -1379,8 +1379,10 @@ typedef struct rto_image_compare_result {
     rto_image_verdict verdict;
 } rto_image_compare_result;
 
-/** Compares two images of the same size and channel count (RTO_ERR_INVALID_ARGUMENT otherwise, msg says how they
- * differ). Returns RTO_OK with the verdict in result; a diff image is written when asked for. */
+/** Compares two images as Debian's idiff 2.4.7 does: over the union of the two (a pixel or channel one image lacks
+ * reads as 0; percentages are of the expected image's pixels), with idiff's verdict (see io/image.c). Returns RTO_OK
+ * with the verdict in result; a diff image is written when asked for and both images have one size and channel
+ * count. */
 rto_status rto_image_compare(const rto_image *expected, const rto_image *actual, const rto_image_compare_desc *desc,
                              rto_image_compare_result *result, rto_msg *msg);
 

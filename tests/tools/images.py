@@ -14,6 +14,7 @@ Patterns, all derived from one base image so that each differs from it in one kn
   gamma     base with every colour channel raised to 1 / 2.2 (alpha untouched)
   noise     base with 1/255 added to channel 0 of every 7th pixel (row-major), 254 -> 255 capped
   one-off   base with channel 2 of pixel (3, 2) raised by 5/255 (wrapping within 0 .. 255)
+  bright    base 1 % brighter: every colour channel times 1.01, rounded, capped at 255 (alpha untouched)
 """
 import struct
 import sys
@@ -51,6 +52,12 @@ def pattern(name, w, h, c):
                     p[0] = min(p[0] + 1, 255)
     elif name == "one-off":
         img[2][3][2] = (img[2][3][2] + 5) % 256
+    elif name == "bright":
+        colour = 3 if c >= 3 else 1
+        for row in img:
+            for p in row:
+                for k in range(colour):
+                    p[k] = min(255, round(p[k] * 1.01))
     else:
         raise SystemExit("unknown pattern " + name)
     return img
@@ -145,11 +152,12 @@ def main(argv):
         img = pattern(name, w, h, c)
         (write_exr if out.endswith(".exr") else write_png)(out, img, c)
     elif argv[1] == "set":
-        for name in ["base", "shift", "swap-rb", "invert-g", "gamma", "noise", "one-off"]:
+        for name in ["base", "shift", "swap-rb", "invert-g", "gamma", "noise", "one-off", "bright"]:
             write_png("%s/%s.png" % (argv[2], name), pattern(name, 16, 12, 4), 4)
         for name in ["base", "one-off"]:
             write_exr("%s/%s.exr" % (argv[2], name), pattern(name, 16, 12, 4), 4)
-        write_png(argv[2] + "/base3.png", pattern("base", 16, 12, 3), 3)
+        for name in ["base", "noise", "bright", "shift"]:  # RGB: no alpha for idiff to premultiply by
+            write_png("%s/%s3.png" % (argv[2], name), pattern(name, 16, 12, 3), 3)
         write_png(argv[2] + "/wide.png", pattern("base", 17, 12, 4), 4)
         data = open(argv[2] + "/base.png", "rb").read()
         open(argv[2] + "/cut.png", "wb").write(data[:100])
