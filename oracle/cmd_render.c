@@ -242,6 +242,13 @@ int cmd_render(int argc, char **argv)
             free(request);
             return EXIT_BAD_INPUT;
         }
+        /* A scene camera's own aspect wins over the image's (rto_camera_uniforms_make): say so when they differ,
+         * since the image is then stretched (a 4:3 glTF camera on a 16:9 frame draws circles as ellipses). */
+        const double image_aspect = (double)width / (double)height;
+        if (cam.aspect > 0.0f && fabs((double)cam.aspect - image_aspect) > 1e-3 * image_aspect)
+            fprintf(stderr, "rtoracle render: warning: camera '%s' has aspect %.4g, the image %ux%u has %.4g: the "
+                    "image is stretched (render at a size of aspect %.4g, or pass --camera auto)\n", cam.name,
+                    (double)cam.aspect, (unsigned)width, (unsigned)height, image_aspect, (double)cam.aspect);
         rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, (uint32_t)threads};
         rto_report r;
         s = rto_accel_build(sc, &adesc, &acc, &msg);
