@@ -2,6 +2,8 @@
  * needs it. */
 #include "embree_module.h"
 
+#include "core/internal.h"
+
 #include <dlfcn.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,26 +15,10 @@ const emb_module *emb_module_load(rto_msg *msg)
     static const emb_module *loaded;
     if (loaded)
         return loaded;
-    const char *env = getenv("RTO_EMBREE_MODULE");
-    const char *paths[5];
+    const char *paths[RTO_MODULE_PATHS];
     char rel[2][4096];
-    size_t n = 0;
-    if (env && *env)
-        paths[n++] = env;
-    /* beside the running executable, then where the install layout puts it relative to the executable, so an
-     * installed tree copied elsewhere uses its own module; then the build tree and the configured install path */
-    char exe[4096];
-    const ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    char *slash = len > 0 ? (exe[len] = 0, strrchr(exe, '/')) : NULL;
-    if (slash) {
-        *slash = 0;
-        if (snprintf(rel[0], sizeof rel[0], "%s/librto_embree.so", exe) < (int)sizeof rel[0])
-            paths[n++] = rel[0];
-        if (snprintf(rel[1], sizeof rel[1], "%s/../%s", exe, RTO_EMBREE_MODULE_RELATIVE) < (int)sizeof rel[1])
-            paths[n++] = rel[1];
-    }
-    paths[n++] = RTO_EMBREE_MODULE_BUILD;
-    paths[n++] = RTO_EMBREE_MODULE_INSTALL;
+    const size_t n = rto__module_paths("RTO_EMBREE_MODULE", "librto_embree.so", RTO_EMBREE_MODULE_RELATIVE,
+                                       RTO_EMBREE_MODULE_BUILD, RTO_EMBREE_MODULE_INSTALL, paths, rel);
     for (size_t i = 0; i < n; i++) {
         if (access(paths[i], R_OK) != 0)
             continue;

@@ -498,6 +498,24 @@ typedef struct family_totals {
     size_t rays, records, differing;
 } family_totals;
 
+/* check-hits' description of n rays of a scene, their expected records and a GPU's. */
+static rto_hits_check_desc hits_desc(const rto_scene *sc, const rto_wf_ray *rays, size_t n,
+                                     const rto_hit_record *expected, const rto_hit_record *gpu)
+{
+    rto_hits_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.rays = rays;
+    d.ray_count = n;
+    d.expected = expected;
+    d.gpu = gpu;
+    d.gpu_count = n;
+    d.instances = sc->instances;
+    d.instance_count = sc->instance_count;
+    d.meshes = sc->meshes;
+    d.mesh_count = sc->mesh_count;
+    return d;
+}
+
 /* Traces the rays with the oracle and with each simulated GPU; check-hits must accept every GPU. accs: the scene's
  * accel with the sweep TLAS (the oracle's) and with the Karras TLAS. */
 static void run_case(const rto_scene *sc, tri_box *const *boxes, rto_accel *const accs[2], const char *spec,
@@ -523,17 +541,7 @@ static void run_case(const rto_scene *sc, tri_box *const *boxes, rto_accel *cons
             gpu[i] = s.tree ? sim_tree_trace(&s, sc, accs[s.tree - 1], &rays[i], &c) : sim_trace(&s, sc, boxes, &rays[i]);
             differing += memcmp(&gpu[i], &expected[i], offsetof(rto_hit_record, obj_to_world)) != 0;
         }
-        rto_hits_check_desc d;
-        memset(&d, 0, sizeof d);
-        d.rays = rays;
-        d.ray_count = n;
-        d.expected = expected;
-        d.gpu = gpu;
-        d.gpu_count = n;
-        d.instances = sc->instances;
-        d.instance_count = sc->instance_count;
-        d.meshes = sc->meshes;
-        d.mesh_count = sc->mesh_count;
+        const rto_hits_check_desc d = hits_desc(sc, rays, n, expected, gpu);
         rto_report r;
         const rto_status st = rto_hits_check(&d, &r, &msg);
         if (st != RTO_OK)
@@ -655,17 +663,7 @@ static void test_simulated_gpus_accepted(void **state)
 static rto_status check_one(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_record *e,
                             const rto_hit_record *g, rto_report *r)
 {
-    rto_hits_check_desc d;
-    memset(&d, 0, sizeof d);
-    d.rays = ray;
-    d.ray_count = 1;
-    d.expected = e;
-    d.gpu = g;
-    d.gpu_count = 1;
-    d.instances = sc->instances;
-    d.instance_count = sc->instance_count;
-    d.meshes = sc->meshes;
-    d.mesh_count = sc->mesh_count;
+    const rto_hits_check_desc d = hits_desc(sc, ray, 1, e, g);
     rto_msg msg = {{0}};
     return rto_hits_check(&d, r, &msg);
 }
@@ -989,17 +987,7 @@ static int corpus_case(const char *label, const rto_scene *sc, const rto_accel *
         free(bad);
         return 0;
     }
-    rto_hits_check_desc d;
-    memset(&d, 0, sizeof d);
-    d.rays = rays;
-    d.ray_count = n;
-    d.expected = expected;
-    d.gpu = bad;
-    d.gpu_count = n;
-    d.instances = sc->instances;
-    d.instance_count = sc->instance_count;
-    d.meshes = sc->meshes;
-    d.mesh_count = sc->mesh_count;
+    const rto_hits_check_desc d = hits_desc(sc, rays, n, expected, bad);
     rto_report r;
     rto_msg msg = {{0}};
     const rto_status st = rto_hits_check(&d, &r, &msg);

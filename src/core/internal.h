@@ -275,6 +275,13 @@ rto_status rto__stamp_head(const char *request, const char *const *sources, size
 void rto__stamp_write(const char *dir, const char *head);
 /** The image module file rtoracle would load (scene/image_module_load.c), or NULL when there is none. */
 const char *rto__image_module_path(void);
+/** The places a module loaded on demand is searched, in order (scene/image_module_load.c): $ENV_NAME, FILE beside the
+ * running executable, <exe dir>/../RELATIVE (the install layout, so a copied install uses its own module), then the
+ * build tree's and the configured install path. Returns how many (at most RTO_MODULE_PATHS); rel holds the two
+ * executable-relative paths. */
+#define RTO_MODULE_PATHS 5
+size_t rto__module_paths(const char *env_name, const char *file, const char *relative, const char *build,
+                         const char *install, const char *paths[RTO_MODULE_PATHS], char rel[2][4096]);
 /** Writes an .npy file that does not exist yet (O_EXCL; inside a bundle's temporary directory, which is itself what
  * is made atomic) and, unless hex is NULL, its SHA-256, hashed from memory while writing: no second read of the file.
  * Never opens an existing file for writing. */

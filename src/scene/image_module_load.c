@@ -27,37 +27,40 @@ static int symbol(void *h, const char *name, void *fn, size_t size)
     return 1;
 }
 
-/* The places searched, in order: $RTO_IMAGE_MODULE, next to the running executable, the install layout's place
- * relative to it (<exe dir>/../<libdir>/rtoracle/librto_image.so), then the build tree and the install directory:
- * an installed tree copied to another prefix, or a binary copied with the module beside it, uses its own module. */
-static size_t module_paths(const char *paths[5], char rel[2][4096])
+size_t rto__module_paths(const char *env_name, const char *file, const char *relative, const char *build,
+                         const char *install, const char *paths[RTO_MODULE_PATHS], char rel[2][4096])
 {
-    const char *env = getenv("RTO_IMAGE_MODULE");
+    const char *env = getenv(env_name);
     size_t n = 0;
     if (env && *env)
         paths[n++] = env;
     char exe[4096];
     const ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (len > 0) {
-        exe[len] = 0;
-        char *slash = strrchr(exe, '/');
-        if (slash) {
-            *slash = 0;
-            if (snprintf(rel[0], sizeof rel[0], "%s/librto_image.so", exe) < (int)sizeof rel[0])
-                paths[n++] = rel[0];
-            if (snprintf(rel[1], sizeof rel[1], "%s/../%s", exe, RTO_IMAGE_MODULE_RELATIVE) < (int)sizeof rel[1])
-                paths[n++] = rel[1];
-        }
+    char *slash = len > 0 ? (exe[len] = 0, strrchr(exe, '/')) : NULL;
+    if (slash) {
+        *slash = 0;
+        if (snprintf(rel[0], 4096, "%s/%s", exe, file) < 4096)
+            paths[n++] = rel[0];
+        if (snprintf(rel[1], 4096, "%s/../%s", exe, relative) < 4096)
+            paths[n++] = rel[1];
     }
-    paths[n++] = RTO_IMAGE_MODULE_BUILD;
-    paths[n++] = RTO_IMAGE_MODULE_INSTALL;
+    paths[n++] = build;
+    paths[n++] = install;
     return n;
+}
+
+/* The image module's places (rto__module_paths): $RTO_IMAGE_MODULE, beside the executable, the install layout's
+ * place relative to it (<exe dir>/../<libdir>/rtoracle/librto_image.so), the build tree, the install directory. */
+static size_t module_paths(const char *paths[RTO_MODULE_PATHS], char rel[2][4096])
+{
+    return rto__module_paths("RTO_IMAGE_MODULE", "librto_image.so", RTO_IMAGE_MODULE_RELATIVE, RTO_IMAGE_MODULE_BUILD,
+                             RTO_IMAGE_MODULE_INSTALL, paths, rel);
 }
 
 const char *rto__image_module_path(void)
 {
     static char rel[2][4096];
-    const char *paths[5];
+    const char *paths[RTO_MODULE_PATHS];
     const size_t n = module_paths(paths, rel);
     for (size_t i = 0; i < n; i++)
         if (access(paths[i], R_OK) == 0)
@@ -68,7 +71,7 @@ const char *rto__image_module_path(void)
 static void load(void)
 {
     static char rel[2][4096];
-    const char *paths[5];
+    const char *paths[RTO_MODULE_PATHS];
     const size_t n = module_paths(paths, rel);
     for (size_t i = 0; i < n; i++) {
         const char *p = paths[i];
