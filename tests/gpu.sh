@@ -8,6 +8,7 @@ rto=$1
 out=$2
 rm -rf "$out"
 mkdir -p "$out"
+out=$(realpath "$out") # absolute: meson install --destdir and the moved cases below take it from other directories
 run() { gpu/run --rtoracle "$rto" "$@"; }
 
 # One line per case goes to ci.log; the device and the summary are printed, the whole log only on a failure.
@@ -86,10 +87,10 @@ echo "gpu: patterns across failing cases named (size rule, distribution, shared 
 # Size sweeps (keys made on the fly, check-sort --input): both sorts pass around a tile and around powers of two; a
 # histogram kernel whose partial last tile loses its last key (only with more than one tile) fails exactly from 257
 # on, the summary says so per size, and --shrink takes each failure down to 257.
-run --families bitonic,radix --sweep n:250-262,pow2:10 --json "$out/sweep.json" >"$out/sweep.log" 2>&1 ||
+run --families bitonic,radix --sweep n:253-259,pow2:9 --json "$out/sweep.json" >"$out/sweep.log" 2>&1 ||
     { cat "$out/sweep.log" >&2; echo "FAIL: gpu/run --sweep" >&2; exit 1; }
-grep -q "^sweep radix/random: 39 of 39 sizes pass$" "$out/sweep.log" &&
-    grep -q "^sweep bitonic/random: 39 of 39 sizes pass$" "$out/sweep.log" ||
+grep -q "^sweep radix/random: 30 of 30 sizes pass$" "$out/sweep.log" &&
+    grep -q "^sweep bitonic/random: 30 of 30 sizes pass$" "$out/sweep.log" ||
     { cat "$out/sweep.log" >&2; echo "FAIL: the sweep's per-size summary" >&2; exit 1; }
 rm -rf "$out/tail" && mkdir -p "$out/tail"
 sed 's/  for (var i = tile \* TILE + t; i < min(p.n, (tile + 1u) \* TILE); i += WG) {/  let end = select(p.n, p.n - 1u, tile > 0u \&\& p.n % TILE != 0u);\n  for (var i = tile * TILE + t; i < min(end, (tile + 1u) * TILE); i += WG) {/' \

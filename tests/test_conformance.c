@@ -639,7 +639,7 @@ static void test_simulated_gpus_accepted(void **state)
 {
     (void)state;
     family_totals tot = {0, 0, 0};
-    const size_t made = TU_SIZED(60, 15), generated = TU_SIZED(500, 100);
+    const size_t made = TU_SIZED(40, 10), generated = TU_SIZED(300, 60);
     family("Box/glTF/Box.gltf", made, generated, 1, &tot);
     family("SimpleMeshes/glTF/SimpleMeshes.gltf", made, generated, 1, &tot);
     family("Duck/glTF/Duck.gltf", made, generated, 1, &tot);
