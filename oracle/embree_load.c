@@ -2,8 +2,6 @@
  * needs it. */
 #include "embree_module.h"
 
-#include "core/internal.h"
-
 #include <dlfcn.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -15,10 +13,25 @@ const emb_module *emb_module_load(rto_msg *msg)
     static const emb_module *loaded;
     if (loaded)
         return loaded;
-    const char *paths[RTO_MODULE_PATHS];
-    char rel[2][4096];
-    const size_t n = rto__module_paths("RTO_EMBREE_MODULE", "librto_embree.so", RTO_EMBREE_MODULE_RELATIVE,
-                                       RTO_EMBREE_MODULE_BUILD, RTO_EMBREE_MODULE_INSTALL, paths, rel);
+    /* the search order of the image module's loader (the library's rto__module_paths, which the command, a user
+     * of the public header only, cannot call): $RTO_EMBREE_MODULE, beside the executable, the install layout's place
+     * relative to it, the build tree, the configured install path */
+    const char *env = getenv("RTO_EMBREE_MODULE"), *paths[5];
+    char rel[2][4096], exe[4096];
+    size_t n = 0;
+    if (env && *env)
+        paths[n++] = env;
+    const ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    char *slash = len > 0 ? (exe[len] = 0, strrchr(exe, '/')) : NULL;
+    if (slash) {
+        *slash = 0;
+        if (snprintf(rel[0], sizeof rel[0], "%s/librto_embree.so", exe) < (int)sizeof rel[0])
+            paths[n++] = rel[0];
+        if (snprintf(rel[1], sizeof rel[1], "%s/../%s", exe, RTO_EMBREE_MODULE_RELATIVE) < (int)sizeof rel[1])
+            paths[n++] = rel[1];
+    }
+    paths[n++] = RTO_EMBREE_MODULE_BUILD;
+    paths[n++] = RTO_EMBREE_MODULE_INSTALL;
     for (size_t i = 0; i < n; i++) {
         if (access(paths[i], R_OK) != 0)
             continue;
