@@ -84,14 +84,10 @@ node --input-type=module -e '
 ' || { echo "FAIL: gpu/lib/patterns.js" >&2; exit 1; }
 echo "gpu: patterns across failing cases named (size rule, distribution, shared stage)"
 
-# Size sweeps (keys made on the fly, check-sort --input): both sorts pass around a tile and around powers of two; a
-# histogram kernel whose partial last tile loses its last key (only with more than one tile) fails exactly from 257
-# on, the summary says so per size, and --shrink takes each failure down to 257.
-run --families bitonic,radix --sweep n:253-259,pow2:9 --json "$out/sweep.json" >"$out/sweep.log" 2>&1 ||
-    { cat "$out/sweep.log" >&2; echo "FAIL: gpu/run --sweep" >&2; exit 1; }
-grep -q "^sweep radix/random: 30 of 30 sizes pass$" "$out/sweep.log" &&
-    grep -q "^sweep bitonic/random: 30 of 30 sizes pass$" "$out/sweep.log" ||
-    { cat "$out/sweep.log" >&2; echo "FAIL: the sweep's per-size summary" >&2; exit 1; }
+# A size sweep (keys made on the fly, check-sort --input) with a histogram kernel whose partial last tile loses its
+# last key (only with more than one tile): 250-256 pass, it fails exactly from 257 on, the summary says so per size,
+# and --shrink takes each failure down to 257. (llvmpipe passes the bundled kernels over tile:256,pow2:22:
+# docs/results/llvmpipe-sweep.json.)
 rm -rf "$out/tail" && mkdir -p "$out/tail"
 sed 's/  for (var i = tile \* TILE + t; i < min(p.n, (tile + 1u) \* TILE); i += WG) {/  let end = select(p.n, p.n - 1u, tile > 0u \&\& p.n % TILE != 0u);\n  for (var i = tile * TILE + t; i < min(end, (tile + 1u) * TILE); i += WG) {/' \
     gpu/kernels/radix_hist.wgsl >"$out/tail/radix_hist.wgsl"
@@ -104,7 +100,7 @@ run --families radix --sweep n:250-262 --shrink --kernels "$out/tail" --json "$o
         process.exit(bad.length === 6 && bad.every((r) => r.shrunk && r.shrunk.size === 257) &&
             s.sweeps[0].failing.join() === "257,258,259,260,261,262" ? 0 : 1)' "$(realpath "$out/tail.json")" ||
     { cat "$out/tail.log" >&2; echo "FAIL: the planted tail-tile bug (status $status)" >&2; exit 1; }
-echo "gpu: sweeps pass; a tail-tile bug: $(grep "^sweep" "$out/tail.log"), shrunk to 257"
+echo "gpu: a tail-tile bug: $(grep "^sweep" "$out/tail.log"), shrunk to 257"
 
 # The dump-there / check-here flow of a GPU host: cases prepared here and moved to another path, dumped there, then
 # checked by an installed rtoracle copied to another prefix (its own image module beside it; it links no Embree).
