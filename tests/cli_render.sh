@@ -137,11 +137,14 @@ fi
 run 0 "$RTO" render rtstress:2 --program triangle --width 16 --height 8 -o "$T/plug"
 [ "$(field "$T/plug" program/name)" = '"triangle"' ] || fail "a previous bundle was not replaced"
 
-# A scene camera whose aspect is not the image's: a warning that the image is stretched (none when they agree)
+# A scene camera whose aspect is not the image's: a warning that the image is stretched (none when they agree); in
+# the optimised build (the command-line check, no new memory use)
 cornell="$FIX/CornellBox-nvpro-glTF/cornellBox.gltf"
-run 0 "$RTO" render "$cornell" --program sun-shadow --width 64 --height 36 --stages none -o "$T/wide" &&
-    has "warning: camera '.*' has aspect 1.333, the image 64x36 has 1.778: the image is stretched" err
-run 0 "$RTO" render "$cornell" --program sun-shadow --width 64 --height 48 --stages none -o "$T/fit" &&
-    ! grep -q "stretched" "$T/err" || fail "a warning for a camera of the image's aspect"
+if [ -z "${RTO_TEST_SANITIZED:-}" ]; then
+    run 0 "$RTO" render "$cornell" --program sun-shadow --width 64 --height 36 --stages none -o "$T/wide" &&
+        has "warning: camera '.*' has aspect 1.333, the image 64x36 has 1.778: the image is stretched" err
+    run 0 "$RTO" render "$cornell" --program sun-shadow --width 64 --height 48 --stages none -o "$T/fit" &&
+        ! grep -q "stretched" "$T/err" || fail "a warning for a camera of the image's aspect"
+fi
 
 finish "cli.render: ok"
