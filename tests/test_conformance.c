@@ -1051,16 +1051,27 @@ static void test_fault_corpus(void **state)
             fail_msg("the fault '%s' showed on no scene of the corpus", fault_names[f]);
 }
 
+/* Two copies of one triangle in one mesh (triangles 0 and 1), under an instance moved by (0.5, 0, -2): every ray
+ * through it meets both at the same t. pos and idx hold the mesh for as long as the scene lives. */
+static void twin_triangles(tu_scene1 *one, float pos[9], uint32_t idx[6])
+{
+    static const float p[9] = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
+    static const uint32_t ix[6] = {0, 1, 2, 0, 1, 2};
+    const double xf[3][4] = {{1, 0, 0, 0.5}, {0, 1, 0, 0}, {0, 0, 1, -2}};
+    memcpy(pos, p, sizeof p);
+    memcpy(idx, ix, sizeof ix);
+    tu_scene1_make(one, pos, 3, idx, 2, xf);
+}
+
 /* t <= bestT keeps the later of two triangles at one t: a tie, which §9 lets any GPU answer either way. check-hits
  * accepts it and names it (the "ties" fact). */
 static void test_tie_freedom_named(void **state)
 {
     (void)state;
-    float pos[9] = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
-    uint32_t idx[6] = {0, 1, 2, 0, 1, 2};
-    const double xf[3][4] = {{1, 0, 0, 0.5}, {0, 1, 0, 0}, {0, 0, 1, -2}};
+    float pos[9];
+    uint32_t idx[6];
     tu_scene1 one;
-    tu_scene1_make(&one, pos, 3, idx, 2, xf);
+    twin_triangles(&one, pos, idx);
     const rto_scene sc = one.scene;
     rto_accel *acc = NULL;
     assert_int_equal(rto_accel_build(&sc, NULL, &acc, NULL), RTO_OK);
@@ -1091,11 +1102,10 @@ static void test_tie_freedom_named(void **state)
 static void test_tie_order(void **state)
 {
     (void)state;
-    float pos[9] = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
-    uint32_t idx[6] = {0, 1, 2, 0, 1, 2};
-    const double xf[3][4] = {{1, 0, 0, 0.5}, {0, 1, 0, 0}, {0, 0, 1, -2}};
+    float pos[9];
+    uint32_t idx[6];
     tu_scene1 one;
-    tu_scene1_make(&one, pos, 3, idx, 2, xf);
+    twin_triangles(&one, pos, idx);
     const rto_scene sc = one.scene;
     for (int layout = 0; layout < 2; layout++) {
         const rto_accel_desc ad = {layout ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, 1};
