@@ -8,6 +8,9 @@
       rewrites the part of the doc between "<!-- gpu-results begin -->" and "<!-- gpu-results end -->": one line
       per run (commit, date, device, driver, how), then one row per case (family, case, passes, what the check
       said besides pass, GPU time per run). Never typed by hand: run this again whenever a verdict rule changes.
+  gpu/results.py sort-timings CI.json FULL.json --commit C --date D --doc docs/gpu.md
+      rewrites the part between "<!-- sort-timings begin -->" and "<!-- sort-timings end -->": the sort families'
+      cases and wall seconds in a --subset ci run and a full run (gpu/run --json of each).
 """
 import argparse
 import json
@@ -59,14 +62,38 @@ def table(args):
             lines.append(f"| `{r['case']}` | {r['passes']}/{r['repeat']} | {said} | {gpu_time(r)} |")
         lines.append("")
     lines.append(END)
-    with open(args.doc) as f:
+    rewrite(args.doc, BEGIN, END, lines)
+
+
+def rewrite(path, begin, end, lines):
+    """Replaces the part of the doc between the markers (both kept: lines starts and ends with them)."""
+    with open(path) as f:
         doc = f.read()
-    if BEGIN not in doc or END not in doc:
-        sys.exit(f"results.py: {args.doc} has no {BEGIN} ... {END} section")
-    head, rest = doc.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    with open(args.doc, "w") as f:
+    if begin not in doc or end not in doc:
+        sys.exit(f"results.py: {path} has no {begin} ... {end} section")
+    head, rest = doc.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    with open(path, "w") as f:
         f.write(head + "\n".join(lines) + tail)
+
+
+def sort_timings(args):
+    """The sort families' wall time on a device, from a --subset ci run's JSON and a full run's: cases and seconds per
+    family (the sum of the cases' wall_s, rtoracle's processes included)."""
+    runs = [json.load(open(args.ci)), json.load(open(args.full))]
+    begin, end = "<!-- sort-timings begin -->", "<!-- sort-timings end -->"
+    lines = [begin, "", f"Commit {args.commit}, {args.date}, {runs[0]['adapter']} ({runs[0]['backend']}); every case "
+             f"passing: {all(r['pass'] for run in runs for r in run['results'])} (`gpu/results.py sort-timings` from "
+             f"`{args.ci}` and `{args.full}`):",
+             "", "| family | `--subset ci` | full matrix |", "|---|---|---|"]
+    fams = [f for f in runs[1]["families"]]
+    cell = lambda run, fam: (lambda rs: f"{len(rs)} cases, {sum(r['wall_s'] for r in rs):.0f} s")(
+        [r for r in run["results"] if fam is None or r["family"] == fam])
+    for fam in fams:
+        lines.append(f"| `{fam}` | {cell(runs[0], fam)} | {cell(runs[1], fam)} |")
+    lines.append(f"| all three | {cell(runs[0], None)} | {cell(runs[1], None)} |")
+    lines += ["", end]
+    rewrite(args.doc, begin, end, lines)
 
 
 def main():
@@ -82,8 +109,14 @@ def main():
     t = sub.add_parser("table")
     t.add_argument("runs", nargs="+")
     t.add_argument("--doc", required=True)
+    st = sub.add_parser("sort-timings")
+    st.add_argument("ci")
+    st.add_argument("full")
+    st.add_argument("--commit", required=True)
+    st.add_argument("--date", required=True)
+    st.add_argument("--doc", required=True)
     args = p.parse_args()
-    record(args) if args.cmd == "record" else table(args)
+    {"record": record, "table": table, "sort-timings": sort_timings}[args.cmd](args)
 
 
 if __name__ == "__main__":
