@@ -1,5 +1,6 @@
 /* Frame benchmark: a full `sun-shadow` frame (maxDepth 2: primary rays, then shadow rays) at 1920x1080 with every
- * stage kept, as `rtoracle render SCENE --program sun-shadow` makes a golden, for the Stanford bunny, the Cornell box,
+ * stage kept, as `rtoracle render SCENE --program sun-shadow --stages all` makes a full dump (bench/golden.py times
+ * render's default, the lean golden), for the Stanford bunny, the Cornell box,
  * 2CylinderEngine and rtstress:16, beside Embree tracing the same primary + shadow rays.
  *
  * Each scene runs in two child processes (fork), so neither memory peak nor allocator state carries from one scene

@@ -18,8 +18,9 @@ static const char render_usage[] =
     "Programs: triangle (barycentric colours), sun-shadow (ambient + a shadow ray towards the sun, Reinhard and\n"
     "gamma), normals (n * 0.5 + 0.5 and the sky gradient), or a plugin: a shared library exporting\n"
     "rto_program_entry_v1 (see docs/frame.md). --program list prints each program's parameters.\n"
-    "Stages kept per bounce (--stages, comma-separated; default all): rays, hits, trace-counters, payloads, accum;\n"
-    "or all, none. The camera, counters, indirect args, image and not-comparable mask are always written.\n"
+    "Stages kept (--stages, comma-separated): rays, hits, trace-counters, payloads (per bounce), accum,\n"
+    "accum-exr; or lean (the default: accum), all, none. The camera, counters, indirect args, image and\n"
+    "not-comparable mask are always written: the lean golden is what a GPU harness compares of a frame.\n"
     "Writes a bundle (atomically): for mesh scenes the build bundle's files and mesh geometry, and\n"
     "  camera.npy                 CameraUniforms (144 bytes)\n"
     "  emit_counts.npy            u32 (D+1,): each queue's emit counter\n"
@@ -29,7 +30,7 @@ static const char render_usage[] =
     "  bounce_D_rays.npy          WfRay: the queue traced at bounce D (and the last, untraced queue)\n"
     "  bounce_D_hits.npy          HitRecord, one per ray; bounce_D_trace_counters.npy TraceCounters\n"
     "  bounce_D_payloads.npy      u32 (rays, payload words)\n"
-    "  accum.npy, accum.exr       the linear accum buffer, f32 RGBA (H, W, 4)\n"
+    "  accum.npy                  the linear accum buffer, f32 RGBA (H, W, 4); accum.exr the same as OpenEXR\n"
     "  image.png                  the resolved rgba8unorm image\n"
     "  not_comparable.npy         u8 (H, W): 1 = accumulate conflict, 2 = a ray dropped at capacity\n"
     "  manifest.json              scene, program and parameters, camera, counters (and with --timings the\n"
@@ -127,7 +128,7 @@ static void on_progress(void *arg, double fraction)
 
 int cmd_render(int argc, char **argv)
 {
-    const char *out = NULL, *program_arg = NULL, *camera_arg = NULL, *param_arg = NULL, *stages_arg = "all";
+    const char *out = NULL, *program_arg = NULL, *camera_arg = NULL, *param_arg = NULL, *stages_arg = "lean";
     uint64_t width = 160, height = 90, depth = 0, threads = 0, budget_mb = 0, memory_mb = 0;
     unsigned karras = 0;
     bool timings = false, no_timings = false, force = false;
@@ -138,8 +139,8 @@ int cmd_render(int argc, char **argv)
         OPT_UINT("max-depth", &depth, 0, 64, "D", "bounces (0: the program's default)", "0"),
         OPT_STRING("camera", &camera_arg, "CAM", "scene, auto, a camera index, or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY"),
         OPT_STRING("param", &param_arg, "P", "program parameters NAME=V[,V..], several separated by ':'"),
-        OPT_STRING("stages", &stages_arg, "LIST", "per-bounce buffers to write: rays,hits,trace-counters,payloads,"
-                                                  "accum, all or none"),
+        OPT_STRING("stages", &stages_arg, "LIST", "buffers to write: rays,hits,trace-counters,payloads,accum,"
+                                                  "accum-exr, lean (default), all or none"),
         OPT_ENUM("tlas", &karras, tlas_names, "T", "TLAS layout", "sweep"),
         OPT_UINT("threads", &threads, 0, 256, "N", "threads (0: one per CPU); the output is the same", "0"),
         OPT_UINT("texture-budget", &budget_mb, 1, CLI_TEXTURE_BUDGET_MAX_MB, "MB",

@@ -10,7 +10,7 @@ RTO_DEBS=(
     libjansson-dev libssl-dev                      # manifest.json (jansson), sha256 (libcrypto)
     libcmocka-dev                                  # unit tests
     g++ libtinygltf-dev nlohmann-json3-dev         # glTF scenes: tinygltf (header-only use) and its JSON parser
-    libopenimageio-dev libpng-dev                  # glTF textures (decoded in the librto_image.so module)
+    libopenimageio-dev libpng-dev                  # images: PNG written by libpng, the rest in librto_image.so
     libembree-dev                                  # benchmarks: Embree on the same geometry
     assimp-testmodels                              # glTF 2.0 test files, broken ones included (tests only)
     strace                                         # tests: a final swap held up in the kernel (cli.signals)
@@ -152,4 +152,12 @@ for t in json.load(sys.stdin):
         return 1
     fi
     rm -f "$log"
+}
+
+# rto_render_settings FIXTURE PROGRAM: the arguments fixtures/render-settings.txt gives `rtoracle render` for a
+# fixture (a path under fixtures/) and a program, one per line; nothing when it has none.
+rto_render_settings() {
+    local rel=${1#fixtures/}
+    awk -v f="$rel" -v p="$2" '!/^#/ && $1 == f && $2 == p { for (i = 3; i <= NF; i++) print $i }' \
+        fixtures/render-settings.txt
 }

@@ -4,6 +4,7 @@
 # One line per bundle below; later stages append theirs. Paths are relative to the repository root (the manifests
 # record them), so run this from the root. Used by scripts/update-goldens.sh (on purpose) and tests/golden.sh (CI).
 set -euo pipefail
+. "$(dirname "$0")/deps.sh" # rto_render_settings
 rto=$1
 out=$2
 mkdir -p "$out"
@@ -24,22 +25,20 @@ mkdir -p "$out"
 "$rto" trace fixtures/Box/glTF/Box.gltf --rays primary --width 64 --height 48 -o "$out/trace-Box" 2>/dev/null
 "$rto" trace rtstress:2 --rays primary --width 64 --height 48 -o "$out/trace-rtstress-2" 2>/dev/null
 "$rto" trace rtstress:2 --rays random --count 1024 -o "$out/trace-rtstress-2-random" 2>/dev/null
-# Frames (--no-timings: the wall times are the only bytes that vary). Every per-bounce buffer of sun-shadow's two
-# bounces on the Box fixture and on rtstress:2; the other frames keep the accum buffer, image and counters only
-# (--stages accum), so the repository stays small: the Box with triangle and normals, the triangle scene, sun-shadow on
-# the textured Duck and on the Cornell box, and seed 002's stage2 scene at its 160x120.
-"$rto" render fixtures/Box/glTF/Box.gltf --program sun-shadow --width 96 --height 54 --no-timings \
+# Frames. Every per-bounce buffer of sun-shadow's two bounces on the Box fixture and on rtstress:2 (--stages all);
+# the other frames are lean goldens (render's default: accum buffer, image and counters), so the repository stays
+# small: the Box with triangle and normals, the triangle scene, sun-shadow on the textured Duck and on the Cornell box
+# (its sun from fixtures/render-settings.txt; both at their cameras' aspect), and seed 002's stage2 scene at its 160x120.
+"$rto" render fixtures/Box/glTF/Box.gltf --program sun-shadow --width 96 --height 54 --stages all \
     -o "$out/frame-Box-sun-shadow" >/dev/null
-"$rto" render rtstress:2 --program sun-shadow --width 64 --height 48 --no-timings -o "$out/frame-rtstress-2" >/dev/null
+"$rto" render rtstress:2 --program sun-shadow --width 64 --height 48 --stages all -o "$out/frame-rtstress-2" >/dev/null
 for prog in triangle normals; do
-    "$rto" render fixtures/Box/glTF/Box.gltf --program $prog --width 160 --height 90 --stages accum --no-timings \
-        -o "$out/frame-Box-$prog" >/dev/null
+    "$rto" render fixtures/Box/glTF/Box.gltf --program $prog --width 160 --height 90 -o "$out/frame-Box-$prog" >/dev/null
 done
-"$rto" render triangle --program triangle --width 160 --height 90 --stages accum --no-timings \
-    -o "$out/frame-triangle" >/dev/null
-"$rto" render fixtures/Duck/glTF/Duck.gltf --program sun-shadow --width 160 --height 90 --stages accum --no-timings \
-    -o "$out/frame-Duck" >/dev/null
-"$rto" render fixtures/CornellBox-nvpro-glTF/cornellBox.gltf --program sun-shadow --width 160 --height 90 \
-    --stages accum --no-timings -o "$out/frame-CornellBox" >/dev/null 2>&1
-"$rto" render stage2 --program normals --width 160 --height 120 --stages accum --no-timings \
-    -o "$out/frame-stage2" >/dev/null
+"$rto" render triangle --program triangle --width 160 --height 90 -o "$out/frame-triangle" >/dev/null
+"$rto" render fixtures/Duck/glTF/Duck.gltf --program sun-shadow --width 150 --height 100 -o "$out/frame-Duck" >/dev/null
+cornell=fixtures/CornellBox-nvpro-glTF/cornellBox.gltf
+mapfile -t settings < <(rto_render_settings $cornell sun-shadow)
+"$rto" render $cornell --program sun-shadow --width 160 --height 120 "${settings[@]}" -o "$out/frame-CornellBox" \
+    >/dev/null 2>&1
+"$rto" render stage2 --program normals --width 160 --height 120 -o "$out/frame-stage2" >/dev/null

@@ -1,10 +1,18 @@
 #!/usr/bin/env bash
 # The main job: install what is missing, build everything, and write the golden bundles to out/goldens/.
-#   bash scripts/main.sh [extra arguments for `rtoracle suite sort`]
+#   bash scripts/main.sh [--full] [extra arguments for `rtoracle suite sort`]
+# By default the lean goldens (under 150 MB): the sort matrix's tiny and tile size classes (every n a tile boundary
+# makes interesting, up to 4,097), traces at 128x96 and frames as lean goldens (image, accum, counters). --full: every
+# size class up to 65,536 keys, traces at 320x240 and every frame's per-bounce queues, hits and payloads too.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/deps.sh
 trap 'rto_say "scripts/main.sh: line $LINENO failed: $BASH_COMMAND"' ERR
+full=0
+if [ "${1:-}" = --full ]; then
+    full=1
+    shift
+fi
 rto_install_deps
 rto_install_gpu_deps
 rto_build build --werror
@@ -39,10 +47,17 @@ family_done() {
 }
 fixture_scenes() { find fixtures \( -name '*.gltf' -o -name '*.glb' \) | sort; }
 
-# The sort matrix a GPU harness runs: every distribution x size class x format x algorithm (about 700 MB) in one
-# bundle.
-rto_say "goldens: sort: the whole matrix into $out/sort (4,324 cases, 413 MB on disk when written)"
-golden sort suite sort -o "$out/sort" "$@"
+# The sort matrix a GPU harness runs: every distribution x format x algorithm at the sizes of the tiny and tile
+# classes, checkpoints up to 256 keys (with --full every size class, checkpoints up to 1,024) in one bundle.
+if [ $full = 1 ]; then
+    sort_args=(--sizes all)
+    rto_say "goldens: sort: the whole matrix into $out/sort (4,324 cases, 413 MB on disk when written)"
+else
+    sort_args=(--sizes tiny,tile --checkpoint-max 256)
+    rto_say "goldens: sort: the matrix up to 4,097 keys into $out/sort (1,472 cases, 52 MB on disk when written;" \
+        "scripts/main.sh --full for every size class)"
+fi
+golden sort suite sort "${sort_args[@]}" -o "$out/sort" "$@"
 family_done sort "$out/sort" "$(grep -c '"case"' "$out/sort/manifest.json") cases in 1 bundle"
 
 # Acceleration-structure bundles of every bundled fixture scene and the procedural scenes.
@@ -55,25 +70,30 @@ for spec in triangle rtstress:16 instances:clustered:4097; do
 done
 family_done build "$out/build"
 
-# Trace bundles: primary and shadow rays at 320x240 through every fixture scene and the procedural ones (the
-# inputs of a GPU's TRACE kernel and the hit records it must write).
+# Trace bundles: primary and shadow rays at 128x96 (with --full 320x240) through every fixture scene and the
+# procedural ones (the inputs of a GPU's TRACE kernel and the hit records it must write).
 mkdir -p "$out/trace"
+size=(--width 128 --height 96)
+[ $full = 0 ] || size=(--width 320 --height 240)
 while IFS= read -r f; do
     for set in primary shadow; do
-        golden trace trace "$f" --rays $set --width 320 --height 240 -o "$out/trace/$(basename "${f%.*}")-$set"
+        golden trace trace "$f" --rays $set "${size[@]}" -o "$out/trace/$(basename "${f%.*}")-$set"
     done
 done < <(fixture_scenes)
 for spec in triangle rtstress:16; do
-    golden trace trace "$spec" --rays primary --width 320 --height 240 -o "$out/trace/${spec//:/-}-primary"
+    golden trace trace "$spec" --rays primary "${size[@]}" -o "$out/trace/${spec//:/-}-primary"
 done
 family_done trace "$out/trace"
 
-# Frame bundles: one wavefront frame per scene with a fitting program (every queue, hit, counter, indirect argument,
-# accum buffer and image a GPU's frame must produce).
+# Frame bundles: one wavefront frame per scene with a fitting program, as lean goldens (image, accum buffer, every
+# counter and indirect argument a GPU's frame must produce); with --full also every queue, hit and payload.
 mkdir -p "$out/frame"
-frame() { golden frame render "$@" --width 320 --height 240 --no-timings; }
+stages=lean
+[ $full = 0 ] || stages=all
+frame() { golden frame render "$@" --width 320 --height 240 --stages $stages; }
 while IFS= read -r f; do
-    frame "$f" --program sun-shadow -o "$out/frame/$(basename "${f%.*}")-sun-shadow"
+    mapfile -t settings < <(rto_render_settings "$f" sun-shadow)
+    frame "$f" --program sun-shadow "${settings[@]}" -o "$out/frame/$(basename "${f%.*}")-sun-shadow"
 done < <(fixture_scenes)
 frame triangle --program triangle -o "$out/frame/triangle"
 frame rtstress:16 --program sun-shadow -o "$out/frame/rtstress-16-sun-shadow"

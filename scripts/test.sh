@@ -89,9 +89,9 @@ determinism_runs() {
                 -o "$tmp/$b/trace-rtstress-$set-$t" 2>/dev/null
         done
         # Frames: a textured fixture through both bounces of sun-shadow, and seed 002's analytic scene.
-        "$b/oracle/rtoracle" render "$fix/Duck/glTF/Duck.gltf" --program sun-shadow --width 96 --height 72 \
-            --no-timings --threads $t -o "$tmp/$b/frame-duck-$t" >/dev/null 2>&1
-        "$b/oracle/rtoracle" render stage2 --program normals --width 96 --height 72 --no-timings --threads $t \
+        "$b/oracle/rtoracle" render "$fix/Duck/glTF/Duck.gltf" --program sun-shadow --width 96 --height 72 --stages all \
+            --threads $t -o "$tmp/$b/frame-duck-$t" >/dev/null 2>&1
+        "$b/oracle/rtoracle" render stage2 --program normals --width 96 --height 72 --stages all --threads $t \
             -o "$tmp/$b/frame-stage2-$t" >/dev/null
     done
     for d in "$tmp/$b"/trace-*-1 "$tmp/$b"/frame-*-1; do

@@ -1544,10 +1544,15 @@ rto_status rto_program_validate(const rto_program *program, rto_msg *msg);
 #define RTO_FRAME_KEEP_HITS 0x2u           /* bounce_D_hits.npy */
 #define RTO_FRAME_KEEP_TRACE_COUNTERS 0x4u /* bounce_D_trace_counters.npy */
 #define RTO_FRAME_KEEP_PAYLOADS 0x8u       /* bounce_D_payloads.npy */
-#define RTO_FRAME_KEEP_ACCUM 0x10u         /* accum.npy and accum.exr */
-#define RTO_FRAME_KEEP_ALL 0x1Fu
+#define RTO_FRAME_KEEP_ACCUM 0x10u         /* accum.npy */
+#define RTO_FRAME_KEEP_ACCUM_EXR 0x20u     /* accum.exr: the accum buffer again, as an OpenEXR image for viewers */
+#define RTO_FRAME_KEEP_ALL 0x3Fu
+/** The lean golden, render's default: what a GPU harness compares of a frame (the image, the accum buffer, every
+ * counter and indirect argument, the not-comparable mask), without the per-bounce queues, hits and payloads. */
+#define RTO_FRAME_KEEP_LEAN RTO_FRAME_KEEP_ACCUM
 
-/** Parses a --stages list ("rays,hits,trace-counters,payloads,accum", "all", "none") into RTO_FRAME_KEEP_* bits;
+/** Parses a --stages list ("rays,hits,trace-counters,payloads,accum,accum-exr", "lean", "all", "none") into
+ * RTO_FRAME_KEEP_* bits;
  * 0 for an unknown name (msg names it). */
 int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg);
 

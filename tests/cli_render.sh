@@ -23,7 +23,7 @@ for scene in "$box" rtstress:2 stage2; do
         k=$((k + 1))
         [ $(((k - 1) % $(sampled 2))) = 0 ] || continue
         out="$T/${tag}_$prog"
-        run 0 "$RTO" render "$scene" --program $prog --width 40 --height 30 -o "$out" || continue
+        run 0 "$RTO" render "$scene" --program $prog --width 40 --height 30 --stages all -o "$out" || continue
         has "render" out
         [ "$(field "$out" kind)" = '"frame"' ] || fail "$tag $prog: kind $(field "$out" kind)"
         [ "$(field "$out" program/name)" = "\"$prog\"" ] || fail "$tag $prog: program.name"
@@ -31,7 +31,8 @@ for scene in "$box" rtstress:2 stage2; do
         want=1; [ $prog = sun-shadow ] && want=2
         [ "$depth" = $want ] || fail "$tag $prog: max_depth $depth, want $want"
         for f in camera.npy emit_counts.npy indirect_args.npy frame_counters.npy accum.npy not_comparable.npy \
-                 bounce_0_rays.npy bounce_0_hits.npy bounce_0_trace_counters.npy "bounce_${want}_rays.npy"; do
+                 bounce_0_rays.npy bounce_0_hits.npy bounce_0_trace_counters.npy "bounce_${want}_rays.npy" \
+                 accum.exr image.png; do
             [ -f "$out/$f" ] || fail "$tag $prog: no $f"
         done
         # the first queue holds one primary ray per pixel
@@ -42,17 +43,28 @@ done
 [ -f "$T/stage2_normals/blas_0_nodes.npy" ] && fail "stage2: a build file in an analytic scene's bundle"
 [ "$(field "$T/stage2_normals" frame/scene_kind)" = '"stage2"' ] || fail "stage2: scene_kind"
 
-# --threads and repeated runs give the same bytes by default, with no flag (wall times only with --timings)
+# --threads and repeated runs give the same bytes, every buffer kept, with no other flag (wall times only with
+# --timings)
 for t in 1 2 5 2; do
     rm -rf "$T/t$t"
-    run 0 "$RTO" render rtstress:3 --program sun-shadow --width 48 --height 36 --threads $t -o "$T/t$t"
+    run 0 "$RTO" render rtstress:3 --program sun-shadow --width 48 --height 36 --stages all --threads $t -o "$T/t$t"
     [ -d "$T/t1" ] && { diff -r "$T/t1" "$T/t$t" >/dev/null || fail "--threads 1 and $t differ"; }
 done
 field "$T/t1" timings >/dev/null 2>&1 && fail "timings written without --timings"
 run 0 "$RTO" render rtstress:3 --program sun-shadow --width 48 --height 36 --timings -o "$T/timed"
 field "$T/timed" timings >/dev/null || fail "--timings wrote no timings"
-run 0 "$RTO" render rtstress:3 --program sun-shadow --width 48 --height 36 --no-timings -o "$T/old"
+run 0 "$RTO" render rtstress:3 --program sun-shadow --width 48 --height 36 --stages all --no-timings -o "$T/old"
 diff -r "$T/t1" "$T/old" >/dev/null || fail "--no-timings (the default) differs from no flag"
+# the default, the lean golden: two runs with no flag at all are the same bytes; it holds the image, accum and
+# counters and no per-bounce buffer, and its frame is the full dump's (the same counters, accum and image)
+run 0 "$RTO" render rtstress:3 --program sun-shadow --width 48 --height 36 -o "$T/lean1"
+run 0 "$RTO" render rtstress:3 --program sun-shadow --width 48 --height 36 -o "$T/lean2"
+diff -r "$T/lean1" "$T/lean2" >/dev/null || fail "two renders with no flag differ"
+[ "$(field "$T/lean1" frame/stages)" = '"accum"' ] || fail "the default stages: $(field "$T/lean1" frame/stages)"
+ls "$T/lean1" | grep -q 'bounce_\|accum.exr' && fail "the lean golden holds $(ls "$T/lean1" | grep 'bounce_\|exr')"
+for f in accum.npy image.png frame_counters.npy emit_counts.npy indirect_args.npy not_comparable.npy; do
+    cmp -s "$T/lean1/$f" "$T/t1/$f" || fail "the lean golden's $f differs from the full dump's"
+done
 
 # --stages none keeps the small files only; --stages rays,accum those two
 run 0 "$RTO" render rtstress:2 --program sun-shadow --width 32 --height 24 --stages none -o "$T/none"
@@ -66,7 +78,7 @@ run 0 "$RTO" render rtstress:2 --program sun-shadow --width 32 --height 24 --sta
 
 # parameters: recorded, and they change the image
 run 0 "$RTO" render rtstress:2 --program sun-shadow --width 32 --height 24 --param "sky=1,0,0:ambient=0.5,0.5,0.5" \
-    --no-timings -o "$T/par"
+    -o "$T/par"
 [ "$(field "$T/par" parameters/sky)" = '"1,0,0"' ] || fail "--param sky: $(field "$T/par" parameters/sky)"
 [ "$(field "$T/par" parameters/sun_dir)" = '"0.300000012,1,0.200000003"' ] || fail "default sun_dir not recorded"
 cmp -s "$T/par/accum.npy" "$T/t1/accum.npy" && fail "--param did not change the accum buffer"
@@ -109,7 +121,7 @@ bounded 2 "render 4096x4096 over the budget" "$RTO" render rtstress:2 --program 
     --height 4096 --stages none --memory-budget 1024 -o "$T/bad" && has "up to 5.32 GiB at once" err
 # kept stages count at capacity: all of them at 1024 x 1024 need more than 1 GiB, none of them less
 bounded 2 "render 1024x1024, all stages, over the budget" "$RTO" render rtstress:2 --program sun-shadow \
-    --width 1024 --height 1024 --memory-budget 1000 -o "$T/bad" && has "up to 1.00 GiB at once" err
+    --width 1024 --height 1024 --stages all --memory-budget 1000 -o "$T/bad" && has "up to 1.00 GiB at once" err
 [ -e "$T/bad" ] && fail "a render over its memory budget left output"
 # within the budget it runs; and the bound holds: the peak of a frame stays under its bound plus the process's own
 # 200 MB (libraries, the scene and its trees; the sanitizer's shadow memory makes the figure meaningless there)
@@ -143,6 +155,10 @@ cornell="$FIX/CornellBox-nvpro-glTF/cornellBox.gltf"
 if [ -z "${RTO_TEST_SANITIZED:-}" ]; then
     run 0 "$RTO" render "$cornell" --program sun-shadow --width 64 --height 36 --stages none -o "$T/wide" &&
         has "warning: camera '.*' has aspect 1.333, the image 64x36 has 1.778: the image is stretched" err
+    [ "$(field "$T/wide" camera/aspect_from)" = '"camera"' ] && [ "$(field "$T/wide" camera/aspect)" = 1.3333333730697632 ] ||
+        fail "the manifest's camera aspect: $(field "$T/wide" camera/aspect) from $(field "$T/wide" camera/aspect_from)"
+    [ "$(field "$T/ra" camera/aspect_from)" = '"image"' ] && [ "$(field "$T/ra" camera/aspect)" = 1.3333333333333333 ] ||
+        fail "an auto camera's aspect: $(field "$T/ra" camera/aspect) from $(field "$T/ra" camera/aspect_from)"
     run 0 "$RTO" render "$cornell" --program sun-shadow --width 64 --height 48 --stages none -o "$T/fit" &&
         ! grep -q "stretched" "$T/err" || fail "a warning for a camera of the image's aspect"
 fi

@@ -55,9 +55,9 @@ run 0 "$RTO" trace triangle --width 32 --height 24 -o trace && snap trace >trace
 run 0 "$RTO" trace triangle --width=32 --height=24 --threads 1 -o trace && has "trace is up to date" out
 same_as_before trace "trace, second run (other spelling, other thread count)"
 
-run 0 "$RTO" render box/glTF/Box.gltf --program sun-shadow --width 24 --height 16 --no-timings -o frame
+run 0 "$RTO" render box/glTF/Box.gltf --program sun-shadow --width 24 --height 16 -o frame
 snap frame >frame.snap
-run 0 "$RTO" render box/glTF/Box.gltf --program sun-shadow --width 24 --height 16 --no-timings -o frame
+run 0 "$RTO" render box/glTF/Box.gltf --program sun-shadow --width 24 --height 16 -o frame
 has "frame is up to date" out
 same_as_before frame "render, second run"
 
@@ -92,7 +92,7 @@ fresh_equal sorted "$RTO" sort keys.npy --checkpoints
 
 # --force writes an up-to-date bundle again, byte for byte the same.
 snap frame >frame.snap
-run 0 "$RTO" render box/glTF/Box.gltf --program sun-shadow --width 24 --height 16 --no-timings --force -o frame
+run 0 "$RTO" render box/glTF/Box.gltf --program sun-shadow --width 24 --height 16 --force -o frame
 changed_since frame "render --force"
 
 # --- a bundle modified after it was written: named on stderr, written again, whole --------------------------

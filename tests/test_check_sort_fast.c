@@ -3,7 +3,7 @@
  * check run) give the same status and the same report, text and JSON byte for byte, for correct dumps and for many
  * mutated ones (swap, flip a bit, duplicate, drop, reorder equal keys, wrong value, tail) across distributions, both
  * formats, dumps of n and n_padded slots and sizes 1, 2, 3, 255..257 and 4095..4097, and on a smaller grid above the
- * size where threads start. The fast path runs with the input matched inside (threads 1, 2, 3 and all) and with
+ * size where threads start. The fast path runs with the input matched inside (threads 1, 3 and all) and with
  * expected_keys (made here by qsort, as a bundle's sorted.npy would hold them). The matcher under it
  * (rto__sort_match) is held to qsort on its own: its sort gives qsort's bytes, and its verdict is qsort's memcmp. */
 #include "testutil.h"
@@ -177,7 +177,7 @@ static void test_fast_path_agrees_with_full_analysis(void **state)
             for (int fi = 0; fi < 2; fi++)
                 for (int padded = 0; padded < 2; padded++)
                     for (int m = 0; m < MUT_COUNT; m++)
-                        for (int rep = 0; rep < (m == MUT_NONE ? 1 : TU_SIZED(3, 1)); rep++) {
+                        for (int rep = 0; rep < (m == MUT_NONE ? 1 : TU_SIZED(2, 1)); rep++) {
                             const uint32_t seed = (uint32_t)(((di * 16 + zi) * 4 + (size_t)(fi * 2 + padded)) * 16 +
                                                              (size_t)m) * 4 + (uint32_t)rep;
                             uint64_t rng = seed;
@@ -247,7 +247,7 @@ static void test_wrong_expected_keys_refused(void **state)
     }
 }
 
-/* Above the size where the matcher starts threads: the same agreement with 1, 2, 3 and all threads, on a grid cut
+/* Above the size where the matcher starts threads: the same agreement with 1, 3 and all threads, on a grid cut
  * to fit the time (keys only; every mutation of the keys once). */
 static void test_fast_path_threads_agree(void **state)
 {
@@ -256,7 +256,7 @@ static void test_fast_path_threads_agree(void **state)
     static const char *const big_dists[] = {"random", "all-equal", "one-bucket", "clustered", "sorted", "reversed",
                                             "few-unique", "entropy-9"};
     static const mutation muts[] = {MUT_NONE, MUT_SWAP, MUT_SWAP_NEXT, MUT_FLIP, MUT_DUPLICATE, MUT_DROP, MUT_TAIL};
-    static const uint32_t threads[] = {1, 2, 3, 0};
+    static const uint32_t threads[] = {1, 3, 0};
     const size_t big[] = {RTO__SORT_MATCH_TEAM_FROM + 1};
     size_t faults = 0, cases = 0;
     for (size_t di = 0; di < sizeof big_dists / sizeof big_dists[0]; di++)
@@ -289,7 +289,7 @@ static void test_fast_path_threads_agree(void **state)
 }
 
 /* rto__sort_match alone, on keys from many distributions and sizes around its thresholds (the run length of its
- * insertion sort, the worker scratch, the team) with 1, 2, 3 and all threads: sorting gives qsort's bytes; matching a
+ * insertion sort, the worker scratch, the team) with 1, 3 and all threads: sorting gives qsort's bytes; matching a
  * dump gives 1 exactly when the dump is qsort's order, also for dumps made to mislead the digit choice (first or last
  * slot changed, keys from another range, a reversed dump). */
 static void test_sort_match_against_qsort(void **state)
@@ -300,8 +300,8 @@ static void test_sort_match_against_qsort(void **state)
                                          "sentinel-heavy", "digit-7-one-bucket", "tile-overflow"};
     const size_t sizes_m[] = {0,    1,    2,     3,     23,    24,    25,    63,    255,  257,
                               4097, 8191, 8193,  16385, 65535, 65537, RTO__SORT_MATCH_TEAM_FROM - 1,
-                              RTO__SORT_MATCH_TEAM_FROM, RTO__SORT_MATCH_TEAM_FROM + 3, (size_t)1 << 18};
-    static const uint32_t threads[] = {1, 2, 3, 0};
+                              RTO__SORT_MATCH_TEAM_FROM, RTO__SORT_MATCH_TEAM_FROM + 3};
+    static const uint32_t threads[] = {1, 3, 0};
     size_t checked = 0;
     for (size_t di = 0; di < sizeof mdists / sizeof mdists[0]; di++)
         for (int fi = 0; fi < 2; fi++) {

@@ -31,10 +31,11 @@ export function list(opts) {
     ...PROGRAMS.map((p) => frameCase(p, 'rtstress:4', 160, 90))];
 }
 
-/** The oracle's frame bundle: the GPU's inputs (scene, camera, parameters) and every buffer it must match. */
+/** The oracle's frame bundle: the GPU's inputs (scene, camera, parameters) and every buffer it must match (--stages
+ * all: each bounce's queue, hits and payloads, not only the lean golden's image, accum and counters). */
 export function prepare(ctx, c) {
   rtoracle(ctx.rtoracle, ['render', scenePath(c.scene), '--program', c.program, '--width', String(c.width),
-    '--height', String(c.height), '--no-timings', '-o', path.join(ctx.dir, 'expected')]);
+    '--height', String(c.height), '--stages', 'all', '-o', path.join(ctx.dir, 'expected')]);
 }
 
 /** The GPU's frame, rendered from the bundle's inputs alone, dumped under the bundle's file names. */

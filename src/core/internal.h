@@ -273,6 +273,8 @@ rto_status rto__stamp_head(const char *request, const char *const *sources, size
 /** Stamps a finished bundle directory (manifest.json written) with head plus the digest of its files; a file system
  * without user extended attributes leaves it unstamped. head NULL: nothing. */
 void rto__stamp_write(const char *dir, const char *head);
+/** An 8-bit image of 1 to 4 channels as PNG file bytes (io/png_write.c, libpng; malloc'ed in *bytes). */
+rto_status rto__png_encode(const rto_image *im, unsigned char **bytes, size_t *len, rto_msg *msg);
 /** The image module file rtoracle would load (scene/image_module_load.c), or NULL when there is none. */
 const char *rto__image_module_path(void);
 /** The places a module loaded on demand is searched, in order (scene/image_module_load.c): $ENV_NAME, FILE beside the

@@ -680,7 +680,8 @@ uint64_t rto_frame_memory_bound(const rto_frame_desc *desc)
     const uint64_t logs = 2 * chunk * RTO_FRAME_EMITS_PER_INVOCATION * (ray + payload + sizeof(acc_entry));
     const uint64_t rendering = in_flight + logs + (depth && !(k & RTO_FRAME_KEEP_HITS) ? chunk * hit : 0);
     /* writing: the encoded images */
-    const uint64_t writing = pixels * ((k & RTO_FRAME_KEEP_ACCUM ? FRAME_EXR_PIXEL_BYTES : 0) + FRAME_PNG_PIXEL_BYTES);
+    const uint64_t writing =
+        pixels * ((k & RTO_FRAME_KEEP_ACCUM_EXR ? FRAME_EXR_PIXEL_BYTES : 0) + FRAME_PNG_PIXEL_BYTES);
     return pixels * FRAME_PIXEL_BYTES + kept + (rendering > writing ? rendering : writing);
 }
 
@@ -703,6 +704,8 @@ int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg)
                  {"trace-counters", RTO_FRAME_KEEP_TRACE_COUNTERS},
                  {"payloads", RTO_FRAME_KEEP_PAYLOADS},
                  {"accum", RTO_FRAME_KEEP_ACCUM},
+                 {"accum-exr", RTO_FRAME_KEEP_ACCUM_EXR},
+                 {"lean", RTO_FRAME_KEEP_LEAN},
                  {"all", RTO_FRAME_KEEP_ALL},
                  {"none", 0}};
     if (!list || !keep) {
@@ -719,7 +722,8 @@ int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg)
             i++;
         if (i == sizeof names / sizeof names[0]) {
             rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
-                     "unknown stage '%.*s' (rays, hits, trace-counters, payloads, accum, all, none)", (int)len, p);
+                     "unknown stage '%.*s' (rays, hits, trace-counters, payloads, accum, accum-exr, lean, all, none)",
+                     (int)len, p);
             return 0;
         }
         bits |= names[i].bit;

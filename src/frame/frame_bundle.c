@@ -37,10 +37,10 @@ static void set_floats(rto_bundle *b, const char *section, const char *key, cons
 
 static void keep_text(uint32_t keep, char *text, size_t cap)
 {
-    static const char *const names[] = {"rays", "hits", "trace-counters", "payloads", "accum"};
+    static const char *const names[] = {"rays", "hits", "trace-counters", "payloads", "accum", "accum-exr"};
     size_t len = 0;
     text[0] = '\0';
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i < 6; i++)
         if (keep & (1u << i))
             len += (size_t)snprintf(text + len, cap - len, "%s%s", len ? "," : "", names[i]);
     if (!len)
@@ -87,8 +87,10 @@ rto_status rto_frame_write_bundle(const rto_frame *f, int with_timings, rto_bund
     if (!s && (f->keep & RTO_FRAME_KEEP_ACCUM)) {
         const rto_npy_desc da = rto_npy_desc_array(RTO_DTYPE_F32, 3, f->height, f->width, 4);
         s = add(b, RTO_FILE_ACCUM, 0, NULL, &da, f->accum, msg);
+    }
+    if (!s && (f->keep & RTO_FRAME_KEEP_ACCUM_EXR)) {
         const rto_image img = {f->width, f->height, 4, RTO_PIXEL_F32, f->accum};
-        if (!s && !(s = rto_bundle_file_name(RTO_FILE_ACCUM_EXR, 0, name, sizeof name)))
+        if (!(s = rto_bundle_file_name(RTO_FILE_ACCUM_EXR, 0, name, sizeof name)))
             s = rto_bundle_add_image(b, name, rto_bundle_file_role(RTO_FILE_ACCUM_EXR), &img, msg);
     }
     if (!s && !(s = rto_bundle_file_name(RTO_FILE_IMAGE, 0, name, sizeof name))) {
@@ -123,6 +125,11 @@ rto_status rto_frame_write_bundle(const rto_frame *f, int with_timings, rto_bund
         set_floats(b, "camera", vec_keys[i], v, 3);
     }
     rto_bundle_set_real(b, "camera", "fov_y_degrees", (double)f->camera.fov_y * 180.0 / 3.14159265358979323846);
+    /* the aspect the projection used: the camera's own (a glTF camera's aspectRatio) or else the image's */
+    const int own_aspect = f->camera.aspect > 0.0f;
+    rto_bundle_set_real(b, "camera", "aspect", own_aspect ? (double)f->camera.aspect
+                                                          : (double)f->width / (double)f->height);
+    rto_bundle_set_str(b, "camera", "aspect_from", own_aspect ? "camera" : "image");
     rto_bundle_set_real(b, "camera", "znear", (double)f->camera.znear);
     rto_bundle_set_real(b, "camera", "zfar", (double)f->camera.zfar);
     uint64_t tot[10] = {0};

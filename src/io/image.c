@@ -3,8 +3,8 @@
  *
  * Reading: the file is opened only if it is a regular file (a FIFO would block, /dev/zero never end), read into
  * memory once, and handed to the module twice: a probe of its header (size, channels, type), then, once the size
- * is known to be sane, a decode straight into the block allocated for it. Writing: the module encodes into memory
- * and rto_file_write puts the bytes in place atomically, with every rule of io/atomic.c. Comparing: the module runs
+ * is known to be sane, a decode straight into the block allocated for it. Writing: the module encodes OpenEXR into
+ * memory, io/png_write.c PNG (without the module), and rto_file_write puts the bytes in place atomically, with every rule of io/atomic.c. Comparing: the module runs
  * ImageBufAlgo::compare (and absdiff / mul for the diff image); the verdict is idiff's rule, computed here. */
 #include "internal.h"
 #include "scene/image_module.h"
@@ -202,16 +202,20 @@ rto_status rto_image_write(const char *path, const rto_image *image, rto_msg *ms
     if (image->type != (exr ? RTO_PIXEL_F32 : RTO_PIXEL_U8))
         return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "cannot write %s: %s holds %s pixels", path,
                         exr ? "OpenEXR" : "PNG", exr ? "32-bit float" : "8-bit");
-    const rto_image_module *m = image_module(path, &s, msg);
-    if (!m)
-        return s;
     unsigned char *bytes = NULL;
     size_t len = 0;
-    char why[256] = "";
-    int code = m->encode(image, exr, &bytes, &len, why, sizeof why);
-    if (code)
-        s = rto_fail(msg, module_status(code), "cannot encode %s: %s", path, why);
-    else
+    if (exr) {
+        const rto_image_module *m = image_module(path, &s, msg);
+        if (!m)
+            return s;
+        char why[256] = "";
+        int code = m->encode(image, exr, &bytes, &len, why, sizeof why);
+        if (code)
+            s = rto_fail(msg, module_status(code), "cannot encode %s: %s", path, why);
+    } else if ((s = rto__png_encode(image, &bytes, &len, msg))) {
+        s = rto_fail(msg, s, "cannot encode %s: %s", path, msg ? msg->text : "PNG encoding failed");
+    }
+    if (!s)
         s = rto_file_write(path, bytes, len, msg);
     free(bytes);
     return s;
