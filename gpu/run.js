@@ -35,7 +35,8 @@ Families (default: all):
 
 options:
   --families LIST     comma-separated families to run
-  --subset S          ci: sorts up to 4097 keys, one build, one traced frame per program (default full)
+  --subset S          ci: sorts of 1, 2, 255-257, 4096, 4097 keys, one build, one traced frame per program
+                      (default full)
   --dists LIST        sort / build distributions (default: every distribution of DESIGN.md §3)
   --sizes LIST        sort sizes, or instance counts of builds (default 1,2,3,255,256,257,4095,4096,4097,16384,65535)
   --scenes LIST       trace / frame scenes (default: the family's own list)

@@ -36,12 +36,12 @@ settled() {
     rm -rf "$T"/d.tmp.*
 }
 
-# trials NAME ARGS...: 12 runs (6 under the sanitizers), SIGINT after 0-220 ms to thread (i mod threads) of the
+# trials NAME ARGS...: 12 runs (3 under the sanitizers), SIGINT after 0-220 ms to thread (i mod threads) of the
 # process.
 trials() {
     local name=$1 i rc pid tasks tid stopped=0 finished=0
     shift
-    for ((i = 0; i < 24; i += 2 * $(sampled 2))); do
+    for ((i = 0; i < 24; i += 2 * $(sampled 4))); do
         rm -rf "$T/d" && cp -a "$T/$name-old" "$T/d"
         "${bg[@]}" "$RTO" "$@" --force -o "$T/d" >/dev/null 2>"$T/err" &
         pid=$!
@@ -58,7 +58,7 @@ trials() {
         esac
         [ "$(settled "$name" "$rc")" = new ] || [ "$rc" != 0 ] || fail "$name: exit 0 but the old bundle is in place"
     done
-    [ "$stopped" -ge $((4 / $(sampled 2))) ] ||
+    [ "$stopped" -ge $((4 / $(sampled 4))) ] ||
         fail "$name: only $stopped runs were stopped by the signal (the delays are too long?)"
     echo "$name: $stopped runs stopped (status 130), $finished finished first; every destination whole, no temporary left"
 }

@@ -4,14 +4,15 @@
 import path from 'node:path';
 import {readNpy, writeNpy} from '../lib/npy.js';
 import {WG_MAX_KEYS, bitonicPasses, bitonicSortWg, padded} from '../lib/sort.js';
-import {sortDists, sortSizes} from '../lib/matrix.js';
+import {sortCaseId, sortDists, sortSizes} from '../lib/matrix.js';
 
 export const family = 'bitonic-wg';
 
 /** Whether --drop-barrier P names a barrier of the network over n keys (there is one after passes 0 .. P - 2). */
 const hasBarrier = (drop, n) => drop !== null && drop + 1 < bitonicPasses(padded(n)).length;
 
-const caseOf = (dist, n, drop) => ({family, id: `bitonic-wg/${dist}/${n}${hasBarrier(drop, n) ? `/drop-${drop}` : ''}`,
+const caseOf = (dist, n, drop) => ({family,
+  id: sortCaseId(family, dist, n, hasBarrier(drop, n) ? `drop-${drop}` : ''),
   dist, size: n, dropBarrier: hasBarrier(drop, n) ? drop : null});
 
 /** Every (distribution, size <= 16384) of the matrix; with --drop-barrier P, the sizes whose network has a barrier

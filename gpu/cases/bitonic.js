@@ -3,7 +3,7 @@
 // every pass, rtoracle check-sort validates both.
 import fs from 'node:fs';
 import path from 'node:path';
-import {sortCases} from '../lib/matrix.js';
+import {sortCaseId, sortCases} from '../lib/matrix.js';
 import {readNpy, writeNpy} from '../lib/npy.js';
 import {check, rtoracle} from '../lib/oracle.js';
 import {bitonicSort} from '../lib/sort.js';
@@ -17,7 +17,7 @@ export function list(opts) {
 
 /** The same case at another size (for --shrink). */
 export function resize(c, n) {
-  return {...c, id: `bitonic/${c.dist}/${n}`, size: n};
+  return {...c, id: sortCaseId(family, c.dist, n), size: n};
 }
 
 /** The oracle's input: keys.npy. */

@@ -9,14 +9,14 @@ import {Bundle} from '../lib/bundle.js';
 import {readNpy, writeNpy} from '../lib/npy.js';
 import {check, rtoracle} from '../lib/oracle.js';
 import {RADIX_BITS, RADIX_PASSES, RADIX_TILE, radixSort} from '../lib/sort.js';
-import {sortCases} from '../lib/matrix.js';
+import {sortCaseId, sortCases} from '../lib/matrix.js';
 
 export const family = 'radix';
 
 const RADIX = 1 << RADIX_BITS;
 const ORACLE_ARGS = ['--algo', 'radix', '--radix-bits', String(RADIX_BITS), '--tile', String(RADIX_TILE)];
 
-const caseOf = (dist, n, racy, sweep) => ({family, id: `radix/${dist}/${n}${racy ? '/racy' : ''}`, dist, size: n,
+const caseOf = (dist, n, racy, sweep) => ({family, id: sortCaseId(family, dist, n, racy ? 'racy' : ''), dist, size: n,
   racy, sweep});
 
 /** Every (distribution, size) of the matrix, or of --sweep; --racy-scatter plants the unsynchronised scatter in all

@@ -1,16 +1,27 @@
 // A WebGPU device through Dawn (npm `webgpu`): Vulkan when a GPU is there, else Mesa's llvmpipe through Dawn's
 // OpenGL backend in compatibility mode (needs Debian libegl1 libgles2 libegl-mesa0 libgl1-mesa-dri and
 // EGL_PLATFORM=surfaceless).
+import fs from 'node:fs';
+import path from 'node:path';
+
 import {create, globals} from 'webgpu';
 
 import {shaderError} from './gpu.js';
 
 Object.assign(globalThis, globals);
 
+/** Whether libvulkan.so.1 is where the dynamic loader would find it (LD_LIBRARY_PATH, then the system's folders). */
+function vulkanLoader() {
+  const dirs = [...(process.env.LD_LIBRARY_PATH || '').split(':').filter(Boolean), '/usr/lib/x86_64-linux-gnu',
+    '/lib/x86_64-linux-gnu', '/usr/lib/aarch64-linux-gnu', '/usr/lib64', '/usr/lib', '/lib64', '/lib'];
+  return dirs.some((d) => fs.existsSync(path.join(d, 'libvulkan.so.1')));
+}
+
 /** {device, adapter, backend}: backend 'vulkan' or 'opengl' (RTO_GPU_BACKEND forces one). */
 export async function openDevice() {
   const want = process.env.RTO_GPU_BACKEND;
-  const tries = want ? [want] : ['vulkan', 'opengl'];
+  // Vulkan is tried only where its loader is installed: Dawn warns (three lines) when it cannot load it.
+  const tries = want ? [want] : [...(vulkanLoader() ? ['vulkan'] : []), 'opengl'];
   for (const backend of tries) {
     if (backend === 'opengl' && !process.env.EGL_PLATFORM) process.env.EGL_PLATFORM = 'surfaceless';
     // Dawn quantizes timestamp-query values (to 65,536 ns) unless told not to: --timestamps wants the real ones
