@@ -1,11 +1,12 @@
-/* Images (DESIGN.md §8-§9): PNG and OpenEXR files read, written and compared through OpenImageIO, which lives in
- * the dlopen'ed image module (scene/image_module.h says why), never in this library's link line.
+/* Images (DESIGN.md §8-§9): PNG and OpenEXR files read, compared and (OpenEXR) written through OpenImageIO, which
+ * lives in the dlopen'ed image module (scene/image_module.h says why), never in this library's link line.
  *
  * Reading: the file is opened only if it is a regular file (a FIFO would block, /dev/zero never end), read into
  * memory once, and handed to the module twice: a probe of its header (size, channels, type), then, once the size
  * is known to be sane, a decode straight into the block allocated for it. Writing: the module encodes OpenEXR into
- * memory, io/png_write.c PNG (without the module), and rto_file_write puts the bytes in place atomically, with every rule of io/atomic.c. Comparing: the module runs
- * ImageBufAlgo::compare (and absdiff / mul for the diff image); the verdict is idiff's rule, computed here. */
+ * memory, io/png_write.c PNG (without the module), and rto_file_write puts the bytes in place atomically, with every
+ * rule of io/atomic.c. Comparing: the module runs ImageBufAlgo::compare (and absdiff / mul for the diff image); the
+ * verdict is idiff's rule, computed here. */
 #include "internal.h"
 #include "scene/image_module.h"
 
@@ -213,7 +214,9 @@ rto_status rto_image_write(const char *path, const rto_image *image, rto_msg *ms
         if (code)
             s = rto_fail(msg, module_status(code), "cannot encode %s: %s", path, why);
     } else if ((s = rto__png_encode(image, &bytes, &len, msg))) {
-        s = rto_fail(msg, s, "cannot encode %s: %s", path, msg ? msg->text : "PNG encoding failed");
+        char why[sizeof msg->text];
+        snprintf(why, sizeof why, "%s", msg ? msg->text : "PNG encoding failed");
+        s = rto_fail(msg, s, "cannot encode %s: %s", path, why);
     }
     if (!s)
         s = rto_file_write(path, bytes, len, msg);

@@ -552,16 +552,14 @@ void encode(const rto_image *image, int exr, unsigned char **bytes, size_t *len)
     OIIO::Filesystem::IOVecOutput vec(out);
     void *proxy = &vec;
     spec.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy);
-    if (exr) {
-        spec.attribute("compression", "zip");
-        // OpenImageIO writes OpenEXR's capDate from DateTime, and the current time when there is none: a fixed
-        // value keeps the bytes a function of the pixels.
-        spec.attribute("DateTime", "1970:01:01 00:00:00");
-    } else {
-        // The pixels are stored as given: no division by alpha (OpenImageIO assumes associated alpha otherwise).
-        spec.attribute("oiio:UnassociatedAlpha", 1);
-    }
-    const char *fname = exr ? "image.exr" : "image.png";
+    // PNG files are written by the library itself (io/png_write.c, libpng), without this module.
+    if (!exr)
+        refuse(RTO_IMAGE_MODULE_UNSUPPORTED, "the module writes OpenEXR only (PNG: io/png_write.c)");
+    spec.attribute("compression", "zip");
+    // OpenImageIO writes OpenEXR's capDate from DateTime, and the current time when there is none: a fixed value keeps
+    // the bytes a function of the pixels.
+    spec.attribute("DateTime", "1970:01:01 00:00:00");
+    const char *fname = "image.exr";
     auto o = OIIO::ImageOutput::create(fname);
     if (!o)
         refuse(RTO_IMAGE_MODULE_UNSUPPORTED, last_line(OIIO::geterror()));

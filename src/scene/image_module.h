@@ -73,8 +73,8 @@ typedef int (*rto_image_probe_fn)(const unsigned char *bytes, size_t len, const 
 typedef int (*rto_image_read_fn)(const unsigned char *bytes, size_t len, const char *name, const rto_image *image,
                                  char *why, size_t why_cap);
 /**
- * Encodes an image as PNG (exr == 0; RTO_PIXEL_U8) or OpenEXR (exr != 0; RTO_PIXEL_F32, 32-bit float, ZIP) into a
- * malloc'ed block (*bytes, *len; the caller frees it). The bytes depend only on the pixels: no time, software name or
+ * Encodes an image as OpenEXR (exr != 0; RTO_PIXEL_F32, 32-bit float, ZIP; exr == 0 is refused: the library writes
+ * PNG itself, io/png_write.c) into a malloc'ed block (*bytes, *len; the caller frees it). The bytes depend only on the pixels: no time, software name or
  * version is written (OpenEXR's capDate, which OpenImageIO always writes, is the fixed "1970:01:01 00:00:00").
  */
 typedef int (*rto_image_encode_fn)(const rto_image *image, int exr, unsigned char **bytes, size_t *len, char *why,
