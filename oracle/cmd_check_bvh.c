@@ -57,24 +57,15 @@ static void arrays_free(build_arrays *a)
 /* Exactly (+inf, -inf) on every axis: the one empty box a bundle holds (rto_aabb_is_empty accepts any min > max). */
 static int box_empty(const rto_aabb *b)
 {
-    return b->min.x == INFINITY && b->min.y == INFINITY && b->min.z == INFINITY && b->max.x == -INFINITY &&
-           b->max.y == -INFINITY && b->max.z == -INFINITY;
-}
-
-static int box_finite(const rto_aabb *b)
-{
-    const float mn[3] = {b->min.x, b->min.y, b->min.z}, mx[3] = {b->max.x, b->max.y, b->max.z};
-    for (int k = 0; k < 3; k++)
-        if (!isfinite(mn[k]) || !isfinite(mx[k]) || !(mn[k] <= mx[k]))
-            return 0;
-    return 1;
+    const rto_aabb e = rto_aabb_empty();
+    return rto_aabb_equal(b, &e);
 }
 
 /* Every box finite with min <= max, or (where allowed) the empty box (+inf, -inf). */
 static int check_boxes(const build_arrays *a, const char *name, const rto_aabb *boxes, size_t n, int allow_empty)
 {
     for (size_t i = 0; i < n; i++)
-        if (!box_finite(&boxes[i]) && !(allow_empty && box_empty(&boxes[i])))
+        if (!rto_aabb_is_finite(&boxes[i]) && !(allow_empty && box_empty(&boxes[i])))
             return cli_bundle_refuse(&a->in, name, "box %zu is neither finite with min <= max%s", i,
                                      allow_empty ? " nor the empty box (+inf, -inf)" : "");
     return EXIT_PASS;
@@ -162,12 +153,6 @@ static int load_blas(build_arrays *a, uint32_t m)
     return self_check(a, name, 0);
 }
 
-/* Equal as numbers: +0 and -0 are the same bound (which one a min keeps depends on the order of the vertices). */
-static int same_box(const rto_aabb *x, const rto_aabb *y)
-{
-    return x->min.x == y->min.x && x->min.y == y->min.y && x->min.z == y->min.z && x->max.x == y->max.x &&
-           x->max.y == y->max.y && x->max.z == y->max.z;
-}
 
 /* instances.npy and instance_aabbs.npy: each instance's BLAS exists, its transform is finite, and its world box is
  * its BLAS's object box (the union of the triangle boxes; empty for an empty mesh) through that transform, as
@@ -213,7 +198,7 @@ static int load_instances(build_arrays *a, size_t n)
         rto_npy pb = {0};
         size_t t = 0;
         rc = load_prim_boxes(a, m, &pb, &t);
-        rto_aabb u = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+        rto_aabb u = rto_aabb_empty();
         const rto_aabb *tb = pb.data;
         for (size_t k = 0; !rc && k < t; k++) {
             u.min.x = tb[k].min.x < u.min.x ? tb[k].min.x : u.min.x;
@@ -230,7 +215,7 @@ static int load_instances(build_arrays *a, size_t n)
     const rto_aabb *wb = a->boxes.data;
     for (size_t i = 0; !rc && i < n; i++) {
         rto_aabb w = rto_aabb_transform(&xf[i], &obj[blas[i]]);
-        if (!same_box(&w, &wb[i]))
+        if (!rto_aabb_equal(&w, &wb[i])) /* as numbers: +0 == -0 */
             rc = cli_bundle_refuse(&a->in, box_name,
                                    "the box of instance %zu is not the box of BLAS %" PRIu32
                                    " through its objToWorld (instances.npy)",

@@ -48,11 +48,6 @@ static int count_scene(const rto_scene *s, scene_counts *c)
     return 1;
 }
 
-static int box_empty(const rto_aabb *b)
-{
-    return !(b->min.x <= b->max.x && b->min.y <= b->max.y && b->min.z <= b->max.z);
-}
-
 static void print_text(const rto_scene *s, const scene_counts *c, const rto_aabb *box)
 {
     printf("scene:      %s\n", s->source);
@@ -61,7 +56,7 @@ static void print_text(const rto_scene *s, const scene_counts *c, const rto_aabb
     printf("triangles:  %llu unique (summed over the BLAS), %llu instanced (summed over the instances)\n",
            (unsigned long long)c->unique_tris, (unsigned long long)c->instanced_tris);
     printf("vertices:   %llu\n", (unsigned long long)c->vertices);
-    if (box_empty(box))
+    if (rto_aabb_is_empty(box))
         printf("bounds:     empty\n");
     else
         printf("bounds:     min (%.9g, %.9g, %.9g) max (%.9g, %.9g, %.9g)\n", (double)box->min.x, (double)box->min.y,

@@ -151,10 +151,20 @@ uint32_t rto_key_prim(rto_key_format f, uint64_t key);
 
 /* Keys of scene boxes (docs/bvh.md "Primitive boxes"): what the builders key their trees by. */
 
+/* Boxes (src/core/aabb.c, the one home of these rules for the library and the command). */
+
+/** The empty box, min (+inf, +inf, +inf) and max (-inf, -inf, -inf): what every writer stores for "no geometry" (an
+ * empty mesh's object box, the world box of an instance of an empty BLAS, an empty tree node). */
+rto_aabb rto_aabb_empty(void);
+/** 1 if min > max on some axis (the empty box, or any inverted box), else 0. A NaN bound makes a box invalid, not
+ * empty (0): the finite checks after it refuse it. */
+int rto_aabb_is_empty(const rto_aabb *box);
+/** 1 if the six bounds are equal as numbers (+0 == -0: which zero a min keeps depends on the vertex order). */
+int rto_aabb_equal(const rto_aabb *a, const rto_aabb *b);
+/** 1 if every bound is finite and min <= max on every axis (a box that holds a point and no infinity), else 0. */
+int rto_aabb_is_finite(const rto_aabb *box);
 /** The point a key is built from: the box centroid (min + max) * 0.5 in binary32. */
 rto_vec3 rto_aabb_centroid(const rto_aabb *box);
-/** 1 if min > max on some axis (an empty box, such as the world box of an instance of an empty BLAS), else 0. */
-int rto_aabb_is_empty(const rto_aabb *box);
 /** Bounds of triangle t of a mesh (exact min / max of its three vertices). t < triangle_count. */
 rto_aabb rto_mesh_triangle_aabb(const rto_mesh *mesh, uint32_t t);
 /**

@@ -167,5 +167,8 @@ run 2 "$RTO" suite sort --dists no-such -o "$T/bad" && has "unknown distribution
 
 # --- the command is a user of the public header only ---------------------------------------------------------------
 grep -l 'internal\.h' "$SRC"/oracle/* && fail "oracle/ includes a private header of the library"
+# --- one home for the box rules (src/core/aabb.c): no other file spells an empty-box test or the empty box ----------
+grep -nE 'min\.x (<=|>) [a-z>.-]*max\.x|\{\{INFINITY, INFINITY, INFINITY\}, \{-INFINITY' "$SRC"/src/*/*.c "$SRC"/oracle/*.c |
+    grep -v '^[^:]*/core/aabb\.c:' && fail "an empty-box rule outside src/core/aabb.c (above)"
 
 finish "cli opts: all checks passed"

@@ -292,6 +292,56 @@ static void test_size_classes(void **state)
     assert_int_equal(rto_size_class("huge", sizes, &n, &msg), RTO_ERR_INVALID_ARGUMENT);
 }
 
+/* The box rules of core/aabb.c against their definitions written here over every combination of special values per
+ * bound (-inf, -1, -0, +0, 1, +inf, NaN on each of the six): empty = some min > max (a NaN bound is neither empty nor
+ * finite), finite = six finite bounds with min <= max, equal = six == comparisons (+0 == -0, NaN never equal), and
+ * rto_aabb_transform's documented rule (an empty or NaN box stays the empty box; otherwise an identity transform
+ * gives the box back). */
+static void test_box_rules(void **state)
+{
+    (void)state;
+    const float v[7] = {-INFINITY, -1.0f, -0.0f, 0.0f, 1.0f, INFINITY, NAN};
+    const rto_aabb e = rto_aabb_empty();
+    assert_true(e.min.x == INFINITY && e.min.y == INFINITY && e.min.z == INFINITY);
+    assert_true(e.max.x == -INFINITY && e.max.y == -INFINITY && e.max.z == -INFINITY);
+    const rto_mat34 id = {{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}}};
+    size_t empties = 0, finites = 0, nans = 0;
+    for (unsigned code = 0; code < 7u * 7 * 7 * 7 * 7 * 7; code++) {
+        float b[6];
+        unsigned c = code;
+        int nan = 0;
+        for (int k = 0; k < 6; k++, c /= 7) {
+            b[k] = v[c % 7];
+            nan |= isnan(b[k]);
+        }
+        const rto_aabb box = {{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
+        int want_empty = 0, want_finite = 1;
+        for (int a = 0; a < 3; a++) {
+            want_empty |= b[a] > b[3 + a];
+            want_finite &= isfinite(b[a]) && isfinite(b[3 + a]) && b[a] <= b[3 + a];
+        }
+        assert_int_equal(rto_aabb_is_empty(&box), want_empty);
+        assert_int_equal(rto_aabb_is_finite(&box), want_finite);
+        assert_int_equal(rto_aabb_equal(&box, &box), !nan);
+        assert_int_equal(rto_aabb_equal(&box, &e), b[0] == INFINITY && b[1] == INFINITY && b[2] == INFINITY &&
+                                                        b[3] == -INFINITY && b[4] == -INFINITY && b[5] == -INFINITY);
+        const rto_aabb w = rto_aabb_transform(&id, &box);
+        if (want_empty || nan)
+            assert_true(rto_aabb_equal(&w, &e));
+        else if (want_finite)
+            assert_true(rto_aabb_equal(&w, &box));
+        empties += (size_t)want_empty;
+        finites += (size_t)want_finite;
+        nans += (size_t)nan;
+    }
+    assert_true(empties > 0 && finites > 0 && nans > 0);
+    /* +0 and -0 bounds are the same box; one bound moved is another */
+    const rto_aabb p = {{0.0f, 0.0f, 0.0f}, {1, 1, 1}}, q = {{-0.0f, 0.0f, -0.0f}, {1, 1, 1}},
+                   r = {{0.0f, 0.0f, 0.0f}, {1, 1, nextafterf(1, 2)}};
+    assert_true(rto_aabb_equal(&p, &q));
+    assert_false(rto_aabb_equal(&p, &r));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -299,7 +349,7 @@ int main(void)
         cmocka_unit_test(test_morton_interleave),       cmocka_unit_test(test_tlas_blas_keys),
         cmocka_unit_test(test_keys_refuse_bad_input),   cmocka_unit_test(test_distribution_properties),
         cmocka_unit_test(test_keys_are_deterministic),  cmocka_unit_test(test_size_classes),
-        cmocka_unit_test(test_generated_blas_keys_whole),
+        cmocka_unit_test(test_generated_blas_keys_whole), cmocka_unit_test(test_box_rules),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

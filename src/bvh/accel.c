@@ -418,7 +418,7 @@ static rto_status blas_alloc(blas_work *W, const rto_mesh *mesh, uint32_t index,
     b->mesh = index;
     b->triangle_count = mesh->triangle_count;
     b->node_count = n >= 2 ? n - 1 : 0;
-    b->bounds = (rto_aabb){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    b->bounds = rto_aabb_empty();
     W->boxes = rto_alloc(n, sizeof *W->boxes);
     W->keys = rto_alloc(n, sizeof *W->keys);
     W->sorted = rto_alloc(n, sizeof *W->sorted);

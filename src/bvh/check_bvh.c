@@ -3,6 +3,7 @@
  * primitive's box (exact for triangles), every internal box the exact union of the dump's *own* children, an EMPTY
  * node's box the empty box. Faults are classified so that a report names what broke, and located where it starts:
  * boxes are checked bottom-up, so a bad leaf is reported at the leaf, not at the ancestor whose union it spoiled. */
+#include "core/aabb.h"
 #include "report_internal.h"
 
 #include <inttypes.h>
@@ -33,7 +34,7 @@ const char *rto_bvh_fault_name(rto_bvh_fault f)
 void rto_transform_box_tolerance(const rto_mat34 *m, const rto_aabb *b, double tol[3])
 {
     tol[0] = tol[1] = tol[2] = 0;
-    if (!m || !b || !(b->min.x <= b->max.x && b->min.y <= b->max.y && b->min.z <= b->max.z))
+    if (!m || !b || rto_aabb_is_empty(b) || rto__aabb_has_nan(b))
         return;
     const float lo[3] = {b->min.x, b->min.y, b->min.z}, hi[3] = {b->max.x, b->max.y, b->max.z};
     for (int row = 0; row < 3; row++) {
@@ -53,12 +54,11 @@ void rto_transform_box_tolerance(const rto_mat34 *m, const rto_aabb *b, double t
 
 static const char *const axis_name[3] = {"x", "y", "z"};
 
+/* Exactly the empty box (+inf, -inf) (core/aabb.c): the one encoding of "no geometry" a tree may hold. */
 static int box_is_empty_identity(const float *mn, const float *mx)
 {
-    for (int a = 0; a < 3; a++)
-        if (mn[a] != INFINITY || mx[a] != -INFINITY)
-            return 0;
-    return 1;
+    const rto_aabb b = rto__aabb_of(mn, mx), e = rto_aabb_empty();
+    return rto_aabb_equal(&b, &e);
 }
 
 static void aabb_arrays(const rto_aabb *b, float *mn, float *mx)
@@ -68,25 +68,19 @@ static void aabb_arrays(const rto_aabb *b, float *mn, float *mx)
 }
 
 /* Whether primitive p has an empty box: it must be in no leaf. */
-static int prim_empty(const rto_aabb *boxes, size_t p)
-{
-    return boxes[p].min.x > boxes[p].max.x;
-}
+static int prim_empty(const rto_aabb *boxes, size_t p) { return rto_aabb_is_empty(&boxes[p]); }
 
 /* Counts the non-empty primitive boxes, refusing boxes that are neither finite (min <= max) nor the empty box. */
 static rto_status count_keyed(const rto_aabb *boxes, size_t n, const double *tol, size_t *keyed, rto_msg *msg)
 {
     size_t k = 0;
     for (size_t p = 0; p < n; p++) {
-        float mn[3], mx[3];
-        aabb_arrays(&boxes[p], mn, mx);
-        if (box_is_empty_identity(mn, mx))
+        const rto_aabb e = rto_aabb_empty();
+        if (rto_aabb_equal(&boxes[p], &e))
             continue;
-        for (int a = 0; a < 3; a++)
-            if (!isfinite(mn[a]) || !isfinite(mx[a]) || !(mn[a] <= mx[a]))
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
-                                "primitive box %zu is neither finite with min <= max nor the empty box (+inf, -inf)",
-                                p);
+        if (!rto_aabb_is_finite(&boxes[p]))
+            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+                            "primitive box %zu is neither finite with min <= max nor the empty box (+inf, -inf)", p);
         for (int a = 0; tol && a < 3; a++)
             if (!(tol[3 * p + a] >= 0))
                 return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "leaf tolerance %zu is negative or NaN", p);
@@ -155,10 +149,8 @@ static void union_of(const float *amn, const float *amx, const float *bmn, const
 
 static int same_box(const float *amn, const float *amx, const float *bmn, const float *bmx)
 {
-    for (int a = 0; a < 3; a++)
-        if (amn[a] != bmn[a] || amx[a] != bmx[a])
-            return 0;
-    return 1;
+    const rto_aabb a = rto__aabb_of(amn, amx), b = rto__aabb_of(bmn, bmx);
+    return rto_aabb_equal(&a, &b);
 }
 
 /* Claims fault f for check `check`; when it becomes the primary fault, sets the node (if >= 0) and the summary

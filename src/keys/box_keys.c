@@ -1,59 +1,19 @@
 /* Keys of scene boxes (DESIGN.md §3, docs/bvh.md "Primitive boxes"): the box each key is built from (a triangle's
- * vertex bounds, an instance's world box), its centroid, and the TLAS / BLAS keys of a whole set of boxes. The BVH
- * builders consume these keys; nothing here knows a tree. */
+ * vertex bounds, an instance's world box; the box rules themselves are core/aabb.c's), and the TLAS / BLAS keys of a
+ * whole set of boxes. The BVH builders consume these keys; nothing here knows a tree. */
+#include "core/aabb.h"
 #include "internal.h"
 
 #include <math.h>
 #include <stdlib.h>
 
-rto_vec3 rto_aabb_centroid(const rto_aabb *b)
-{
-    rto_vec3 c = {(b->min.x + b->max.x) * 0.5f, (b->min.y + b->max.y) * 0.5f, (b->min.z + b->max.z) * 0.5f};
-    return c;
-}
-
-int rto_aabb_is_empty(const rto_aabb *b)
-{
-    /* Strict comparisons: a NaN bound is not "empty" (it reaches the keys' finite check and is refused there). */
-    return b->min.x > b->max.x || b->min.y > b->max.y || b->min.z > b->max.z;
-}
-
-rto_aabb rto_aabb_transform(const rto_mat34 *m, const rto_aabb *box)
-{
-    rto_aabb w = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-    if (!(box->min.x <= box->max.x && box->min.y <= box->max.y && box->min.z <= box->max.z))
-        return w; /* +-inf corners would give NaN through the matrix */
-    /* A fixed corner order and min / max that keep the later operand when equal: the same bytes everywhere, and the
-     * same as rto_instance_aabb, which the tests compare it with on every scene. */
-    for (int c = 0; c < 8; c++) {
-        rto_vec3 p = {(c & 1) ? box->max.x : box->min.x, (c & 2) ? box->max.y : box->min.y,
-                      (c & 4) ? box->max.z : box->min.z};
-        rto_vec3 q = rto_mat34_point(m, p);
-        w.min.x = rto_minf(w.min.x, q.x);
-        w.min.y = rto_minf(w.min.y, q.y);
-        w.min.z = rto_minf(w.min.z, q.z);
-        w.max.x = rto_maxf(w.max.x, q.x);
-        w.max.y = rto_maxf(w.max.y, q.y);
-        w.max.z = rto_maxf(w.max.z, q.z);
-    }
-    return w;
-}
-
 rto_aabb rto_mesh_triangle_aabb(const rto_mesh *m, uint32_t t)
 {
-    rto_aabb b;
     const float *p0 = &m->positions[3 * (size_t)m->indices[3 * (size_t)t]];
-    b.min.x = b.max.x = p0[0];
-    b.min.y = b.max.y = p0[1];
-    b.min.z = b.max.z = p0[2];
+    rto_aabb b = {{p0[0], p0[1], p0[2]}, {p0[0], p0[1], p0[2]}};
     for (int v = 1; v < 3; v++) {
         const float *p = &m->positions[3 * (size_t)m->indices[3 * (size_t)t + (size_t)v]];
-        b.min.x = rto_minf(b.min.x, p[0]);
-        b.min.y = rto_minf(b.min.y, p[1]);
-        b.min.z = rto_minf(b.min.z, p[2]);
-        b.max.x = rto_maxf(b.max.x, p[0]);
-        b.max.y = rto_maxf(b.max.y, p[1]);
-        b.max.z = rto_maxf(b.max.z, p[2]);
+        rto__aabb_grow(&b, (rto_vec3){p[0], p[1], p[2]});
     }
     return b;
 }
@@ -122,7 +82,7 @@ rto_status rto_tlas_keys_from_boxes(const rto_aabb *boxes, size_t n, uint32_t *k
 
 void rto__key_part_init(rto__key_part *p)
 {
-    p->u = (rto_aabb){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    p->u = rto_aabb_empty();
     for (int a = 0; a < 3; a++) {
         p->lo[a] = INFINITY;
         p->hi[a] = -INFINITY;
@@ -270,25 +230,7 @@ void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bou
     rto__key_part_init(&p);
     size_t k = 0;
     for (size_t i = begin; i < end; i++) {
-        const rto_aabb *box = &blas_bounds[inst[i].blas];
-        rto_aabb w = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-        if (box->min.x <= box->max.x && box->min.y <= box->max.y && box->min.z <= box->max.z) {
-            const float(*m)[4] = inst[i].obj_to_world.m;
-            /* rto_aabb_transform's corners in its order, each row as rto_mat34_point evaluates it. */
-            for (int c = 0; c < 8; c++) {
-                const float x = (c & 1) ? box->max.x : box->min.x, y = (c & 2) ? box->max.y : box->min.y,
-                            z = (c & 4) ? box->max.z : box->min.z;
-                const float qx = ((m[0][0] * x + m[0][1] * y) + m[0][2] * z) + m[0][3];
-                const float qy = ((m[1][0] * x + m[1][1] * y) + m[1][2] * z) + m[1][3];
-                const float qz = ((m[2][0] * x + m[2][1] * y) + m[2][2] * z) + m[2][3];
-                w.min.x = rto_minf(w.min.x, qx);
-                w.min.y = rto_minf(w.min.y, qy);
-                w.min.z = rto_minf(w.min.z, qz);
-                w.max.x = rto_maxf(w.max.x, qx);
-                w.max.y = rto_maxf(w.max.y, qy);
-                w.max.z = rto_maxf(w.max.z, qz);
-            }
-        }
+        const rto_aabb w = rto_aabb_transform(&inst[i].obj_to_world, &blas_bounds[inst[i].blas]);
         boxes[i] = w;
         if (rto_aabb_is_empty(&w))
             continue; /* no key (rto_tlas_keys_from_boxes) */

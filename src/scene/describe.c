@@ -50,7 +50,7 @@ static json_t *scene_object(const rto_scene *s, const uint32_t *mesh_instances, 
     set(bad, counts, "warnings", json_integer((json_int_t)s->warning_count));
     set(bad, root, "counts", counts);
     rto_aabb box = rto_scene_aabb(s);
-    int empty = !(box.min.x <= box.max.x && box.min.y <= box.max.y && box.min.z <= box.max.z);
+    const int empty = rto_aabb_is_empty(&box);
     json_t *bounds = empty ? json_null() : json_object();
     if (!empty) {
         set(bad, bounds, "min", vec3_json(bad, box.min));

@@ -1,5 +1,6 @@
 /* The scene model (DESIGN.md §5) shared by every loader: warnings, UTF-8-safe names, instance transforms computed in
  * binary64 and rounded once (§2), object / world bounds in binary32, and the validation every loaded scene passes. */
+#include "core/aabb.h"
 #include "internal.h"
 #include "model.h"
 
@@ -168,39 +169,9 @@ rto_status rto_instance_set_transform(rto_instance *inst, const double m[3][4], 
     return RTO_OK;
 }
 
-rto_vec3 rto_mat34_point(const rto_mat34 *m, rto_vec3 p)
-{
-    rto_vec3 q;
-    q.x = ((m->m[0][0] * p.x + m->m[0][1] * p.y) + m->m[0][2] * p.z) + m->m[0][3];
-    q.y = ((m->m[1][0] * p.x + m->m[1][1] * p.y) + m->m[1][2] * p.z) + m->m[1][3];
-    q.z = ((m->m[2][0] * p.x + m->m[2][1] * p.y) + m->m[2][2] * p.z) + m->m[2][3];
-    return q;
-}
-
-static rto_aabb aabb_empty(void)
-{
-    rto_aabb b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-    return b;
-}
-
-static void aabb_grow(rto_aabb *b, rto_vec3 p)
-{
-    b->min.x = rto_minf(b->min.x, p.x);
-    b->min.y = rto_minf(b->min.y, p.y);
-    b->min.z = rto_minf(b->min.z, p.z);
-    b->max.x = rto_maxf(b->max.x, p.x);
-    b->max.y = rto_maxf(b->max.y, p.y);
-    b->max.z = rto_maxf(b->max.z, p.z);
-}
-
-static int aabb_is_empty(const rto_aabb *b)
-{
-    return !(b->min.x <= b->max.x && b->min.y <= b->max.y && b->min.z <= b->max.z);
-}
-
 rto_aabb rto_mesh_aabb(const rto_mesh *mesh)
 {
-    rto_aabb b = aabb_empty();
+    rto_aabb b = rto_aabb_empty();
     if (!mesh || !mesh->indices || !mesh->positions)
         return b;
     /* Referenced vertices only, in index order (the order fixes which of +0 / -0 a bound keeps). */
@@ -209,7 +180,7 @@ rto_aabb rto_mesh_aabb(const rto_mesh *mesh)
         if (v >= mesh->vertex_count)
             continue; /* never happens for a validated scene; a raw mesh must not make us read out of bounds */
         const float *p = &mesh->positions[3 * (size_t)v];
-        aabb_grow(&b, (rto_vec3){p[0], p[1], p[2]});
+        rto__aabb_grow(&b, (rto_vec3){p[0], p[1], p[2]});
     }
     return b;
 }
@@ -225,7 +196,7 @@ int rto__aabb_in_range(const rto_aabb *b)
     for (int i = 0; i < 6; i++)
         if (isnan(v[i]))
             return 0;
-    if (aabb_is_empty(b))
+    if (rto_aabb_is_empty(b))
         return 1; /* +inf / -inf: no triangles, nothing to key */
     for (int i = 0; i < 6; i++)
         if (!coord_ok(v[i]))
@@ -236,7 +207,7 @@ int rto__aabb_in_range(const rto_aabb *b)
 rto_aabb rto_instance_aabb(const rto_scene *scene, uint32_t instance)
 {
     if (!scene || instance >= scene->instance_count || scene->instances[instance].blas >= scene->mesh_count)
-        return aabb_empty();
+        return rto_aabb_empty();
     const rto_instance *in = &scene->instances[instance];
     rto_aabb ob = rto_mesh_aabb(&scene->meshes[in->blas]);
     return rto_aabb_transform(&in->obj_to_world, &ob);
@@ -244,7 +215,7 @@ rto_aabb rto_instance_aabb(const rto_scene *scene, uint32_t instance)
 
 rto_aabb rto_scene_aabb(const rto_scene *scene)
 {
-    rto_aabb b = aabb_empty();
+    rto_aabb b = rto_aabb_empty();
     if (!scene || !scene->instance_count)
         return b;
     /* Each mesh's object box once, not once per instance: a scene of 65,536 instances of one mesh stays cheap. */
@@ -257,10 +228,10 @@ rto_aabb rto_scene_aabb(const rto_scene *scene)
             continue;
         rto_aabb mb = ob ? ob[in->blas] : rto_mesh_aabb(&scene->meshes[in->blas]);
         rto_aabb w = rto_aabb_transform(&in->obj_to_world, &mb);
-        if (aabb_is_empty(&w))
+        if (rto_aabb_is_empty(&w) || rto__aabb_has_nan(&w))
             continue;
-        aabb_grow(&b, w.min);
-        aabb_grow(&b, w.max);
+        rto__aabb_grow(&b, w.min);
+        rto__aabb_grow(&b, w.max);
     }
     free(ob);
     return b;
