@@ -2,7 +2,7 @@
  * of fixed-size fields, so a validator fills it without allocating and a harness can read it without parsing; the
  * writers decide nothing about content, only layout: text for people, JSON (jansson) for tools. */
 #include "report_internal.h"
-#include "io/json.h"
+#include "core/json.h"
 
 #include <inttypes.h>
 #include <jansson.h>

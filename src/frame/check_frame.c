@@ -13,7 +13,7 @@
  * pixel in one SHADE pass, and it drops arbitrary rays at capacity, so such pixels (and the queues from a dropping
  * one on) cannot be compared at all and are reported as not comparable instead of failing. */
 #include "report_internal.h"
-#include "io/json.h"
+#include "core/json.h"
 
 #include <errno.h>
 #include <inttypes.h>

@@ -4,7 +4,7 @@
  * inputs give the same bytes. */
 #define _GNU_SOURCE /* renameat2 (glibc >= 2.28) */
 #include "internal.h"
-#include "io/json.h"
+#include "core/json.h"
 
 #include <dirent.h>
 #include <errno.h>

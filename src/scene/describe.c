@@ -1,7 +1,7 @@
 /* rto_scene_json: the description `rtoracle info --json` prints, built here so that harnesses get the same object and
- * so that its text can never come out cut short or drop a field (io/json.h). */
+ * so that its text can never come out cut short or drop a field (core/json.h). */
 #include "internal.h"
-#include "io/json.h"
+#include "core/json.h"
 
 #include <stdlib.h>
 #include <string.h>

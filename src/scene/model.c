@@ -18,32 +18,6 @@ void rto__load_desc_resolve(const rto_scene_load_desc *desc, rto_scene_load_desc
         out->texture_budget_bytes = RTO_SCENE_TEXTURE_BUDGET_DEFAULT;
 }
 
-/* ---------------------------------------------------------------------------------------------------------------- */
-/* UTF-8                                                                                                            */
-
-void rto__utf8_copy(char *dst, size_t cap, const char *src, size_t len)
-{
-    if (!cap)
-        return;
-    /* rto_utf8_repair writes at least one byte for every byte it reads, so no byte past the first cap + 3 can reach
-     * dst: a bounded copy of those, with control characters made '?', is all it needs to see. */
-    char tmp[RTO__UTF8_COPY_MAX + 4];
-    size_t n = len < cap + 3 ? len : cap + 3;
-    if (n > RTO__UTF8_COPY_MAX + 3)
-        n = RTO__UTF8_COPY_MAX + 3;
-    for (size_t i = 0; i < n; i++) {
-        const unsigned char c = (unsigned char)src[i];
-        tmp[i] = c < 0x20 || c == 0x7F ? '?' : (char)c;
-    }
-    tmp[n] = '\0';
-    rto_utf8_repair(tmp, dst, cap < RTO__UTF8_COPY_MAX ? cap : RTO__UTF8_COPY_MAX);
-}
-
-void rto__utf8_fix(char *s, size_t cap)
-{
-    rto__utf8_copy(s, cap, s, strlen(s));
-}
-
 rto_camera rto_camera_default(void)
 {
     rto_camera c;

@@ -4,6 +4,7 @@
 #ifndef RTO_SCENE_MODEL_H
 #define RTO_SCENE_MODEL_H
 
+#include "core/utf8.h"
 #include "rtoracle.h"
 
 /* Library-private (like internal.h): not exported from librtoracle.so. */
@@ -43,18 +44,6 @@ void rto__scene_warn(rto_scene *scene, const char *fmt, ...)
 /** Appends a file the loader opened (or tried to) to scene->sources; 0 when out of memory. */
 int rto__scene_add_source(rto_scene *scene, const char *path);
 
-/* The largest cap rto__utf8_copy fills (the scene's text arrays and rto_msg are smaller). */
-#define RTO__UTF8_COPY_MAX 1024
-
-/**
- * Copies len bytes of src into dst (cap bytes, always terminated) as valid UTF-8: control characters become '?'
- * (one line per item in the text output), ill-formed parts U+FFFD (rto_utf8_repair), and a character that does not
- * fit whole is left out rather than cut. Scene names, warnings and messages go to JSON writers and one-line outputs.
- */
-void rto__utf8_copy(char *dst, size_t cap, const char *src, size_t len);
-
-/** rto__utf8_copy of the string in s (an array of cap bytes) onto itself. */
-void rto__utf8_fix(char *s, size_t cap);
 
 /** 1 if every coordinate of a non-empty box lies within +-RTO_SCENE_MAX_COORD (an empty box passes). */
 int rto__aabb_in_range(const rto_aabb *box);

@@ -3,6 +3,7 @@
  * follows Unicode's "substitution of maximal subparts" (The Unicode Standard, §3.9, U+FFFD Substitution of Maximal
  * Subparts): each maximal prefix of a well-formed sequence that is cut short, and each byte that cannot start one,
  * becomes one U+FFFD, so a name cut inside a character keeps everything before the cut and ends in one U+FFFD. */
+#include "core/utf8.h"
 #include "internal.h"
 
 #include <string.h>
@@ -69,4 +70,27 @@ size_t rto_utf8_repair(const char *in, char *out, size_t cap)
     if (cap)
         out[written] = '\0';
     return total;
+}
+
+void rto__utf8_copy(char *dst, size_t cap, const char *src, size_t len)
+{
+    if (!cap)
+        return;
+    /* rto_utf8_repair writes at least one byte for every byte it reads, so no byte past the first cap + 3 can reach
+     * dst: a bounded copy of those, with control characters made '?', is all it needs to see. */
+    char tmp[RTO__UTF8_COPY_MAX + 4];
+    size_t n = len < cap + 3 ? len : cap + 3;
+    if (n > RTO__UTF8_COPY_MAX + 3)
+        n = RTO__UTF8_COPY_MAX + 3;
+    for (size_t i = 0; i < n; i++) {
+        const unsigned char c = (unsigned char)src[i];
+        tmp[i] = c < 0x20 || c == 0x7F ? '?' : (char)c;
+    }
+    tmp[n] = '\0';
+    rto_utf8_repair(tmp, dst, cap < RTO__UTF8_COPY_MAX ? cap : RTO__UTF8_COPY_MAX);
+}
+
+void rto__utf8_fix(char *s, size_t cap)
+{
+    rto__utf8_copy(s, cap, s, strlen(s));
 }

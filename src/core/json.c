@@ -1,5 +1,5 @@
 /* JSON values and text that never come out silently wrong: see json.h. */
-#include "io/json.h"
+#include "core/json.h"
 
 #include <math.h>
 #include <stdbool.h>

@@ -1,7 +1,7 @@
 /* JSON values and text that never come out silently wrong (library-private; jansson underneath). Used by the
  * manifest writer, the report writer and the scene description. */
-#ifndef RTO_IO_JSON_H
-#define RTO_IO_JSON_H
+#ifndef RTO_CORE_JSON_H
+#define RTO_CORE_JSON_H
 
 #include "internal.h"
 
