@@ -308,7 +308,7 @@ static void test_pinned_boxes(void **state)
     normal_of(&r, &h, n);
     assert_true(n[0] == 0.0f && n[1] == 1.0f && n[2] == 0.0f);
     /* Documented NaN rule: an origin exactly on the ground's x = -10 plane with a zero x direction computes
-     * 0 * inf = NaN for that slab; rto_minf / rto_maxf then take the other operand (+inf for +0, -inf for -0), so the
+     * 0 * inf = NaN for that slab; rto__minf / rto__maxf then take the other operand (+inf for +0, -inf for -0), so the
      * ray misses either way (tNear = +inf > tFar, or tFar = -inf < 0). A GPU may answer otherwise (WGSL leaves min /
      * max of NaN to the implementation); such a ray is a tie case for a comparison. */
     r = make_ray(-10, 5, 0, 0, -1, 0, RTO_RAY_T_MAX);

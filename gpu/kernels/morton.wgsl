@@ -32,7 +32,7 @@ struct Params { n: u32, slots: u32, pad0: u32, pad1: u32 }  // instances, sort-b
 @group(0) @binding(5) var<storage, read_write> bounds: array<vec4<f32>, 2>;  // lo, hi (w unused)
 @group(0) @binding(6) var<storage, read_write> keys: array<u32>;
 
-// The oracle's min / max (rto_minf / rto_maxf): the second operand when both compare equal, so the sign of a zero
+// The oracle's min / max (rto__minf / rto__maxf): the second operand when both compare equal, so the sign of a zero
 // is the same as on the CPU; WGSL's min() / max() leave that choice to the implementation.
 fn minf(a: f32, b: f32) -> f32 { return select(b, a, a < b); }
 fn maxf(a: f32, b: f32) -> f32 { return select(b, a, a > b); }

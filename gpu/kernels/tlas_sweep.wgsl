@@ -22,7 +22,7 @@ struct Params { first: u32, count: u32, pad0: u32, pad1: u32 }
 var<private> INF_BITS: u32 = 0x7f800000u;  // +inf at run time: a constant expression may not be infinite
 fn inf() -> f32 { return bitcast<f32>(INF_BITS); }
 
-// The oracle's min / max (rto_minf / rto_maxf): the second operand when both compare equal.
+// The oracle's min / max (rto__minf / rto__maxf): the second operand when both compare equal.
 fn minf(a: f32, b: f32) -> f32 { return select(b, a, a < b); }
 fn maxf(a: f32, b: f32) -> f32 { return select(b, a, a > b); }
 

@@ -34,7 +34,7 @@ var<private> trace_hit: HitRecord;
 var<private> trace_counters: TraceCounters;
 var<private> trace_status: u32;
 
-// rto_minf / rto_maxf: `a < b ? a : b`, spelled out so that no min()/max() NaN convention can differ.
+// rto__minf / rto__maxf: `a < b ? a : b`, spelled out so that no min()/max() NaN convention can differ.
 fn trace_min(a: f32, b: f32) -> f32 { return select(b, a, a < b); }
 fn trace_max(a: f32, b: f32) -> f32 { return select(b, a, a > b); }
 

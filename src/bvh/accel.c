@@ -92,7 +92,7 @@ typedef struct build_ctx {
     rto_msg tlas_msg;
 } build_ctx;
 
-static rto_status oom(rto_msg *msg) { return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory"); }
+static rto_status oom(rto_msg *msg) { return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory"); }
 
 /* The first index of triangles [begin, end) that names no vertex of the mesh, as a position in its index array, or
  * SIZE_MAX. A scene assembled by hand is checked here, where the build reads the indices anyway (the loaders check
@@ -117,7 +117,7 @@ static rto_status index_message(const rto_scene *scene, uint32_t m, rto_msg *msg
     const size_t k = first_bad_index(me, 0, me->triangle_count);
     if (k == SIZE_MAX)
         return RTO_OK;
-    return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u (%s): index %zu is %u, not below %u vertices", m, me->name,
+    return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u (%s): index %zu is %u, not below %u vertices", m, me->name,
                     k, me->indices[k], me->vertex_count);
 }
 
@@ -137,7 +137,7 @@ static rto_status instance_message(const rto_scene *scene, rto_msg *msg)
     const size_t i = first_bad_instance(scene, 0, scene->instance_count);
     if (i == SIZE_MAX)
         return RTO_OK;
-    return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance %zu names BLAS %u of %u", i, scene->instances[i].blas,
+    return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance %zu names BLAS %u of %u", i, scene->instances[i].blas,
                     scene->mesh_count);
 }
 
@@ -316,7 +316,7 @@ static void tlas_stages(build_ctx *c, rto__team *team, uint32_t w, uint32_t t)
             size_t none = 0;
             c->tlas_status = rto_tlas_keys_from_boxes(boxes, n, keys, &none, &c->tlas_msg);
             if (!c->tlas_status) /* cannot happen: the same centroids */
-                c->tlas_status = rto_fail(&c->tlas_msg, RTO_ERR_INVALID_ARGUMENT, "TLAS keys refused");
+                c->tlas_status = rto__fail(&c->tlas_msg, RTO_ERR_INVALID_ARGUMENT, "TLAS keys refused");
         }
         return; /* every worker returns here, after the last sync */
     }
@@ -419,16 +419,16 @@ static rto_status blas_alloc(blas_work *W, const rto_mesh *mesh, uint32_t index,
     b->triangle_count = mesh->triangle_count;
     b->node_count = n >= 2 ? n - 1 : 0;
     b->bounds = rto_aabb_empty();
-    W->boxes = rto_alloc(n, sizeof *W->boxes);
-    W->keys = rto_alloc(n, sizeof *W->keys);
-    W->sorted = rto_alloc(n, sizeof *W->sorted);
-    W->tmp = rto_alloc(n, sizeof *W->tmp);
-    W->order = rto_alloc(n, sizeof *W->order);
+    W->boxes = rto__alloc(n, sizeof *W->boxes);
+    W->keys = rto__alloc(n, sizeof *W->keys);
+    W->sorted = rto__alloc(n, sizeof *W->sorted);
+    W->tmp = rto__alloc(n, sizeof *W->tmp);
+    W->order = rto__alloc(n, sizeof *W->order);
     /* A BLAS built by one worker gets its nodes on transparent huge pages (rto__alloc_large): first touches of 4 KiB
      * pages cost more than building the tree. One built by a team takes 4 KiB pages, whose first touches the team
      * shares out (blas_stages); a huge page is cleared by the one thread that touches it first, and on the 16-core
      * Xeon that made the bunny's 16-thread build 0.5 ms slower. */
-    W->nodes = workers > 1 && n >= BIG_MESH ? rto_alloc(b->node_count, sizeof *W->nodes)
+    W->nodes = workers > 1 && n >= BIG_MESH ? rto__alloc(b->node_count, sizeof *W->nodes)
                                             : rto__alloc_large(b->node_count, sizeof *W->nodes);
     b->prim_aabbs = W->boxes;
     b->sorted_keys = W->sorted;
@@ -443,14 +443,14 @@ static rto_status tlas_alloc(build_ctx *c)
     const size_t n = c->scene->instance_count, np = rto_next_pow2(n);
     t->kind = c->kind;
     t->instance_count = c->scene->instance_count;
-    t->instance_aabbs = rto_alloc(n, sizeof(rto_aabb));
-    t->keys = rto_alloc(n, sizeof(uint32_t));
-    t->sorted_keys = rto_alloc(np, sizeof(uint32_t));
-    c->tlas_tmp = rto_alloc(n, sizeof(uint32_t));
+    t->instance_aabbs = rto__alloc(n, sizeof(rto_aabb));
+    t->keys = rto__alloc(n, sizeof(uint32_t));
+    t->sorted_keys = rto__alloc(np, sizeof(uint32_t));
+    c->tlas_tmp = rto__alloc(n, sizeof(uint32_t));
     if (c->kind == RTO_TLAS_SWEEP)
-        t->sweep_nodes = rto_alloc(rto_tlas_sweep_node_count(n), sizeof(rto_tlas_node));
+        t->sweep_nodes = rto__alloc(rto_tlas_sweep_node_count(n), sizeof(rto_tlas_node));
     else
-        t->karras_nodes = rto_alloc(n >= 2 ? n - 1 : 0, sizeof(rto_bvh_node));
+        t->karras_nodes = rto__alloc(n >= 2 ? n - 1 : 0, sizeof(rto_bvh_node));
     return t->instance_aabbs && t->keys && t->sorted_keys && c->tlas_tmp && (t->sweep_nodes || t->karras_nodes)
                ? RTO_OK
                : RTO_ERR_OUT_OF_MEMORY;
@@ -494,11 +494,11 @@ static rto_status build_message(build_ctx *c, rto_msg *msg)
                            ? oom(msg)
                            : rto_blas_keys_from_boxes(W->boxes, W->n, W->keys, msg);
         if (!s) /* cannot happen: the same boxes were refused */
-            s = rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys refused");
+            s = rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys refused");
         if (msg) {
             /* Name the mesh: the key and tree messages only know their own indices. */
             rto_msg inner = *msg;
-            rto_fail(msg, s, "mesh %u (%s): %s", m, c->scene->meshes[m].name, inner.text);
+            rto__fail(msg, s, "mesh %u (%s): %s", m, c->scene->meshes[m].name, inner.text);
         }
         return s;
     }
@@ -510,18 +510,18 @@ static rto_status build_message(build_ctx *c, rto_msg *msg)
 rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, rto_accel **out, rto_msg *msg)
 {
     if (!out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
     *out = NULL;
     if (!scene || (scene->mesh_count && !scene->meshes) || (scene->instance_count && !scene->instances))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL scene or scene arrays");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL scene or scene arrays");
     rto_accel_desc d;
     memset(&d, 0, sizeof d);
     if (desc)
         d = *desc;
     if (d.tlas != RTO_TLAS_SWEEP && d.tlas != RTO_TLAS_KARRAS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown TLAS kind %d", (int)d.tlas);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown TLAS kind %d", (int)d.tlas);
     if (scene->instance_count > RTO_TLAS_MAX_INSTANCES)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%u instances: a TLAS key indexes at most %u",
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%u instances: a TLAS key indexes at most %u",
                         scene->instance_count, RTO_TLAS_MAX_INSTANCES);
     /* Instances' BLAS indices and triangles' vertex indices are checked by the build itself, in parallel, before
      * anything reads through them (first_bad_instance, first_bad_index). */
@@ -534,7 +534,7 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
                 s = index_message(scene, j, msg);
             if (s)
                 return s;
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u (%s): NULL positions or indices", m, me->name);
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u (%s): NULL positions or indices", m, me->name);
         }
     }
     rto_accel *a = calloc(1, sizeof *a);
@@ -551,17 +551,17 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     const uint32_t W = rto__thread_count(d.threads), mc = a->blas_count;
     c.max_workers = W;
     c.work = calloc(mc ? mc : 1, sizeof *c.work);
-    c.parts = rto_alloc(W, sizeof *c.parts);
-    c.bad = rto_alloc(W, sizeof *c.bad);
-    c.hist = rto_alloc(rto__radix_team_hist_words(W), sizeof *c.hist);
-    c.first = rto_alloc((size_t)W * 2048u, sizeof *c.first);
-    c.diff = rto_alloc(W, sizeof *c.diff);
-    c.ordered = rto_alloc(W, sizeof *c.ordered);
-    c.load = rto_alloc(W, sizeof *c.load);
-    c.keyed = rto_alloc(W, sizeof *c.keyed);
-    c.owner = rto_alloc(mc, sizeof *c.owner);
-    c.by_size = rto_alloc(mc, sizeof *c.by_size);
-    c.blas_bounds = rto_alloc(mc, sizeof *c.blas_bounds);
+    c.parts = rto__alloc(W, sizeof *c.parts);
+    c.bad = rto__alloc(W, sizeof *c.bad);
+    c.hist = rto__alloc(rto__radix_team_hist_words(W), sizeof *c.hist);
+    c.first = rto__alloc((size_t)W * 2048u, sizeof *c.first);
+    c.diff = rto__alloc(W, sizeof *c.diff);
+    c.ordered = rto__alloc(W, sizeof *c.ordered);
+    c.load = rto__alloc(W, sizeof *c.load);
+    c.keyed = rto__alloc(W, sizeof *c.keyed);
+    c.owner = rto__alloc(mc, sizeof *c.owner);
+    c.by_size = rto__alloc(mc, sizeof *c.by_size);
+    c.blas_bounds = rto__alloc(mc, sizeof *c.blas_bounds);
     rto_status s = a->blas && c.work && c.parts && c.bad && c.hist && c.first && c.diff && c.ordered && c.load &&
                            c.keyed && c.owner && c.by_size && c.blas_bounds
                        ? RTO_OK
@@ -608,14 +608,14 @@ static rto_status check_tree(const rto_bvh_check_desc *d, int sweep, const char 
     if (s == RTO_OK || s == RTO_ERR_MISMATCH)
         snprintf(r->what, sizeof r->what, "%s", what);
     if (s == RTO_ERR_MISMATCH)
-        return rto_fail(msg, s, "%s: %s", name, r->summary);
+        return rto__fail(msg, s, "%s: %s", name, r->summary);
     return s;
 }
 
 rto_status rto_accel_check(const rto_accel *a, rto_report *r, rto_msg *msg)
 {
     if (!a || !r)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel or report");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel or report");
     const rto_accel_tlas *t = &a->tlas;
     rto_bvh_check_desc d;
     memset(&d, 0, sizeof d);
@@ -627,7 +627,7 @@ rto_status rto_accel_check(const rto_accel *a, rto_report *r, rto_msg *msg)
         d.node_count = t->node_count;
         s = check_tree(&d, 1, "TLAS (sweep)", "the sweep TLAS", r, msg);
     } else {
-        uint32_t *prims = rto_alloc(t->key_count, sizeof *prims);
+        uint32_t *prims = rto__alloc(t->key_count, sizeof *prims);
         if (!prims)
             return oom(msg);
         for (uint32_t j = 0; j < t->key_count; j++)

@@ -54,7 +54,7 @@ void rto_transform_box_tolerance(const rto_mat34 *m, const rto_aabb *b, double t
 
 static const char *const axis_name[3] = {"x", "y", "z"};
 
-/* Exactly the empty box (+inf, -inf) (core/aabb.c): the one encoding of "no geometry" a tree may hold. */
+/* Exactly the empty box (+inf, -inf) (core/aabb.c): the one encoding of "no geometry" a tree holds. */
 static int box_is_empty_identity(const float *mn, const float *mx)
 {
     const rto_aabb b = rto__aabb_of(mn, mx), e = rto_aabb_empty();
@@ -79,11 +79,11 @@ static rto_status count_keyed(const rto_aabb *boxes, size_t n, const double *tol
         if (rto_aabb_equal(&boxes[p], &e))
             continue;
         if (!rto_aabb_is_finite(&boxes[p]))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                             "primitive box %zu is neither finite with min <= max nor the empty box (+inf, -inf)", p);
         for (int a = 0; tol && a < 3; a++)
             if (!(tol[3 * p + a] >= 0))
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "leaf tolerance %zu is negative or NaN", p);
+                return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "leaf tolerance %zu is negative or NaN", p);
         k++;
     }
     *keyed = k;
@@ -123,15 +123,15 @@ static void box_rows(rto_report *r, size_t node, const char *prefix, const float
             char field[RTO_REPORT_NAME_MAX];
             snprintf(field, sizeof field, "%s%s.%s", prefix, side ? "max" : "min", axis_name[a]);
             if (r->nrows == 0)
-                rto_report_table(r, "boxes", "node");
-            rto_report_row *row = rto_report_row_add(r, node, field);
+                rto__report_table(r, "boxes", "node");
+            rto_report_row *row = rto__report_row_add(r, node, field);
             if (!row)
                 return;
-            row->expected = rto_val_f32(e);
-            row->actual = rto_val_f32(g);
-            row->diff = rto_val_f64((double)g - (double)e);
+            row->expected = rto__val_f32(e);
+            row->actual = rto__val_f32(g);
+            row->diff = rto__val_f64((double)g - (double)e);
             if (tol) {
-                row->tolerance = rto_val_f64(tol[a]);
+                row->tolerance = rto__val_f64(tol[a]);
                 if (first)
                     r->tolerance_bound = tol[a];
             }
@@ -142,8 +142,8 @@ static void box_rows(rto_report *r, size_t node, const char *prefix, const float
 static void union_of(const float *amn, const float *amx, const float *bmn, const float *bmx, float *mn, float *mx)
 {
     for (int a = 0; a < 3; a++) {
-        mn[a] = rto_minf(amn[a], bmn[a]);
-        mx[a] = rto_maxf(amx[a], bmx[a]);
+        mn[a] = rto__minf(amn[a], bmn[a]);
+        mx[a] = rto__maxf(amx[a], bmx[a]);
     }
 }
 
@@ -159,12 +159,12 @@ static int note(rto_report *r, rto_bvh_fault f, const char *check, int64_t node,
     RTO_PRINTF(5, 6);
 static int note(rto_report *r, rto_bvh_fault f, const char *check, int64_t node, const char *fmt, ...)
 {
-    rto_report_mark(r, check, RTO_CHECK_FAILED);
-    if (!rto_report_claim(r, (int)f, rto_bvh_fault_name(f)))
+    rto__report_mark(r, check, RTO_CHECK_FAILED);
+    if (!rto__report_claim(r, (int)f, rto_bvh_fault_name(f)))
         return 0;
-    rto_report_table(r, "nodes", "node");
+    rto__report_table(r, "nodes", "node");
     if (node >= 0)
-        rto_report_at(r, "node", node);
+        rto__report_at(r, "node", node);
     int used = snprintf(r->summary, sizeof r->summary, "%s: ", rto_bvh_fault_name(f));
     va_list ap;
     va_start(ap, fmt);
@@ -176,11 +176,11 @@ static int note(rto_report *r, rto_bvh_fault f, const char *check, int64_t node,
 static void link_row(rto_report *r, size_t node, const char *field, rto_value expected, uint32_t actual)
 {
     if (r->nrows == 0)
-        rto_report_table(r, strcmp(field, "item") ? "links" : "items", "node");
-    rto_report_row *row = rto_report_row_add(r, node, field);
+        rto__report_table(r, strcmp(field, "item") ? "links" : "items", "node");
+    rto_report_row *row = rto__report_row_add(r, node, field);
     if (row) {
         row->expected = expected;
-        row->actual = rto_val_hex32(actual);
+        row->actual = rto__val_hex32(actual);
     }
 }
 
@@ -188,10 +188,10 @@ static const char *const bvh_checks[] = {"size", "leaves", "oracle", "links", "b
 
 static void begin(rto_report *r, const rto_bvh_check_desc *d)
 {
-    rto_report_begin(r, "check-bvh");
+    rto__report_begin(r, "check-bvh");
     for (size_t i = 0; i < sizeof bvh_checks / sizeof bvh_checks[0]; i++)
-        rto_report_add_check(r, bvh_checks[i]);
-    rto_report_table(r, "nodes", "node");
+        rto__report_add_check(r, bvh_checks[i]);
+    rto__report_table(r, "nodes", "node");
     snprintf(r->mode, sizeof r->mode, "%s", d->expected ? "exact" : "structure-only");
     if (d->leaf_tolerance)
         snprintf(r->tolerance, sizeof r->tolerance, "leaves within 8*2^-24*(|m0*x|+|m1*y|+|m2*z|+|t|) per "
@@ -204,14 +204,14 @@ static void begin(rto_report *r, const rto_bvh_check_desc *d)
 /* The checks that ran to the end: "ok" unless they failed (FAILED is sticky). */
 static rto_status finish(rto_report *r, int exact)
 {
-    rto_report_mark(r, "leaves", RTO_CHECK_PASSED);
-    rto_report_mark(r, "links", RTO_CHECK_PASSED);
-    rto_report_mark(r, "boxes", RTO_CHECK_PASSED);
+    rto__report_mark(r, "leaves", RTO_CHECK_PASSED);
+    rto__report_mark(r, "links", RTO_CHECK_PASSED);
+    rto__report_mark(r, "boxes", RTO_CHECK_PASSED);
     if (exact)
-        rto_report_mark(r, "oracle", RTO_CHECK_PASSED);
+        rto__report_mark(r, "oracle", RTO_CHECK_PASSED);
     if (r->code != RTO_BVH_OK)
         return RTO_ERR_MISMATCH;
-    rto_report_summary(r, "ok: %s", r->mode[0] == 'e' ? "equal to the oracle's tree within tolerance"
+    rto__report_summary(r, "ok: %s", r->mode[0] == 'e' ? "equal to the oracle's tree within tolerance"
                                                      : "a valid tree over the same primitives");
     return RTO_OK;
 }
@@ -247,7 +247,7 @@ static void tlas_compare(rto_report *r, const rto_tlas_node *g, const rto_tlas_n
                          "are exchanged", p, 2 * p + 1, 2 * p + 2))
                     for (size_t k = i; k < count; k++)
                         if (g[k].item != e[k].item)
-                            link_row(r, k, "item", rto_val_hex32(e[k].item), g[k].item);
+                            link_row(r, k, "item", rto__val_hex32(e[k].item), g[k].item);
                 return;
             }
             c = p;
@@ -268,16 +268,16 @@ static void tlas_compare(rto_report *r, const rto_tlas_node *g, const rto_tlas_n
             own = note(r, RTO_BVH_EMPTY, "oracle", (int64_t)i, "leaf node %zu (sorted leaf %zu) holds item 0x%08" PRIx32
                        ", expected 0x%08" PRIx32, i, j, g[i].item, e[i].item);
         if (own) {
-            rto_report_at(r, "leaf", (int64_t)j);
+            rto__report_at(r, "leaf", (int64_t)j);
             if (g[i].item < pc)
-                rto_report_at(r, "primitive", g[i].item);
+                rto__report_at(r, "primitive", g[i].item);
             for (size_t k = i; k < count; k++)
                 if (g[k].item != e[k].item)
-                    link_row(r, k, "item", rto_val_hex32(e[k].item), g[k].item);
+                    link_row(r, k, "item", rto__val_hex32(e[k].item), g[k].item);
         }
         return;
     }
-    rto_report_mark(r, "oracle", RTO_CHECK_PASSED);
+    rto__report_mark(r, "oracle", RTO_CHECK_PASSED);
 }
 
 /* One leaf node on its own: its item and its box. */
@@ -292,8 +292,8 @@ static void tlas_leaf(rto_report *r, const rto_bvh_check_desc *d, const rto_tlas
                  "'s box%s", i, j, t->item, tol ? " within the transform tolerance" : "")) {
             float pmn[3], pmx[3];
             aabb_arrays(&d->prim_boxes[t->item], pmn, pmx);
-            rto_report_at(r, "leaf", (int64_t)j);
-            rto_report_at(r, "primitive", t->item);
+            rto__report_at(r, "leaf", (int64_t)j);
+            rto__report_at(r, "primitive", t->item);
             box_rows(r, i, "", t->min, t->max, pmn, pmx, tol);
         }
     } else if (t->item == RTO_TLAS_EMPTY) {
@@ -302,21 +302,21 @@ static void tlas_leaf(rto_report *r, const rto_bvh_check_desc *d, const rto_tlas
         if (note(r, RTO_BVH_EMPTY, "boxes", (int64_t)i, "EMPTY leaf node %zu (sorted leaf %zu) has a box other than "
                  "(+inf, -inf)", i, j)) {
             const float inf[3] = {INFINITY, INFINITY, INFINITY}, ninf[3] = {-INFINITY, -INFINITY, -INFINITY};
-            rto_report_at(r, "leaf", (int64_t)j);
+            rto__report_at(r, "leaf", (int64_t)j);
             box_rows(r, i, "", t->min, t->max, inf, ninf, NULL);
         }
     } else if (t->item == RTO_TLAS_INTERNAL) {
         if (note(r, RTO_BVH_EMPTY, "links", (int64_t)i, "leaf node %zu (sorted leaf %zu) is marked INTERNAL", i, j)) {
-            rto_report_at(r, "leaf", (int64_t)j);
-            link_row(r, i, "item", rto_val_none(), t->item);
+            rto__report_at(r, "leaf", (int64_t)j);
+            link_row(r, i, "item", rto__val_none(), t->item);
         }
     } else if (note(r, RTO_BVH_ITEM, "leaves", (int64_t)i, "leaf node %zu (sorted leaf %zu) holds item 0x%08" PRIx32
                     ": %s", i, j, t->item, t->item < pc ? "an instance of an empty BLAS, which has no leaf"
                                                         : "no such instance, nor EMPTY")) {
-        rto_report_at(r, "leaf", (int64_t)j);
+        rto__report_at(r, "leaf", (int64_t)j);
         if (t->item < pc)
-            rto_report_at(r, "primitive", t->item);
-        link_row(r, i, "item", rto_val_none(), t->item);
+            rto__report_at(r, "primitive", t->item);
+        link_row(r, i, "item", rto__val_none(), t->item);
     }
 }
 
@@ -328,7 +328,7 @@ static void tlas_internal(rto_report *r, const rto_tlas_node *g, size_t i)
     if (t->item != want) {
         if (note(r, RTO_BVH_EMPTY, "links", (int64_t)i, "internal node %zu item 0x%08" PRIx32 ", expected 0x%08" PRIx32
                  " from its children %zu and %zu", i, t->item, want, 2 * i + 1, 2 * i + 2))
-            link_row(r, i, "item", rto_val_hex32(want), t->item);
+            link_row(r, i, "item", rto__val_hex32(want), t->item);
         return;
     }
     if (want == RTO_TLAS_EMPTY && !box_is_empty_identity(t->min, t->max)) {
@@ -349,12 +349,12 @@ static void tlas_internal(rto_report *r, const rto_tlas_node *g, size_t i)
 rto_status rto_tlas_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *msg)
 {
     if (!d || !r)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL description or report");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL description or report");
     begin(r, d);
     const rto_tlas_node *g = d->nodes, *exp = d->expected;
     const size_t count = d->node_count, pc = d->prim_count;
     if ((count && !g) || (pc && !d->prim_boxes))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL nodes or primitive boxes");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL nodes or primitive boxes");
     size_t keyed = 0;
     rto_status s = count_keyed(d->prim_boxes, pc, d->leaf_tolerance, &keyed, msg);
     if (s)
@@ -365,21 +365,21 @@ rto_status rto_tlas_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *m
     else
         snprintf(r->context, sizeof r->context, "%zu nodes over %zu instances (%zu of an empty BLAS, in no leaf)",
                  count, pc, pc - keyed);
-    rto_report_fact(r, "nodes", (int64_t)count);
-    rto_report_fact(r, "instances", (int64_t)pc);
-    rto_report_fact(r, "leaves", (int64_t)keyed);
-    rto_report_fact(r, "n_padded", (int64_t)np);
+    rto__report_fact(r, "nodes", (int64_t)count);
+    rto__report_fact(r, "instances", (int64_t)pc);
+    rto__report_fact(r, "leaves", (int64_t)keyed);
+    rto__report_fact(r, "n_padded", (int64_t)np);
     if (count != want) {
         note(r, RTO_BVH_SIZE, "size", -1, "%zu nodes; a sweep tree over %zu instances with a leaf has %zu (n_padded "
              "%zu)", count, keyed, want, np);
         return RTO_ERR_MISMATCH;
     }
-    rto_report_mark(r, "size", RTO_CHECK_PASSED);
+    rto__report_mark(r, "size", RTO_CHECK_PASSED);
     if (np == 0) { /* no instance with a leaf: one EMPTY root */
         if (g[0].item != RTO_TLAS_EMPTY) {
             if (note(r, RTO_BVH_EMPTY, "links", 0, "the root of a TLAS without leaves must be EMPTY, not 0x%08" PRIx32,
                      g[0].item))
-                link_row(r, 0, "item", rto_val_hex32(RTO_TLAS_EMPTY), g[0].item);
+                link_row(r, 0, "item", rto__val_hex32(RTO_TLAS_EMPTY), g[0].item);
         } else if (!box_is_empty_identity(g[0].min, g[0].max) &&
                    note(r, RTO_BVH_EMPTY, "boxes", 0, "the EMPTY root of a TLAS without leaves has a box other than "
                         "(+inf, -inf)")) {
@@ -390,7 +390,7 @@ rto_status rto_tlas_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *m
     }
     uint32_t *seen = calloc(pc ? pc : 1, sizeof *seen);
     if (!seen)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     /* Leaves: every non-empty instance exactly once. */
     size_t first_dup = SIZE_MAX, first_odd = SIZE_MAX, first_empty_instance = SIZE_MAX;
     for (size_t j = 0; j < np; j++) {
@@ -414,7 +414,7 @@ rto_status rto_tlas_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *m
     if (first_empty_instance != SIZE_MAX) {
         tlas_leaf(r, d, &g[first_empty_instance], first_empty_instance, first_empty_instance - (np - 1));
         if (exp && r->nrows == 1 && r->rows[0].index == first_empty_instance) /* what the oracle has there */
-            r->rows[0].expected = rto_val_hex32(exp[first_empty_instance].item);
+            r->rows[0].expected = rto__val_hex32(exp[first_empty_instance].item);
     }
     if (missing && first_dup == SIZE_MAX) {
         size_t node = first_odd;
@@ -425,10 +425,10 @@ rto_status rto_tlas_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *m
                  "(%zu instance(s) missing)%s", first_missing, missing, node == SIZE_MAX ? ""
                  : exp ? "; the oracle has it at this node" : "; this leaf holds no instance")) {
             if (node != SIZE_MAX) {
-                rto_report_at(r, "leaf", (int64_t)(node - (np - 1)));
-                link_row(r, node, "item", rto_val_hex32((uint32_t)first_missing), g[node].item);
+                rto__report_at(r, "leaf", (int64_t)(node - (np - 1)));
+                link_row(r, node, "item", rto__val_hex32((uint32_t)first_missing), g[node].item);
             }
-            rto_report_at(r, "primitive", (int64_t)first_missing);
+            rto__report_at(r, "primitive", (int64_t)first_missing);
         }
     }
     /* Exact comparison of the items with the oracle's locates the first differing leaf. */
@@ -437,9 +437,9 @@ rto_status rto_tlas_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *m
     if (missing && first_dup != SIZE_MAX &&
         note(r, RTO_BVH_ITEM, "leaves", (int64_t)first_dup, "instance %" PRIu32 " appears in two leaves and "
              "instance %zu in none", g[first_dup].item, first_missing)) {
-        rto_report_at(r, "leaf", (int64_t)(first_dup - (np - 1)));
-        rto_report_at(r, "primitive", g[first_dup].item);
-        link_row(r, first_dup, "item", rto_val_none(), g[first_dup].item);
+        rto__report_at(r, "leaf", (int64_t)(first_dup - (np - 1)));
+        rto__report_at(r, "primitive", g[first_dup].item);
+        link_row(r, first_dup, "item", rto__val_none(), g[first_dup].item);
     }
     /* Every node on its own, bottom-up: the leaves, then each level of internal nodes from the deepest. */
     for (size_t j = 0; j < np; j++)
@@ -508,7 +508,7 @@ static int karras_walk_tree(rto_report *r, const rto_bvh_node *g, size_t count, 
                 if (j >= n) {
                     if (note(r, RTO_BVH_BAD_LINK, "links", i, "node %" PRIu32 " %s child is leaf %" PRIu32 " of %zu", i,
                              side_name(side), j, n))
-                        link_row(r, i, side_name(side), rto_val_none(), c);
+                        link_row(r, i, side_name(side), rto__val_none(), c);
                     return 1;
                 }
                 if (w->leaf_refs[j]++ == 0) {
@@ -521,22 +521,22 @@ static int karras_walk_tree(rto_report *r, const rto_bvh_node *g, size_t count, 
             } else if (c >= count) {
                 if (note(r, RTO_BVH_BAD_LINK, "links", i, "node %" PRIu32 " %s child is internal node %" PRIu32
                          " of %zu", i, side_name(side), c, count))
-                    link_row(r, i, side_name(side), rto_val_none(), c);
+                    link_row(r, i, side_name(side), rto__val_none(), c);
                 return 1;
             } else if (w->state[c] == 1) {
                 if (note(r, RTO_BVH_CYCLE, "links", i, "node %" PRIu32 " links back to its ancestor %" PRIu32
                          " (%s child)", i, c, side_name(side)))
-                    link_row(r, i, side_name(side), rto_val_none(), c);
+                    link_row(r, i, side_name(side), rto__val_none(), c);
                 return 1;
             } else if (w->state[c] == 2) {
                 if (note(r, RTO_BVH_SHARED, "links", i, "node %" PRIu32 " links to node %" PRIu32 ", already reached "
                          "from another parent", i, c))
-                    link_row(r, i, side_name(side), rto_val_none(), c);
+                    link_row(r, i, side_name(side), rto__val_none(), c);
                 return 1;
             } else {
                 if (g[c].parent != i && note(parent_note, RTO_BVH_PARENT, "links", c, "node %" PRIu32 " has parent %"
                                              PRIu32 " but is a child of %" PRIu32, c, g[c].parent, i))
-                    link_row(parent_note, c, "parent", rto_val_hex32(i), g[c].parent);
+                    link_row(parent_note, c, "parent", rto__val_hex32(i), g[c].parent);
                 w->state[c] = 1;
                 w->stack[top++] = c;
             }
@@ -550,10 +550,10 @@ static int karras_walk_tree(rto_report *r, const rto_bvh_node *g, size_t count, 
 static size_t first_bad_prim(const rto_bvh_check_desc *d, size_t *other, rto_msg *msg, rto_status *st)
 {
     const size_t n = d->leaf_count, pc = d->prim_count;
-    uint32_t *where = rto_alloc(pc, sizeof *where);
+    uint32_t *where = rto__alloc(pc, sizeof *where);
     *st = RTO_OK;
     if (!where) {
-        *st = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        *st = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         return SIZE_MAX;
     }
     for (size_t p = 0; p < pc; p++)
@@ -603,12 +603,12 @@ static void leaf_order_fault(rto_report *r, const rto_bvh_check_desc *d, const k
         own = note(r, RTO_BVH_ITEM, "leaves", node, "sorted leaf %zu holds primitive %" PRIu32 ": %s", j, p,
                    p >= pc ? "no such primitive" : "an instance of an empty BLAS, which has no leaf");
     if (own) {
-        rto_report_at(r, "leaf", (int64_t)bad);
-        rto_report_at(r, "primitive", p);
-        rto_report_table(r, "leaf order", "leaf");
-        rto_report_row *row = rto_report_row_add(r, bad, "primitive");
+        rto__report_at(r, "leaf", (int64_t)bad);
+        rto__report_at(r, "primitive", p);
+        rto__report_table(r, "leaf order", "leaf");
+        rto_report_row *row = rto__report_row_add(r, bad, "primitive");
         if (row)
-            row->actual = rto_val_uint(p);
+            row->actual = rto__val_uint(p);
     }
 }
 
@@ -635,8 +635,8 @@ static void karras_compare(rto_report *r, const rto_bvh_node *g, const rto_bvh_n
                     own = note(r, RTO_BVH_ITEM, "oracle", (int64_t)i, "node %zu %s child is leaf %" PRIu32 ", expected "
                                "leaf %" PRIu32, i, side_name(side), gc & ~RTO_BVH_LEAF_BIT, ec & ~RTO_BVH_LEAF_BIT);
                     if (own) {
-                        rto_report_at(r, "leaf", gc & ~RTO_BVH_LEAF_BIT);
-                        rto_report_at(r, "primitive", prims[gc & ~RTO_BVH_LEAF_BIT]);
+                        rto__report_at(r, "leaf", gc & ~RTO_BVH_LEAF_BIT);
+                        rto__report_at(r, "primitive", prims[gc & ~RTO_BVH_LEAF_BIT]);
                     }
                 } else {
                     own = note(r, RTO_BVH_TOPOLOGY, "oracle", (int64_t)i, "node %zu %s child is 0x%08" PRIx32
@@ -654,11 +654,11 @@ static void karras_compare(rto_report *r, const rto_bvh_node *g, const rto_bvh_n
             uint32_t gv[3] = {g[k].left, g[k].right, g[k].parent}, ev[3] = {e[k].left, e[k].right, e[k].parent};
             for (int f = 0; f < 3; f++)
                 if (gv[f] != ev[f])
-                    link_row(r, k, names[f], rto_val_hex32(ev[f]), gv[f]);
+                    link_row(r, k, names[f], rto__val_hex32(ev[f]), gv[f]);
         }
         return;
     }
-    rto_report_mark(r, "oracle", RTO_CHECK_PASSED);
+    rto__report_mark(r, "oracle", RTO_CHECK_PASSED);
 }
 
 /* Boxes bottom-up: each node's child boxes after those of every node below it. */
@@ -683,8 +683,8 @@ static void karras_boxes(rto_report *r, const rto_bvh_check_desc *d, const karra
                          tol ? " within the transform tolerance" : "")) {
                     float pmn[3], pmx[3];
                     aabb_arrays(&d->prim_boxes[p], pmn, pmx);
-                    rto_report_at(r, "leaf", j);
-                    rto_report_at(r, "primitive", p);
+                    rto__report_at(r, "leaf", j);
+                    rto__report_at(r, "primitive", p);
                     box_rows(r, i, prefix, mn, mx, pmn, pmx, tol);
                 }
             } else {
@@ -694,7 +694,7 @@ static void karras_boxes(rto_report *r, const rto_bvh_check_desc *d, const karra
                 if (!same_box(mn, mx, umn, umx) &&
                     note(r, RTO_BVH_BOX, "boxes", i, "node %" PRIu32 " %s box is not the exact union of node %" PRIu32
                          "'s child boxes", i, side_name(side), c)) {
-                    rto_report_at(r, "child", c);
+                    rto__report_at(r, "child", c);
                     box_rows(r, i, prefix, mn, mx, umn, umx, NULL);
                 }
             }
@@ -705,12 +705,12 @@ static void karras_boxes(rto_report *r, const rto_bvh_check_desc *d, const karra
 rto_status rto_karras_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg *msg)
 {
     if (!d || !r)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL description or report");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL description or report");
     begin(r, d);
     const rto_bvh_node *g = d->nodes, *exp = d->expected;
     const size_t count = d->node_count, n = d->leaf_count, pc = d->prim_count;
     if ((count && !g) || (pc && !d->prim_boxes) || (n && !d->leaf_prims))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL nodes, leaf order or primitive boxes");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL nodes, leaf order or primitive boxes");
     size_t keyed = 0;
     rto_status s = count_keyed(d->prim_boxes, pc, d->leaf_tolerance, &keyed, msg);
     if (s)
@@ -721,9 +721,9 @@ rto_status rto_karras_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg 
     else
         snprintf(r->context, sizeof r->context, "%zu nodes over %zu leaves (%zu of %zu primitives empty, in no leaf)",
                  count, n, pc - keyed, pc);
-    rto_report_fact(r, "nodes", (int64_t)count);
-    rto_report_fact(r, "primitives", (int64_t)pc);
-    rto_report_fact(r, "leaves", (int64_t)n);
+    rto__report_fact(r, "nodes", (int64_t)count);
+    rto__report_fact(r, "primitives", (int64_t)pc);
+    rto__report_fact(r, "leaves", (int64_t)n);
     if (n != keyed) {
         note(r, RTO_BVH_SIZE, "size", -1, "the leaf order holds %zu primitives; %zu primitives have a non-empty box",
              n, keyed);
@@ -734,7 +734,7 @@ rto_status rto_karras_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg 
              want);
         return RTO_ERR_MISMATCH;
     }
-    rto_report_mark(r, "size", RTO_CHECK_PASSED);
+    rto__report_mark(r, "size", RTO_CHECK_PASSED);
     size_t other = SIZE_MAX;
     const size_t bad_prim = first_bad_prim(d, &other, msg, &s);
     if (s)
@@ -750,16 +750,16 @@ rto_status rto_karras_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg 
     w.leaf_refs = calloc(n, sizeof *w.leaf_refs);
     w.leaf_node = calloc(n, sizeof *w.leaf_node);
     w.leaf_side = calloc(n, 1);
-    w.stack = rto_alloc(2 * count + 2, sizeof *w.stack);
-    w.post = rto_alloc(count, sizeof *w.post);
+    w.stack = rto__alloc(2 * count + 2, sizeof *w.stack);
+    w.post = rto__alloc(count, sizeof *w.post);
     w.first_dup_leaf = SIZE_MAX;
     w.dup_node = -1;
     if (!w.state || !w.leaf_refs || !w.leaf_node || !w.leaf_side || !w.stack || !w.post) {
         walk_free(&w);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     }
     rto_report parents; /* parent faults found on the walk rank after the leaves and the oracle's links */
-    rto_report_begin(&parents, "check-bvh");
+    rto__report_begin(&parents, "check-bvh");
     if (karras_walk_tree(r, g, count, n, &w, &parents)) {
         walk_free(&w);
         return RTO_ERR_MISMATCH;
@@ -777,8 +777,8 @@ rto_status rto_karras_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg 
         if (note(r, RTO_BVH_DROPPED_LEAF, "leaves", node, "sorted leaf %zu (primitive %" PRIu32 ") is reached from no "
                  "node (%zu leaf/leaves missing)%s", first_missing, d->leaf_prims[first_missing], missing,
                  node >= 0 ? "; the oracle links it from this node" : "")) {
-            rto_report_at(r, "leaf", (int64_t)first_missing);
-            rto_report_at(r, "primitive", d->leaf_prims[first_missing]);
+            rto__report_at(r, "leaf", (int64_t)first_missing);
+            rto__report_at(r, "primitive", d->leaf_prims[first_missing]);
         }
     }
     if (bad_prim != SIZE_MAX)
@@ -788,8 +788,8 @@ rto_status rto_karras_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg 
     if (missing && w.first_dup_leaf != SIZE_MAX &&
         note(r, RTO_BVH_ITEM, "leaves", w.dup_node, "sorted leaf %zu is linked twice (second time from node %" PRId64
              ") and leaf %zu never", w.first_dup_leaf, w.dup_node, first_missing)) {
-        rto_report_at(r, "leaf", (int64_t)w.first_dup_leaf);
-        rto_report_at(r, "primitive", d->leaf_prims[w.first_dup_leaf]);
+        rto__report_at(r, "leaf", (int64_t)w.first_dup_leaf);
+        rto__report_at(r, "primitive", d->leaf_prims[w.first_dup_leaf]);
     }
     if (parents.code != RTO_BVH_OK && note(r, RTO_BVH_PARENT, "links", parents.where[0].value, "%s",
                                            parents.summary + strlen("parent: ")) && parents.nrows) {
@@ -798,7 +798,7 @@ rto_status rto_karras_check(const rto_bvh_check_desc *d, rto_report *r, rto_msg 
     }
     if (g[0].parent != RTO_BVH_NO_PARENT &&
         note(r, RTO_BVH_PARENT, "links", 0, "the root's parent is %" PRIu32 ", not 0xFFFFFFFF", g[0].parent))
-        link_row(r, 0, "parent", rto_val_hex32(RTO_BVH_NO_PARENT), g[0].parent);
+        link_row(r, 0, "parent", rto__val_hex32(RTO_BVH_NO_PARENT), g[0].parent);
     for (size_t i = 0; i < count; i++)
         if (w.state[i] == 0) {
             note(r, RTO_BVH_TOPOLOGY, "links", (int64_t)i, "internal node %zu is not reachable from the root", i);

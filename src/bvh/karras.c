@@ -36,7 +36,7 @@ static int delta(const keyset *k, int64_t i, int64_t j)
 {
     if (j < 0 || j >= k->n)
         return -1;
-    uint64_t a = rto_key_get(k->f, k->keys, (size_t)i), b = rto_key_get(k->f, k->keys, (size_t)j);
+    uint64_t a = rto__key_get(k->f, k->keys, (size_t)i), b = rto__key_get(k->f, k->keys, (size_t)j);
     int width = k->f == RTO_KEY_U32 ? 32 : 64;
     if (a != b)
         return clz64(a ^ b) - (64 - width);
@@ -85,14 +85,14 @@ static rto_status karras_args(rto_key_format f, const void *sorted_keys, size_t 
                               const rto_bvh_node *nodes, rto_msg *msg)
 {
     if (n > (size_t)INT32_MAX)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu leaves: too many for a Karras tree", n);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu leaves: too many for a Karras tree", n);
     if (n >= 2 && (!sorted_keys || !prim_boxes || !nodes))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys, boxes or nodes");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys, boxes or nodes");
     if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
     for (size_t i = 1; i < n; i++)
-        if (rto_key_get(f, sorted_keys, i - 1) > rto_key_get(f, sorted_keys, i))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys are not sorted at %zu", i);
+        if (rto__key_get(f, sorted_keys, i - 1) > rto__key_get(f, sorted_keys, i))
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys are not sorted at %zu", i);
     return RTO_OK;
 }
 
@@ -140,9 +140,9 @@ rto_status rto__karras_build_scalar(rto_key_format f, const void *sorted_keys, s
             nodes[nodes[i].right].parent = (uint32_t)i;
     }
     /* Boxes bottom-up: post-order over an explicit stack (depth can reach n - 1 for adversarial keys). */
-    uint32_t *stack = rto_alloc(2 * n, sizeof *stack);
+    uint32_t *stack = rto__alloc(2 * n, sizeof *stack);
     if (!stack)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     size_t top = 0;
     stack[top++] = 0;
     while (top) {
@@ -162,13 +162,13 @@ rto_status rto__karras_build_scalar(rto_key_format f, const void *sorted_keys, s
             uint32_t c = side ? nd->right : nd->left;
             float *mn = side ? nd->rmin : nd->lmin, *mx = side ? nd->rmax : nd->lmax;
             if (c & RTO_BVH_LEAF_BIT) {
-                uint64_t key = rto_key_get(f, sorted_keys, c & ~RTO_BVH_LEAF_BIT);
+                uint64_t key = rto__key_get(f, sorted_keys, c & ~RTO_BVH_LEAF_BIT);
                 box_set(mn, mx, &prim_boxes[rto_key_prim(f, key)]);
             } else {
                 const rto_bvh_node *ch = &nodes[c];
                 for (int a = 0; a < 3; a++) {
-                    mn[a] = rto_minf(ch->lmin[a], ch->rmin[a]);
-                    mx[a] = rto_maxf(ch->lmax[a], ch->rmax[a]);
+                    mn[a] = rto__minf(ch->lmin[a], ch->rmin[a]);
+                    mx[a] = rto__maxf(ch->lmax[a], ch->rmax[a]);
                 }
             }
         }
@@ -225,9 +225,9 @@ static inline __attribute__((always_inline)) void sweep(rto_key_format f, const 
     for (uint32_t i = lo; i <= hi; i++) {
         /* cur: leaf i, then each node it closes; its range is [clo, i]. Kept in scalars (registers): copying the
          * struct through memory stalls on store forwarding. */
-        const rto_aabb *b = &k->boxes[rto_key_prim(f, rto_key_get(f, keys, i))];
+        const rto_aabb *b = &k->boxes[rto_key_prim(f, rto__key_get(f, keys, i))];
         if (i + PREFETCH <= hi) /* leaves visit the boxes in key order, not memory order */
-            __builtin_prefetch(&k->boxes[rto_key_prim(f, rto_key_get(f, keys, i + PREFETCH))]);
+            __builtin_prefetch(&k->boxes[rto_key_prim(f, rto__key_get(f, keys, i + PREFETCH))]);
         float mn0 = b->min.x, mn1 = b->min.y, mn2 = b->min.z, mx0 = b->max.x, mx1 = b->max.y, mx2 = b->max.z;
         uint32_t ref = RTO_BVH_LEAF_BIT | i, clo = i, h = 0;
         int cdl = dl;
@@ -275,17 +275,17 @@ static inline __attribute__((always_inline)) void sweep(rto_key_format f, const 
             nd->rmax[2] = mx2;
             nd->pad = 0;
             if (k->areas) /* rto_karras_stats' term of this node, summed later in index order */
-                k->areas[idx] = rto_box_area(nd->lmin, nd->lmax) + rto_box_area(nd->rmin, nd->rmax);
+                k->areas[idx] = rto__box_area(nd->lmin, nd->lmax) + rto__box_area(nd->rmin, nd->rmax);
             if (!(l->ref & RTO_BVH_LEAF_BIT))
                 nodes[l->ref].parent = idx;
             if (!(ref & RTO_BVH_LEAF_BIT))
                 nodes[ref].parent = idx;
-            mn0 = rto_minf(l->mn[0], mn0);
-            mn1 = rto_minf(l->mn[1], mn1);
-            mn2 = rto_minf(l->mn[2], mn2);
-            mx0 = rto_maxf(l->mx[0], mx0);
-            mx1 = rto_maxf(l->mx[1], mx1);
-            mx2 = rto_maxf(l->mx[2], mx2);
+            mn0 = rto__minf(l->mn[0], mn0);
+            mn1 = rto__minf(l->mn[1], mn1);
+            mn2 = rto__minf(l->mn[2], mn2);
+            mx0 = rto__maxf(l->mx[0], mx0);
+            mx1 = rto__maxf(l->mx[1], mx1);
+            mx2 = rto__maxf(l->mx[2], mx2);
             h = 1 + (l->h > h ? l->h : h);
             ref = idx;
             clo = plo;
@@ -334,13 +334,13 @@ rto_status rto__karras_plan(rto__karras *k, uint32_t workers, rto_msg *msg)
         uint32_t node, lo, hi, parent;
         int64_t top;
         int side;
-    } *todo = rto_alloc(cap + 2, sizeof *todo);
-    k->jobs = rto_alloc(cap + 1, sizeof *k->jobs);
-    k->tops = rto_alloc(cap + 1, sizeof *k->tops);
+    } *todo = rto__alloc(cap + 2, sizeof *todo);
+    k->jobs = rto__alloc(cap + 1, sizeof *k->jobs);
+    k->tops = rto__alloc(cap + 1, sizeof *k->tops);
     if (!k->jobs || !k->tops || !todo) {
         free(todo);
         rto__karras_free(k);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     }
     size_t nt = 0;
     todo[nt++] = (struct todo){0, 0, (uint32_t)(n - 1), RTO_BVH_NO_PARENT, -1, 0};
@@ -396,15 +396,15 @@ static void top_child(const rto__karras *k, const rto__karras_top *t, int side, 
     const rto_bvh_node *nd = &k->nodes[t->node];
     const uint32_t c = side ? nd->right : nd->left;
     if (c & RTO_BVH_LEAF_BIT) {
-        const rto_aabb *b = &k->boxes[rto_key_prim(k->f, rto_key_get(k->f, k->keys, c & ~RTO_BVH_LEAF_BIT))];
+        const rto_aabb *b = &k->boxes[rto_key_prim(k->f, rto__key_get(k->f, k->keys, c & ~RTO_BVH_LEAF_BIT))];
         box_set(mn, mx, b);
         *h = 0;
         return;
     }
     const rto_bvh_node *ch = &k->nodes[c];
     for (int a = 0; a < 3; a++) {
-        mn[a] = rto_minf(ch->lmin[a], ch->rmin[a]);
-        mx[a] = rto_maxf(ch->lmax[a], ch->rmax[a]);
+        mn[a] = rto__minf(ch->lmin[a], ch->rmin[a]);
+        mx[a] = rto__maxf(ch->lmax[a], ch->rmax[a]);
     }
     const int64_t s = t->slot[side];
     *h = s >= 0 ? k->jobs[s].height : k->tops[-2 - s].height;
@@ -422,7 +422,7 @@ void rto__karras_finish(rto__karras *k)
         top_child(k, t, 0, nd->lmin, nd->lmax, &hl);
         top_child(k, t, 1, nd->rmin, nd->rmax, &hr);
         if (k->areas)
-            k->areas[t->node] = rto_box_area(nd->lmin, nd->lmax) + rto_box_area(nd->rmin, nd->rmax);
+            k->areas[t->node] = rto__box_area(nd->lmin, nd->lmax) + rto__box_area(nd->rmin, nd->rmax);
         t->height = 1 + (hl > hr ? hl : hr);
     }
     k->depth = k->top_count ? k->tops[0].height : k->jobs[0].height;
@@ -460,13 +460,13 @@ rto_bvh_stats rto__karras_stats_depth(const rto_bvh_node *nodes, size_t n, const
         return st;
     float rmn[3] = {root_box->min.x, root_box->min.y, root_box->min.z};
     float rmx[3] = {root_box->max.x, root_box->max.y, root_box->max.z};
-    double root = rto_box_area(rmn, rmx), sum = root;
+    double root = rto__box_area(rmn, rmx), sum = root;
     if (areas)
         for (size_t i = 0; i + 1 < n; i++)
             sum += areas[i];
     else
         for (size_t i = 0; i + 1 < n; i++)
-            sum += rto_box_area(nodes[i].lmin, nodes[i].lmax) + rto_box_area(nodes[i].rmin, nodes[i].rmax);
+            sum += rto__box_area(nodes[i].lmin, nodes[i].lmax) + rto__box_area(nodes[i].rmin, nodes[i].rmax);
     st.depth = depth;
     st.sah = root > 0 ? sum / root : 0;
     return st;
@@ -479,16 +479,16 @@ rto_bvh_stats rto_karras_stats(const rto_bvh_node *nodes, size_t n, const rto_aa
         return st;
     float rmn[3] = {root_box->min.x, root_box->min.y, root_box->min.z};
     float rmx[3] = {root_box->max.x, root_box->max.y, root_box->max.z};
-    double root = rto_box_area(rmn, rmx), sum = root;
+    double root = rto__box_area(rmn, rmx), sum = root;
     /* Every child box is counted once: internal children as internal nodes, leaf children as leaves. */
     uint32_t *depth = calloc(n, sizeof *depth);
     if (!depth)
         return st;
     for (size_t i = 0; i + 1 < n; i++) {
-        sum += rto_box_area(nodes[i].lmin, nodes[i].lmax) + rto_box_area(nodes[i].rmin, nodes[i].rmax);
+        sum += rto__box_area(nodes[i].lmin, nodes[i].lmax) + rto__box_area(nodes[i].rmin, nodes[i].rmax);
     }
     /* Node depths in creation order are not topological, so walk from the root. */
-    uint32_t *stack = rto_alloc(n, sizeof *stack);
+    uint32_t *stack = rto__alloc(n, sizeof *stack);
     if (stack) {
         size_t top = 0;
         stack[top++] = 0;

@@ -26,13 +26,13 @@ rto_status rto_tlas_build_sweep(const uint32_t *sorted_keys, size_t n, const rto
                                 rto_msg *msg)
 {
     if (n > RTO_TLAS_MAX_INSTANCES)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu leaves: the sweep TLAS holds at most %u", n,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu leaves: the sweep TLAS holds at most %u", n,
                         RTO_TLAS_MAX_INSTANCES);
     if ((n && (!sorted_keys || !boxes)) || !nodes)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys, boxes or nodes");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys, boxes or nodes");
     for (size_t i = 1; i < n; i++)
         if (sorted_keys[i - 1] >= sorted_keys[i])
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys are not sorted and distinct at %zu", i);
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys are not sorted and distinct at %zu", i);
     const size_t np = rto_next_pow2(n);
     if (np == 0) {
         set_empty(&nodes[0]);
@@ -72,8 +72,8 @@ void rto__tlas_sweep_nodes(rto_tlas_node *nodes, size_t begin, size_t end)
         rto_tlas_node *t = &nodes[i];
         memset(t, 0, sizeof *t);
         for (int a = 0; a < 3; a++) {
-            t->min[a] = rto_minf(l->min[a], r->min[a]);
-            t->max[a] = rto_maxf(l->max[a], r->max[a]);
+            t->min[a] = rto__minf(l->min[a], r->min[a]);
+            t->max[a] = rto__maxf(l->max[a], r->max[a]);
         }
         t->item = (l->item == RTO_TLAS_EMPTY && r->item == RTO_TLAS_EMPTY) ? RTO_TLAS_EMPTY : RTO_TLAS_INTERNAL;
     }
@@ -85,11 +85,11 @@ rto_bvh_stats rto_tlas_stats(const rto_tlas_node *nodes, size_t n)
     size_t np = rto_next_pow2(n);
     if (np == 0)
         return st;
-    double root = rto_box_area(nodes[0].min, nodes[0].max), sum = 0;
+    double root = rto__box_area(nodes[0].min, nodes[0].max), sum = 0;
     for (size_t i = 0; i < 2 * np - 1; i++) {
         if (nodes[i].item == RTO_TLAS_EMPTY)
             continue;
-        sum += rto_box_area(nodes[i].min, nodes[i].max);
+        sum += rto__box_area(nodes[i].min, nodes[i].max);
         if (i >= np - 1)
             st.leaves++;
     }

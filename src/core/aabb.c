@@ -47,12 +47,12 @@ rto_aabb rto__aabb_of(const float mn[3], const float mx[3])
 
 void rto__aabb_grow(rto_aabb *b, rto_vec3 p)
 {
-    b->min.x = rto_minf(b->min.x, p.x);
-    b->min.y = rto_minf(b->min.y, p.y);
-    b->min.z = rto_minf(b->min.z, p.z);
-    b->max.x = rto_maxf(b->max.x, p.x);
-    b->max.y = rto_maxf(b->max.y, p.y);
-    b->max.z = rto_maxf(b->max.z, p.z);
+    b->min.x = rto__minf(b->min.x, p.x);
+    b->min.y = rto__minf(b->min.y, p.y);
+    b->min.z = rto__minf(b->min.z, p.z);
+    b->max.x = rto__maxf(b->max.x, p.x);
+    b->max.y = rto__maxf(b->max.y, p.y);
+    b->max.z = rto__maxf(b->max.z, p.z);
 }
 
 rto_vec3 rto_aabb_centroid(const rto_aabb *b)

@@ -8,7 +8,7 @@
 int rto__aabb_has_nan(const rto_aabb *box);
 /** The box of min / max triples (a tree node's or a GPU record's). */
 rto_aabb rto__aabb_of(const float mn[3], const float mx[3]);
-/** Grows a box to hold p (rto_minf / rto_maxf: the later operand when equal, so unions are the same bytes). */
+/** Grows a box to hold p (rto__minf / rto__maxf: the later operand when equal, so unions are the same bytes). */
 void rto__aabb_grow(rto_aabb *box, rto_vec3 p);
 
 #endif

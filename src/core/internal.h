@@ -21,30 +21,30 @@
 #endif
 
 /** The library's name for rto_msg_set (public): writes a one-line reason into m (if non-NULL) and returns s. */
-#define rto_fail rto_msg_set
+#define rto__fail rto_msg_set
 
 /** The checks every sort entry point makes of its common arguments: a known format, n within RTO_MAX_KEYS, and
  * non-NULL arrays when n > 0. */
-static inline rto_status rto_sort_args_check(rto_key_format f, const void *keys, size_t n, const void *sorted,
+static inline rto_status rto__sort_args_check(rto_key_format f, const void *keys, size_t n, const void *sorted,
                                              rto_msg *msg)
 {
     if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
     if ((uint64_t)n > RTO_MAX_KEYS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", n,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", n,
                         (unsigned long long)RTO_MAX_KEYS);
     if (n && (!keys || !sorted))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys or output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL keys or output");
     return RTO_OK;
 }
 
 /** Key i of a u32 or u64 key array, widened to 64 bits. */
-static inline uint64_t rto_key_get(rto_key_format f, const void *keys, size_t i)
+static inline uint64_t rto__key_get(rto_key_format f, const void *keys, size_t i)
 {
     return f == RTO_KEY_U32 ? ((const uint32_t *)keys)[i] : ((const uint64_t *)keys)[i];
 }
 
-static inline void rto_key_put(rto_key_format f, void *keys, size_t i, uint64_t v)
+static inline void rto__key_put(rto_key_format f, void *keys, size_t i, uint64_t v)
 {
     if (f == RTO_KEY_U32)
         ((uint32_t *)keys)[i] = (uint32_t)v;
@@ -54,11 +54,11 @@ static inline void rto_key_put(rto_key_format f, void *keys, size_t i, uint64_t 
 
 /* min / max with a fixed choice between +0 and -0 (the second operand when equal), so that unions are the same bytes
  * whether the compiler inlines minss or calls fminf. */
-static inline float rto_minf(float a, float b) { return a < b ? a : b; }
-static inline float rto_maxf(float a, float b) { return a > b ? a : b; }
+static inline float rto__minf(float a, float b) { return a < b ? a : b; }
+static inline float rto__maxf(float a, float b) { return a > b ? a : b; }
 
 /** Surface area of a box given as min / max triples, in binary64; 0 for an empty box (SAH statistics). */
-static inline double rto_box_area(const float *mn, const float *mx)
+static inline double rto__box_area(const float *mn, const float *mx)
 {
     double d[3];
     for (int a = 0; a < 3; a++) {
@@ -71,7 +71,7 @@ static inline double rto_box_area(const float *mn, const float *mx)
 
 /** TLAS keys whose index field is index[i] (the instance a centroid belongs to) instead of i: the keys of a subset
  * of instances, quantised over that subset's bounds. index == NULL means index[i] = i (rto_tlas_keys). */
-rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *index, size_t n, uint32_t *keys,
+rto_status rto__tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *index, size_t n, uint32_t *keys,
                                  rto_msg *msg);
 
 /** The self-intersection offset of secondary rays (shadow rays, rto_frame_env.ray_offset): 1e-4 max(1, M), M the
@@ -94,8 +94,8 @@ static inline uint32_t rto__spread3(uint32_t v)
 
 /* BLAS keys in parts (keys/box_keys.c), for a team: each worker takes a static range of triangles. */
 
-/** What one range of triangles contributes to the mesh: the union of its boxes in triangle order (rto_minf /
- * rto_maxf: the later operand kept when equal), the bounds of its centroids (the earlier kept, as rto_blas_keys),
+/** What one range of triangles contributes to the mesh: the union of its boxes in triangle order (rto__minf /
+ * rto__maxf: the later operand kept when equal), the bounds of its centroids (the earlier kept, as rto_blas_keys),
  * and whether a centroid is not finite. Parts combine in range order with rto__key_part_merge. */
 typedef struct rto__key_part {
     rto_aabb u;
@@ -117,7 +117,7 @@ void rto__blas_keys_part(float *const cent[3], size_t begin, size_t end, const r
  * ones (their union and centroid bounds) and their number (*keyed). */
 void rto__instance_boxes_part(const rto_instance *inst, const rto_aabb *blas_bounds, size_t begin, size_t end,
                               rto_aabb *boxes, rto__key_part *part, size_t *keyed);
-/** TLAS key of centroid c (rto_tlas_keys_indexed's bytes), with centroid bounds lo / hi. */
+/** TLAS key of centroid c (rto__tlas_keys_indexed's bytes), with centroid bounds lo / hi. */
 uint32_t rto__tlas_key(rto_vec3 c, const float lo[3], const float hi[3], uint32_t index);
 /** TLAS keys of the non-empty boxes among [begin, end) (rto_tlas_keys_from_boxes' bytes), written from keys[first] on,
  * with the bounds of all the keyed centroids (merged parts of rto__instance_boxes_part). */
@@ -224,32 +224,32 @@ static inline void rto__part(size_t n, uint32_t w, uint32_t t, size_t *begin, si
 
 /** Creates `target.tmp.PID-XXXXXX` (a directory with mode 0777, or a file with 0666 whose descriptor goes to *fd; the
  * umask applies) and lists it for rto_temporaries_remove. *tmp is malloc'ed. */
-rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp, int *fd, rto_msg *msg);
+rto_status rto__tmp_create(const char *target, bool is_dir, char **tmp, int *fd, rto_msg *msg);
 /** Takes a temporary off the list (after it was renamed into place or removed). */
-void rto_tmp_forget(const char *tmp);
+void rto__tmp_forget(const char *tmp);
 /** Blocks SIGINT, SIGTERM and SIGHUP in the calling thread while a temporary is created, renamed or removed. */
-void rto_signals_hold(sigset_t *old);
-void rto_signals_release(const sigset_t *old);
+void rto__signals_hold(sigset_t *old);
+void rto__signals_release(const sigset_t *old);
 /**
  * Where output to path may go (*where, malloc'ed): path itself when absent (its directory must exist) or a regular
  * file / directory (is_dir); the real path for a symbolic link or "." / ".."; path written through in place
  * (*in_place) for a character device or FIFO when allow_special. Everything else is refused.
  */
-rto_status rto_output_target(const char *path, bool is_dir, bool allow_special, char **where, bool *in_place,
+rto_status rto__output_target(const char *path, bool is_dir, bool allow_special, char **where, bool *in_place,
                              rto_msg *msg);
 
-/** A file being written atomically: fp writes to tmp, which rto_atomic_close renames to path. */
+/** A file being written atomically: fp writes to tmp, which rto__atomic_close renames to path. */
 typedef struct rto_atomic_file {
     FILE *fp;
     char *path;
     char *tmp; /* NULL when written in place */
     bool in_place;
 } rto_atomic_file;
-rto_status rto_atomic_open(rto_atomic_file *f, const char *path, bool allow_special, rto_msg *msg);
+rto_status rto__atomic_open(rto_atomic_file *f, const char *path, bool allow_special, rto_msg *msg);
 /** Flushes, closes and renames into place; on any failure the temporary is removed. */
-rto_status rto_atomic_close(rto_atomic_file *f, rto_msg *msg);
+rto_status rto__atomic_close(rto_atomic_file *f, rto_msg *msg);
 /** Closes and removes the temporary (a failed write). */
-void rto_atomic_discard(rto_atomic_file *f);
+void rto__atomic_discard(rto_atomic_file *f);
 
 /* Bundle entries that are not .npy arrays (io/bundle.c owns manifest.json; io/image.c writes and reads images). */
 
@@ -301,7 +301,7 @@ rto_status rto__npy_hash(const char *name, const rto_npy_desc *desc, const void 
  * (/dev/zero) is refused at once, without blocking in open() and without a byte read, so no input can hang the
  * command or make it read without end. *size gets the file's size. NULL with *status set and msg written on refusal.
  */
-FILE *rto_open_regular(const char *path, uint64_t *size, rto_status *status, rto_msg *msg);
+FILE *rto__open_regular(const char *path, uint64_t *size, rto_status *status, rto_msg *msg);
 
 /** 1 when the manifest of a bundle opened for reading lists a file of that name (on disk or not), else 0: how a
  * reader tells a file the writer did not keep from one that was removed. */
@@ -312,8 +312,8 @@ int rto__bundle_lists(rto_bundle_reader *r, const char *name);
 rto_status rto__sort_check_reference(const rto_sort_check_desc *desc, rto_report *report, rto_msg *msg);
 
 /** malloc of count * size bytes with an overflow check; count 0 gives a 1-byte block so NULL always means failure. */
-void *rto_alloc(size_t count, size_t size);
-/** rto_alloc for big buffers (frames): from 4 MiB up aligned to 2 MiB and advised as transparent huge pages, which
+void *rto__alloc(size_t count, size_t size);
+/** rto__alloc for big buffers (frames): from 4 MiB up aligned to 2 MiB and advised as transparent huge pages, which
  * makes their first touch several times cheaper. Release with free(). */
 void *rto__alloc_large(size_t count, size_t size);
 

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-json_t *rto_json_string(const char *text)
+json_t *rto__json_string(const char *text)
 {
     size_t len = rto_utf8_repair(text, NULL, 0);
     char *buf = malloc(len + 1);
@@ -18,7 +18,7 @@ json_t *rto_json_string(const char *text)
     return v;
 }
 
-json_t *rto_json_real(double value)
+json_t *rto__json_real(double value)
 {
     if (isnan(value))
         return json_string("nan");
@@ -27,7 +27,7 @@ json_t *rto_json_real(double value)
     return json_real(value);
 }
 
-/* The output buffer of rto_json_text: once an append fails, every later one fails too. jansson's dump ignores its
+/* The output buffer of rto__json_text: once an append fails, every later one fails too. jansson's dump ignores its
  * output callback's failure while writing an object's key (dump.c, do_dump: the result of dump_string for a key is
  * not checked, 2.14 and later alike), so json_dumps can return text with a key cut off after one failed allocation.
  * With a sticky failure jansson's next write reports it, and the flag is checked anyway. */
@@ -60,7 +60,7 @@ static int text_append(const char *chunk, size_t n, void *data)
     return 0;
 }
 
-char *rto_json_text(const json_t *j, size_t flags)
+char *rto__json_text(const json_t *j, size_t flags)
 {
     text_buffer t = {NULL, 0, 0, false};
     if (!j || json_dump_callback(j, text_append, &t, flags) != 0 || t.failed || text_append("\n", 1, &t) != 0) {

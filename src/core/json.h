@@ -12,12 +12,12 @@
 #endif
 
 /** A JSON string of text repaired to well-formed UTF-8 (invalid sequences become U+FFFD); NULL if out of memory. */
-json_t *rto_json_string(const char *text);
+json_t *rto__json_string(const char *text);
 /** A JSON number, or the string "inf", "-inf" or "nan": JSON has no non-finite numbers (RFC 8259 §6). */
-json_t *rto_json_real(double value);
+json_t *rto__json_real(double value);
 /** Serialises j with jansson's flags plus a final newline into a malloc'ed string; NULL if out of memory. Unlike
  * json_dumps, never returns text cut short (see json.c). */
-char *rto_json_text(const json_t *j, size_t flags);
+char *rto__json_text(const json_t *j, size_t flags);
 
 #if defined(__GNUC__)
 #pragma GCC visibility pop

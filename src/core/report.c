@@ -16,14 +16,14 @@ static void copy_name(char *dst, size_t cap, const char *src)
     snprintf(dst, cap, "%s", src ? src : "");
 }
 
-void rto_report_begin(rto_report *r, const char *validator)
+void rto__report_begin(rto_report *r, const char *validator)
 {
     memset(r, 0, sizeof *r);
     copy_name(r->validator, sizeof r->validator, validator);
     copy_name(r->fault, sizeof r->fault, "none");
 }
 
-void rto_report_add_check(rto_report *r, const char *name)
+void rto__report_add_check(rto_report *r, const char *name)
 {
     if (r->nchecks < RTO_REPORT_MAX_CHECKS) {
         copy_name(r->checks[r->nchecks].name, sizeof r->checks[0].name, name);
@@ -32,14 +32,14 @@ void rto_report_add_check(rto_report *r, const char *name)
     }
 }
 
-void rto_report_mark(rto_report *r, const char *name, rto_check_state state)
+void rto__report_mark(rto_report *r, const char *name, rto_check_state state)
 {
     for (uint32_t i = 0; i < r->nchecks; i++)
         if (!strcmp(r->checks[i].name, name) && r->checks[i].state != RTO_CHECK_FAILED)
             r->checks[i].state = state;
 }
 
-int rto_report_claim(rto_report *r, int code, const char *name)
+int rto__report_claim(rto_report *r, int code, const char *name)
 {
     uint32_t i = 0;
     while (i < r->nfaults_seen && strcmp(r->faults_seen[i], name))
@@ -55,7 +55,7 @@ int rto_report_claim(rto_report *r, int code, const char *name)
     return 1;
 }
 
-void rto_report_summary(rto_report *r, const char *fmt, ...)
+void rto__report_summary(rto_report *r, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -63,7 +63,7 @@ void rto_report_summary(rto_report *r, const char *fmt, ...)
     va_end(ap);
 }
 
-void rto_report_append(rto_report *r, const char *fmt, ...)
+void rto__report_append(rto_report *r, const char *fmt, ...)
 {
     size_t used = strlen(r->summary);
     if (used + 1 >= sizeof r->summary)
@@ -88,17 +88,17 @@ static void set_field(rto_report_field *fields, uint32_t *count, const char *nam
     fields[i].value = value;
 }
 
-void rto_report_at(rto_report *r, const char *name, int64_t value) { set_field(r->where, &r->nwhere, name, value); }
+void rto__report_at(rto_report *r, const char *name, int64_t value) { set_field(r->where, &r->nwhere, name, value); }
 
-void rto_report_fact(rto_report *r, const char *name, int64_t value) { set_field(r->facts, &r->nfacts, name, value); }
+void rto__report_fact(rto_report *r, const char *name, int64_t value) { set_field(r->facts, &r->nfacts, name, value); }
 
-void rto_report_table(rto_report *r, const char *title, const char *index_name)
+void rto__report_table(rto_report *r, const char *title, const char *index_name)
 {
     copy_name(r->table_title, sizeof r->table_title, title);
     copy_name(r->index_name, sizeof r->index_name, index_name);
 }
 
-rto_report_row *rto_report_row_add(rto_report *r, uint64_t index, const char *field)
+rto_report_row *rto__report_row_add(rto_report *r, uint64_t index, const char *field)
 {
     if (r->nrows >= RTO_REPORT_MAX_ROWS)
         return NULL;
@@ -106,7 +106,7 @@ rto_report_row *rto_report_row_add(rto_report *r, uint64_t index, const char *fi
     memset(row, 0, sizeof *row);
     row->index = index;
     copy_name(row->field, sizeof row->field, field);
-    row->expected = row->actual = row->diff = row->tolerance = rto_val_none();
+    row->expected = row->actual = row->diff = row->tolerance = rto__val_none();
     return row;
 }
 
@@ -329,15 +329,15 @@ static json_t *fields_json(const rto_report_field *f, uint32_t n, int *bad)
 static json_t *report_object(const rto_report *r, int *bad)
 {
     json_t *o = json_object();
-    jset(o, "command", rto_json_string(r->validator), bad);
-    jset(o, "what", r->what[0] ? rto_json_string(r->what) : json_null(), bad);
-    jset(o, "context", r->context[0] ? rto_json_string(r->context) : json_null(), bad);
-    jset(o, "mode", r->mode[0] ? rto_json_string(r->mode) : json_null(), bad);
+    jset(o, "command", rto__json_string(r->validator), bad);
+    jset(o, "what", r->what[0] ? rto__json_string(r->what) : json_null(), bad);
+    jset(o, "context", r->context[0] ? rto__json_string(r->context) : json_null(), bad);
+    jset(o, "mode", r->mode[0] ? rto__json_string(r->mode) : json_null(), bad);
     jset(o, "result", json_string(r->code ? "fail" : "pass"), bad);
-    jset(o, "fault", rto_json_string(r->fault), bad);
+    jset(o, "fault", rto__json_string(r->fault), bad);
     json_t *faults = json_array();
     for (uint32_t i = 0; i < r->nfaults_seen && i < RTO_REPORT_MAX_FAULTS; i++)
-        jappend(faults, rto_json_string(r->faults_seen[i]), bad);
+        jappend(faults, rto__json_string(r->faults_seen[i]), bad);
     jset(o, "faults", faults, bad);
     jset(o, "location", fields_json(r->where, r->nwhere, bad), bad);
     json_t *checks = json_object();
@@ -350,8 +350,8 @@ static json_t *report_object(const rto_report *r, int *bad)
     jset(o, "facts", fields_json(r->facts, r->nfacts, bad), bad);
     if (r->tolerance[0]) {
         json_t *t = json_object();
-        rto_value b = rto_val_f64(r->tolerance_bound);
-        jset(t, "rule", rto_json_string(r->tolerance), bad);
+        rto_value b = rto__val_f64(r->tolerance_bound);
+        jset(t, "rule", rto__json_string(r->tolerance), bad);
         jset(t, "bound", jvalue(&b), bad);
         jset(o, "tolerance", t, bad);
     } else {
@@ -359,14 +359,14 @@ static json_t *report_object(const rto_report *r, int *bad)
     }
     json_t *diffs = json_object(), *rows = json_array();
     const char *index_name = r->index_name[0] ? r->index_name : "index";
-    jset(diffs, "title", rto_json_string(r->table_title), bad);
-    jset(diffs, "index", rto_json_string(index_name), bad);
+    jset(diffs, "title", rto__json_string(r->table_title), bad);
+    jset(diffs, "index", rto__json_string(index_name), bad);
     for (uint32_t i = 0; i < r->nrows && i < RTO_REPORT_MAX_ROWS; i++) {
         const rto_report_row *row = &r->rows[i];
         json_t *jr = json_object();
         jset(jr, index_name, json_integer((json_int_t)row->index), bad);
         if (row->field[0])
-            jset(jr, "field", rto_json_string(row->field), bad);
+            jset(jr, "field", rto__json_string(row->field), bad);
         jset(jr, "expected", jvalue(&row->expected), bad);
         jset(jr, "actual", jvalue(&row->actual), bad);
         jset(jr, "diff", jvalue(&row->diff), bad);
@@ -376,7 +376,7 @@ static json_t *report_object(const rto_report *r, int *bad)
     }
     jset(diffs, "rows", rows, bad);
     jset(o, "diffs", diffs, bad);
-    jset(o, "message", rto_json_string(r->summary), bad);
+    jset(o, "message", rto__json_string(r->summary), bad);
     return o;
 }
 
@@ -385,17 +385,17 @@ rto_status rto_report_json(const rto_report *r, char *buf, size_t cap, size_t *l
     if (len)
         *len = 0;
     if (!r || (cap && !buf))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL report or buffer");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL report or buffer");
     int bad = 0;
     json_t *o = report_object(r, &bad);
     /* 9 significant digits round-trip every binary32 value and are plenty for binary64 differences. */
-    char *text = bad ? NULL : rto_json_text(o, JSON_INDENT(2) | JSON_REAL_PRECISION(9));
+    char *text = bad ? NULL : rto__json_text(o, JSON_INDENT(2) | JSON_REAL_PRECISION(9));
     json_decref(o);
     if (!text)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory writing the JSON report");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory writing the JSON report");
     sink s = {buf, cap, 0};
     put(&s, "%s", text);
     free(text);
     rto_status st = sink_end(&s, len);
-    return st ? rto_fail(msg, st, "the JSON report needs %zu bytes", s.len + 1) : RTO_OK;
+    return st ? rto__fail(msg, st, "the JSON report needs %zu bytes", s.len + 1) : RTO_OK;
 }

@@ -38,7 +38,7 @@ rto_status rto_msg_set(rto_msg *m, rto_status s, const char *fmt, ...)
     return s;
 }
 
-void *rto_alloc(size_t count, size_t size)
+void *rto__alloc(size_t count, size_t size)
 {
     if (size != 0 && count > SIZE_MAX / size)
         return NULL;

@@ -182,7 +182,7 @@ static rto_status bad_file(fcheck *c, const char *where, const char *dir, const 
 {
     char text[360];
     vsnprintf(text, sizeof text, fmt, ap);
-    return rto_fail(c->msg, RTO_ERR_PARSE, "%s %s: %s: %s", where, dir, file, text);
+    return rto__fail(c->msg, RTO_ERR_PARSE, "%s %s: %s: %s", where, dir, file, text);
 }
 
 static rto_status bad_expected(fcheck *c, const char *file, const char *fmt, ...) RTO_PRINTF(3, 4);
@@ -254,7 +254,7 @@ static rto_status exp_load(fcheck *c, const char *name, const rto_npy_desc *want
     rto_msg m = {{0}};
     rto_status s = rto_bundle_read_name(c->b, name, out, &m);
     if (s)
-        return rto_fail(c->msg, s, "expected bundle %s: %s: %s", c->desc->expected_dir, name, m.text);
+        return rto__fail(c->msg, s, "expected bundle %s: %s: %s", c->desc->expected_dir, name, m.text);
     if (!same_desc(&out->desc, want)) {
         char have[160], need[160];
         return bad_expected(c, name, "holds %s; expected %s", describe(&out->desc, have, sizeof have),
@@ -283,20 +283,20 @@ static rto_status gpu_read(fcheck *c, const char *name, rto_status (*read)(const
     *present = 0;
     char *path = join(c->desc->gpu_dir, name);
     if (!path)
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     struct stat st;
     if (lstat(path, &st) != 0) {
         const int e = errno;
         free(path);
         if (e == ENOENT)
             return RTO_OK;
-        return rto_fail(c->msg, RTO_ERR_IO, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, strerror(e));
+        return rto__fail(c->msg, RTO_ERR_IO, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, strerror(e));
     }
     rto_msg m = {{0}};
     rto_status s = read(path, out, &m);
     free(path);
     if (s)
-        return rto_fail(c->msg, s, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, m.text);
+        return rto__fail(c->msg, s, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, m.text);
     *present = 1;
     return RTO_OK;
 }
@@ -319,12 +319,12 @@ static rto_status gpu_image(fcheck *c, const char *name, rto_image *out, int *pr
     const size_t budget = (size_t)c->pixels * out->channels * (out->type == RTO_PIXEL_U8 ? 1 : sizeof(float));
     char *path = join(c->desc->gpu_dir, name);
     if (!path)
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     rto_msg m = {{0}};
     s = rto_image_read_budget(path, budget, out, &m);
     free(path);
     if (s)
-        return rto_fail(c->msg, s, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, m.text);
+        return rto__fail(c->msg, s, "GPU dump %s: %s: %s", c->desc->gpu_dir, name, m.text);
     return RTO_OK;
 }
 
@@ -367,10 +367,10 @@ static const char *const check_names[] = {"counts", "indirect", "queues", "paylo
  * is listed by class and bounce for the summary. */
 static int claim(fcheck *c, rto_frame_fault f, int64_t bounce)
 {
-    rto_report_mark(c->r, check_of(f), RTO_CHECK_FAILED);
-    if (rto_report_claim(c->r, (int)f, rto_frame_fault_name(f))) {
+    rto__report_mark(c->r, check_of(f), RTO_CHECK_FAILED);
+    if (rto__report_claim(c->r, (int)f, rto_frame_fault_name(f))) {
         if (bounce >= 0)
-            rto_report_at(c->r, "bounce", bounce);
+            rto__report_at(c->r, "bounce", bounce);
         static const char *const titles[][2] = {
             {"", ""},
             {"counters", "queue"},
@@ -381,7 +381,7 @@ static int claim(fcheck *c, rto_frame_fault f, int64_t bounce)
             {"accum channels", "pixel"},
             {"image channels", "pixel"},
         };
-        rto_report_table(c->r, titles[f][0], titles[f][1]);
+        rto__report_table(c->r, titles[f][0], titles[f][1]);
         return 1;
     }
     for (uint32_t i = 0; i < c->nlater; i++)
@@ -394,7 +394,7 @@ static int claim(fcheck *c, rto_frame_fault f, int64_t bounce)
 
 static void add_row(fcheck *c, uint64_t index, const char *field, rto_value e, rto_value a, rto_value d, rto_value t)
 {
-    rto_report_row *row = rto_report_row_add(c->r, index, field);
+    rto_report_row *row = rto__report_row_add(c->r, index, field);
     if (!row)
         return;
     row->expected = e;
@@ -405,26 +405,26 @@ static void add_row(fcheck *c, uint64_t index, const char *field, rto_value e, r
 
 static void uint_row(fcheck *c, uint64_t index, const char *field, uint64_t e, uint64_t a)
 {
-    add_row(c, index, field, rto_val_uint(e), rto_val_uint(a), rto_val_int((int64_t)a - (int64_t)e), rto_val_none());
+    add_row(c, index, field, rto__val_uint(e), rto__val_uint(a), rto__val_int((int64_t)a - (int64_t)e), rto__val_none());
 }
 
 /* The pixel of a ray as location fields: pixel, and x / y when it lies in the image. */
 static void at_pixel(fcheck *c, uint32_t pixel)
 {
-    rto_report_at(c->r, "pixel", pixel);
+    rto__report_at(c->r, "pixel", pixel);
     if (pixel < c->pixels) {
-        rto_report_at(c->r, "x", pixel % c->w);
-        rto_report_at(c->r, "y", pixel / c->w);
+        rto__report_at(c->r, "x", pixel % c->w);
+        rto__report_at(c->r, "y", pixel / c->w);
     }
 }
 
 /* Oracle ray i of a queue and its GPU partner as location fields: ray, gpu_ray, pixel (x, y) and slot. */
 static void at_ray(fcheck *c, const rto_wf_ray *ro, const uint32_t *gpu_of, size_t i)
 {
-    rto_report_at(c->r, "ray", (int64_t)i);
-    rto_report_at(c->r, "gpu_ray", gpu_of[i]);
+    rto__report_at(c->r, "ray", (int64_t)i);
+    rto__report_at(c->r, "gpu_ray", gpu_of[i]);
     at_pixel(c, ro[i].pixel);
-    rto_report_at(c->r, "slot", ro[i].payload_slot);
+    rto__report_at(c->r, "slot", ro[i].payload_slot);
 }
 
 /* Where a ray of queue d came from, for sentences. */
@@ -447,7 +447,7 @@ static rto_status read_manifest(fcheck *c)
 {
     const char *kind = rto_bundle_get_str(c->b, "", "kind");
     if (!kind || strcmp(kind, "frame"))
-        return rto_fail(c->msg, RTO_ERR_INVALID_ARGUMENT, "expected bundle %s is a%s %s bundle, not a frame bundle "
+        return rto__fail(c->msg, RTO_ERR_INVALID_ARGUMENT, "expected bundle %s is a%s %s bundle, not a frame bundle "
                         "(rtoracle render)", c->desc->expected_dir, kind && strchr("aeiou", kind[0]) ? "n" : "",
                         kind ? kind : "(kind-less)");
     uint64_t w = 0, h = 0, d = 0, cap = 0, ps = 0;
@@ -574,9 +574,9 @@ static rto_status read_frame_arrays(fcheck *c)
             return bad_expected(c, file_name(RTO_FILE_NOT_COMPARABLE, 0, name),
                                 "pixel %" PRIu64 " holds 0x%02x; only RTO_PIXEL_CONFLICT (1) and RTO_PIXEL_DROPPED (2) "
                                 "are defined", p, nc[p]);
-    c->mask = rto_alloc(c->pixels, 1);
+    c->mask = rto__alloc(c->pixels, 1);
     if (!c->mask)
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     memcpy(c->mask, nc, c->pixels);
     return RTO_OK;
 }
@@ -605,7 +605,7 @@ static rto_status load_scene(fcheck *c)
             if (np)
                 c->mesh_npy = np;
             if (!mm || !np)
-                return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+                return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
             c->capmeshes = cap;
         }
         rto_npy *pos = &c->mesh_npy[2 * m], *idx = &c->mesh_npy[2 * m + 1];
@@ -623,7 +623,7 @@ static rto_status load_scene(fcheck *c)
         rto_msg mm = {{0}};
         rto_status s = rto_bundle_read_name(c->b, pname, pos, &mm);
         if (s)
-            return rto_fail(c->msg, s, "expected bundle %s: %s: %s", c->desc->expected_dir, pname, mm.text);
+            return rto__fail(c->msg, s, "expected bundle %s: %s: %s", c->desc->expected_dir, pname, mm.text);
         rto_npy_desc pd = rto_npy_desc_array(RTO_DTYPE_F32, 2, pos->desc.ndim == 2 ? pos->desc.shape[0] : 0, 3, 0);
         if (!same_desc(&pos->desc, &pd) || pos->desc.shape[0] > UINT32_MAX) {
             char have[160];
@@ -650,9 +650,9 @@ static rto_status load_scene(fcheck *c)
     rto_status s = exp_load(c, file_name(RTO_FILE_INSTANCES, 0, name), &want, &c->inst);
     if (s)
         return s;
-    c->instances = rto_alloc((size_t)instances, sizeof *c->instances);
+    c->instances = rto__alloc((size_t)instances, sizeof *c->instances);
     if (!c->instances)
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     for (size_t i = 0; i < (size_t)instances; i++) {
         rto_instance_record rec;
         memcpy(&rec, (const unsigned char *)c->inst.data + i * sizeof rec, sizeof rec);
@@ -725,10 +725,10 @@ static void counts_fault(fcheck *c, rto_frame_fault f, uint32_t d, const count_d
         return;
     for (uint32_t k = 0; k < nx; k++)
         uint_row(c, d, x[k].field, x[k].e, x[k].a);
-    rto_report_summary(c->r, "%s: queue %" PRIu32 ": %s %" PRIu32 " in the GPU's dump, %" PRIu32
+    rto__report_summary(c->r, "%s: queue %" PRIu32 ": %s %" PRIu32 " in the GPU's dump, %" PRIu32
                        " in the oracle's (%s)", rto_frame_fault_name(f), d, x[0].field, x[0].a, x[0].e, what);
     if (c->drop_queue != NONE32 && d > c->drop_queue)
-        rto_report_append(c->r, " [queue %" PRIu32 " dropped rays; on a GPU the rays kept there, and so the counts "
+        rto__report_append(c->r, " [queue %" PRIu32 " dropped rays; on a GPU the rays kept there, and so the counts "
                           "after it, may differ]", c->drop_queue);
 }
 
@@ -740,7 +740,7 @@ static int short_array(fcheck *c, rto_frame_fault f, uint32_t d, const char *wha
     if (!claim(c, f, d))
         return 0;
     uint_row(c, d, what, (uint64_t)c->depth + 1, n);
-    rto_report_summary(c->r, "%s: queue %" PRIu32 ": the GPU's %s ends after %zu %s; the frame has %" PRIu32,
+    rto__report_summary(c->r, "%s: queue %" PRIu32 ": the GPU's %s ends after %zu %s; the frame has %" PRIu32,
                        rto_frame_fault_name(f), d, file, n, unit, c->depth + 1);
     return 1;
 }
@@ -818,7 +818,7 @@ static void step_indirect(fcheck *c, uint32_t d)
     for (int k = 0; k < 3; k++)
         if (a[k] != e[k])
             uint_row(c, d, names[k], e[k], a[k]);
-    rto_report_summary(c->r, "indirect-args: PREP of queue %" PRIu32 ": [%" PRIu32 ", %" PRIu32 ", %" PRIu32 "] in the "
+    rto__report_summary(c->r, "indirect-args: PREP of queue %" PRIu32 ": [%" PRIu32 ", %" PRIu32 ", %" PRIu32 "] in the "
                        "GPU's dump, the oracle's [%" PRIu32 ", %" PRIu32 ", %" PRIu32 "] = [ceil(%" PRIu32
                        " / 64), 1, 1]", d, a[0], a[1], a[2], e[0], e[1], e[2], c->cnt[d].queued);
 }
@@ -829,17 +829,17 @@ static void step_extra_queues(fcheck *c)
     const size_t q = (size_t)c->depth + 1;
     if (c->have_g_emit && c->g_emit_n > q && claim(c, RTO_FRAME_COUNTS, (int64_t)q)) {
         uint_row(c, q, "emit_counts entries", q, c->g_emit_n);
-        rto_report_summary(c->r, "emit-count: the GPU's emit_counts.npy has %zu entries; the frame has %zu queues "
+        rto__report_summary(c->r, "emit-count: the GPU's emit_counts.npy has %zu entries; the frame has %zu queues "
                            "(maxDepth %" PRIu32 " + 1)", c->g_emit_n, q, c->depth);
     }
     if (c->have_g_cnt && c->g_cnt_n > q && claim(c, RTO_FRAME_COUNTS, (int64_t)q)) {
         uint_row(c, q, "frame_counters rows", q, c->g_cnt_n);
-        rto_report_summary(c->r, "emit-count: the GPU's frame_counters.npy has %zu rows; the frame has %zu queues",
+        rto__report_summary(c->r, "emit-count: the GPU's frame_counters.npy has %zu rows; the frame has %zu queues",
                            c->g_cnt_n, q);
     }
     if (c->have_g_ind && c->g_ind_n > q && claim(c, RTO_FRAME_INDIRECT, (int64_t)q)) {
         uint_row(c, q, "indirect_args rows", q, c->g_ind_n);
-        rto_report_summary(c->r, "indirect-args: the GPU's indirect_args.npy has %zu rows; the frame has %zu queues",
+        rto__report_summary(c->r, "indirect-args: the GPU's indirect_args.npy has %zu rows; the frame has %zu queues",
                            c->g_ind_n, q);
     }
 }
@@ -870,7 +870,7 @@ static int same_key(const rkey *a, const rkey *b)
 
 static rkey *keys_of(const rto_wf_ray *rays, size_t n)
 {
-    rkey *k = rto_alloc(n, sizeof *k);
+    rkey *k = rto__alloc(n, sizeof *k);
     if (!k)
         return NULL;
     for (size_t i = 0; i < n; i++)
@@ -923,13 +923,13 @@ static void ray_field_row(fcheck *c, uint64_t index, const rto_wf_ray *e, const 
 {
     if (f < 8) {
         const float ev = (&e->origin[0])[f], av = (&a->origin[0])[f];
-        add_row(c, index, ray_float_names[f], rto_val_f32(ev), rto_val_f32(av),
-                rto_val_f64((double)av - (double)ev), rto_val_f64(ray_tolerance(c, f, ev)));
+        add_row(c, index, ray_float_names[f], rto__val_f32(ev), rto__val_f32(av),
+                rto__val_f64((double)av - (double)ev), rto__val_f64(ray_tolerance(c, f, ev)));
     } else {
         const uint32_t ev = (&e->pixel)[f - 8], av = (&a->pixel)[f - 8];
         if (f == 9) /* flags: a bit pattern */
-            add_row(c, index, ray_int_names[f - 8], rto_val_hex32(ev), rto_val_hex32(av), rto_val_hex32(ev ^ av),
-                    rto_val_none());
+            add_row(c, index, ray_int_names[f - 8], rto__val_hex32(ev), rto__val_hex32(av), rto__val_hex32(ev ^ av),
+                    rto__val_none());
         else
             uint_row(c, index, ray_int_names[f - 8], ev, av);
     }
@@ -1009,14 +1009,14 @@ static void match_group(const fcheck *c, const rto_wf_ray *ro, const rkey *ko, s
 static rto_status match_queue(fcheck *c, const rto_wf_ray *ro, size_t n, const rto_wf_ray *rg, size_t m, qresult *q)
 {
     memset(q, 0, sizeof *q);
-    q->gpu_of = rto_alloc(n, sizeof *q->gpu_of);
+    q->gpu_of = rto__alloc(n, sizeof *q->gpu_of);
     rkey *ko = keys_of(ro, n), *kg = keys_of(rg, m);
-    uint8_t *used = rto_alloc(n + m, 1);
+    uint8_t *used = rto__alloc(n + m, 1);
     if (!q->gpu_of || !ko || !kg || !used) {
         free(ko);
         free(kg);
         free(used);
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory comparing a queue of %zu rays", n);
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory comparing a queue of %zu rays", n);
     }
     for (size_t i = 0; i < n; i++)
         q->gpu_of[i] = NONE32;
@@ -1061,23 +1061,23 @@ static void queue_fault(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, c
     char key[128];
     key_text(c, r, key, sizeof key);
     if (f->o != NONE32)
-        rto_report_at(c->r, "ray", f->o);
+        rto__report_at(c->r, "ray", f->o);
     if (f->g != NONE32)
-        rto_report_at(c->r, "gpu_ray", f->g);
+        rto__report_at(c->r, "gpu_ray", f->g);
     at_pixel(c, r->pixel);
-    rto_report_at(c->r, "slot", r->payload_slot);
-    rto_report_at(c->r, "kind", r->kind);
+    rto__report_at(c->r, "slot", r->payload_slot);
+    rto__report_at(c->r, "kind", r->kind);
     switch (f->kind) {
     case Q_MISSING:
-        rto_report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " of the oracle's queue (%s) is missing "
+        rto__report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " of the oracle's queue (%s) is missing "
                            "from the GPU's queue", d, f->o, key);
         break;
     case Q_EXTRA:
-        rto_report_summary(c->r, "queue: bounce %" PRIu32 ": the GPU's ray %" PRIu32 " (%s) is not in the oracle's "
+        rto__report_summary(c->r, "queue: bounce %" PRIu32 ": the GPU's ray %" PRIu32 " (%s) is not in the oracle's "
                            "queue", d, f->g, key);
         break;
     case Q_DUPLICATE:
-        rto_report_summary(c->r, "queue: bounce %" PRIu32 ": the key (%s) appears %" PRIu32 " times in the GPU's "
+        rto__report_summary(c->r, "queue: bounce %" PRIu32 ": the key (%s) appears %" PRIu32 " times in the GPU's "
                            "queue, %" PRIu32 " in the oracle's (its ray %" PRIu32 ")", d, key, f->count_g, f->count_o,
                            f->o);
         break;
@@ -1087,12 +1087,12 @@ static void queue_fault(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, c
             const float ev = (&e->origin[0])[f->field], av = (&a->origin[0])[f->field];
             const double tol = ray_tolerance(c, f->field, ev);
             c->r->tolerance_bound = tol;
-            rto_report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " (%s) differs: %s is %.9g in the GPU's "
+            rto__report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " (%s) differs: %s is %.9g in the GPU's "
                                "ray %" PRIu32 ", %.9g in the oracle's (|diff| %.3g > %.3g)", d, f->o, key,
                                ray_float_names[f->field], (double)av, f->g, (double)ev,
                                fabs((double)av - (double)ev), tol);
         } else {
-            rto_report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " (%s) differs: %s is %" PRIu32
+            rto__report_summary(c->r, "queue: bounce %" PRIu32 ": ray %" PRIu32 " (%s) differs: %s is %" PRIu32
                                " in the GPU's ray %" PRIu32 ", %" PRIu32 " in the oracle's", d, f->o, key,
                                ray_int_names[f->field - 8], (&a->pixel)[f->field - 8], f->g,
                                (&e->pixel)[f->field - 8]);
@@ -1100,7 +1100,7 @@ static void queue_fault(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, c
         break;
     }
     }
-    rto_report_append(c->r, "; %zu missing, %zu extra, %zu duplicated, %zu differing (oracle %zu rays, GPU %zu), "
+    rto__report_append(c->r, "; %zu missing, %zu extra, %zu duplicated, %zu differing (oracle %zu rays, GPU %zu), "
                       "filled by %s", q->counts[Q_MISSING], q->counts[Q_EXTRA], q->counts[Q_DUPLICATE],
                       q->counts[Q_DIFFERS], n, m, filled_by(d));
     for (uint32_t k = 0; k < q->nfind; k++) {
@@ -1242,7 +1242,7 @@ static void step_payloads(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n,
     if (!by_slot && rows != m) {
         if (claim(c, RTO_FRAME_PAYLOAD, d)) {
             uint_row(c, 0, "payload rows", m, rows);
-            rto_report_summary(c->r, "payload: bounce %" PRIu32 ": the GPU dumped %zu payload rows for its %zu rays "
+            rto__report_summary(c->r, "payload: bounce %" PRIu32 ": the GPU dumped %zu payload rows for its %zu rays "
                                "(or the store of %" PRIu64 " slots)", d, rows, m, c->cap);
         }
         goto out;
@@ -1262,7 +1262,7 @@ static void step_payloads(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n,
     at_ray(c, ro, q->gpu_of, first);
     char key[128];
     key_text(c, &ro[first], key, sizeof key);
-    rto_report_summary(c->r, "payload: bounce %" PRIu32 ": the payload of ray %zu (%s) differs in the GPU's dump (%s);"
+    rto__report_summary(c->r, "payload: bounce %" PRIu32 ": the payload of ray %zu (%s) differs in the GPU's dump (%s);"
                        " %zu of %zu paired rays differ", d, first, key,
                        by_slot ? "its payload store, read at payloadSlot" : "the row of its ray", wrong, q->paired);
     for (size_t i = first; i < n && c->r->nrows < RTO_REPORT_MAX_ROWS; i++) {
@@ -1276,11 +1276,11 @@ static void step_payloads(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n,
             memcpy(&fe, &x[k], 4);
             memcpy(&fa, &a[k], 4);
             if (payload_float(x[k]) && payload_float(a[k]))
-                add_row(c, i, field, rto_val_f32(fe), rto_val_f32(fa), rto_val_f64((double)fa - (double)fe),
-                        rto_val_f64(accum_tolerance(fe, ACCUM_ABS)));
+                add_row(c, i, field, rto__val_f32(fe), rto__val_f32(fa), rto__val_f64((double)fa - (double)fe),
+                        rto__val_f64(accum_tolerance(fe, ACCUM_ABS)));
             else
-                add_row(c, i, field, rto_val_hex32(x[k]), rto_val_hex32(a[k]), rto_val_hex32(x[k] ^ a[k]),
-                        rto_val_none());
+                add_row(c, i, field, rto__val_hex32(x[k]), rto__val_hex32(a[k]), rto__val_hex32(x[k] ^ a[k]),
+                        rto__val_none());
         }
     }
 out:
@@ -1312,8 +1312,8 @@ static rto_hit_fault stage2_hit_diff(const rto_hit_record *e, const rto_hit_reco
     };
     for (size_t k = 0; k < sizeof ids / sizeof ids[0]; k++)
         if (ids[k].e != ids[k].a) {
-            *x = (hit_diff){ids[k].field, rto_val_hex32(ids[k].e), rto_val_hex32(ids[k].a),
-                            rto_val_hex32(ids[k].e ^ ids[k].a), rto_val_none()};
+            *x = (hit_diff){ids[k].field, rto__val_hex32(ids[k].e), rto__val_hex32(ids[k].a),
+                            rto__val_hex32(ids[k].e ^ ids[k].a), rto__val_none()};
             return ids[k].f;
         }
     const double tt = 1e-5 * (fabs((double)e->t) > 1.0 ? fabs((double)e->t) : 1.0);
@@ -1329,8 +1329,8 @@ static rto_hit_fault stage2_hit_diff(const rto_hit_record *e, const rto_hit_reco
     };
     for (size_t k = 0; k < sizeof floats / sizeof floats[0]; k++)
         if (!(fabs((double)floats[k].a - (double)floats[k].e) <= floats[k].tol)) {
-            *x = (hit_diff){floats[k].field, rto_val_f32(floats[k].e), rto_val_f32(floats[k].a),
-                            rto_val_f64((double)floats[k].a - (double)floats[k].e), rto_val_f64(floats[k].tol)};
+            *x = (hit_diff){floats[k].field, rto__val_f32(floats[k].e), rto__val_f32(floats[k].a),
+                            rto__val_f64((double)floats[k].a - (double)floats[k].e), rto__val_f64(floats[k].tol)};
             return floats[k].f;
         }
     const struct {
@@ -1343,8 +1343,8 @@ static rto_hit_fault stage2_hit_diff(const rto_hit_record *e, const rto_hit_reco
     };
     for (size_t k = 0; k < sizeof more / sizeof more[0]; k++)
         if (more[k].e != more[k].a) {
-            *x = (hit_diff){more[k].field, rto_val_hex32(more[k].e), rto_val_hex32(more[k].a),
-                            rto_val_hex32(more[k].e ^ more[k].a), rto_val_none()};
+            *x = (hit_diff){more[k].field, rto__val_hex32(more[k].e), rto__val_hex32(more[k].a),
+                            rto__val_hex32(more[k].e ^ more[k].a), rto__val_none()};
             return more[k].f;
         }
     static const char *const cells[4][3] = {{"objToWorld[0][0]", "objToWorld[0][1]", "objToWorld[0][2]"},
@@ -1354,10 +1354,10 @@ static rto_hit_fault stage2_hit_diff(const rto_hit_record *e, const rto_hit_reco
     for (int col = 0; col < 4; col++)
         for (int row = 0; row < 3; row++)
             if (e->obj_to_world[col][row] != a->obj_to_world[col][row]) {
-                *x = (hit_diff){cells[col][row], rto_val_f32(e->obj_to_world[col][row]),
-                                rto_val_f32(a->obj_to_world[col][row]),
-                                rto_val_f64((double)a->obj_to_world[col][row] - (double)e->obj_to_world[col][row]),
-                                rto_val_none()};
+                *x = (hit_diff){cells[col][row], rto__val_f32(e->obj_to_world[col][row]),
+                                rto__val_f32(a->obj_to_world[col][row]),
+                                rto__val_f64((double)a->obj_to_world[col][row] - (double)e->obj_to_world[col][row]),
+                                rto__val_none()};
                 return RTO_HIT_TRANSFORM;
             }
     return RTO_HIT_OK;
@@ -1379,7 +1379,7 @@ static rto_status stage2_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_
     const rto_hit_fault f = stage2_hit_diff(&eh[first], &gh[first], &x);
     at_ray(c, ro, q->gpu_of, first);
     c->r->tolerance_bound = x.tol.type == RTO_VALUE_NONE ? 0 : x.tol.v.f;
-    rto_report_summary(c->r, "hits: bounce %" PRIu32 " (stage2 scene: IDs, missFlag, objToWorld exact, t and bary "
+    rto__report_summary(c->r, "hits: bounce %" PRIu32 " (stage2 scene: IDs, missFlag, objToWorld exact, t and bary "
                        "within §9): %s: ray %zu: %s differs; %zu of %zu paired rays wrong", d, rto_hit_fault_name(f),
                        first, x.field, wrong, q->paired);
     for (size_t i = first; i < n && c->r->nrows < RTO_REPORT_MAX_ROWS; i++)
@@ -1439,16 +1439,16 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
     if (k != m) {
         if (claim(c, RTO_FRAME_HITS, d)) {
             uint_row(c, 0, "hit records", m, k);
-            rto_report_summary(c->r, "hits: bounce %" PRIu32 ": the GPU dumped %zu hit records for its %zu rays (one "
+            rto__report_summary(c->r, "hits: bounce %" PRIu32 ": the GPU dumped %zu hit records for its %zu rays (one "
                                "per ray, in the order of its bounce_%" PRIu32 "_rays.npy)", d, k, m, d);
         }
         goto out;
     }
     /* The GPU's record of each oracle ray, found through the ray pairing; a ray without a partner (already a queue
      * fault) gets the oracle's own record, so that ray numbers stay the oracle's queue indices. */
-    paired = rto_alloc(n, sizeof *paired);
+    paired = rto__alloc(n, sizeof *paired);
     if (!paired) {
-        s = rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        s = rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         goto out;
     }
     const rto_hit_record *eh = e.data, *gh = g.data;
@@ -1464,9 +1464,9 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
      * GPU's ray may be from the oracle's is the queue step's rule): where the paired GPU ray differs from the
      * oracle's, the expected record is the oracle's arithmetic on the GPU's ray, brute force (a conforming
      * implementation of §6 too). */
-    if (!(hrays = rto_alloc(n, sizeof *hrays)) || !(hexp = rto_alloc(n, sizeof *hexp)) ||
-        !(redo = rto_alloc(n, sizeof *redo))) {
-        s = rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    if (!(hrays = rto__alloc(n, sizeof *hrays)) || !(hexp = rto__alloc(n, sizeof *hexp)) ||
+        !(redo = rto__alloc(n, sizeof *redo))) {
+        s = rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         goto out;
     }
     size_t nredo = 0;
@@ -1479,11 +1479,11 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
         }
     }
     if (nredo) {
-        rto_wf_ray *rr = rto_alloc(nredo, sizeof *rr);
-        rto_hit_record *rh = rto_alloc(nredo, sizeof *rh);
+        rto_wf_ray *rr = rto__alloc(nredo, sizeof *rr);
+        rto_hit_record *rh = rto__alloc(nredo, sizeof *rh);
         const rto_scene view = {.meshes = c->meshes, .mesh_count = c->nmeshes, .instances = c->instances,
                                 .instance_count = c->ninst};
-        rto_status bs = rr && rh ? RTO_OK : rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        rto_status bs = rr && rh ? RTO_OK : rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         for (size_t x = 0; !bs && x < nredo; x++)
             rr[x] = hrays[redo[x]];
         if (!bs)
@@ -1499,7 +1499,7 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
                 hexp[redo[x]] = eh[redo[x]];
             }
         } else if (bs) {
-            s = rto_fail(c->msg, bs, "%s", mm.text);
+            s = rto__fail(c->msg, bs, "%s", mm.text);
             goto out;
         }
     }
@@ -1522,7 +1522,7 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
         goto out;
     }
     if (hs != RTO_OK && hs != RTO_ERR_MISMATCH) {
-        s = rto_fail(c->msg, hs, "%s", mm.text);
+        s = rto__fail(c->msg, hs, "%s", mm.text);
         goto out;
     }
     if (hs == RTO_ERR_MISMATCH && claim(c, RTO_FRAME_HITS, d)) {
@@ -1531,12 +1531,12 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
         if (ray >= 0 && (size_t)ray < n)
             at_ray(c, ro, q->gpu_of, (size_t)ray);
         else
-            rto_report_at(c->r, "ray", ray);
+            rto__report_at(c->r, "ray", ray);
         for (uint32_t r = 0; r < sub.nrows && r < RTO_REPORT_MAX_ROWS; r++)
             add_row(c, sub.rows[r].index, sub.rows[r].field, sub.rows[r].expected, sub.rows[r].actual,
                     sub.rows[r].diff, sub.rows[r].tolerance);
         c->r->tolerance_bound = sub.tolerance_bound;
-        rto_report_summary(c->r, "hits: bounce %" PRIu32 " (check-hits rules, ray = the oracle's queue index): %s", d,
+        rto__report_summary(c->r, "hits: bounce %" PRIu32 " (check-hits rules, ray = the oracle's queue index): %s", d,
                            sub.summary);
     }
 out:
@@ -1705,7 +1705,7 @@ static void size_fault(fcheck *c, rto_frame_fault f, const char *file, uint32_t 
         return;
     uint_row(c, 0, "width", c->w, gw);
     uint_row(c, 0, "height", c->h, gh);
-    rto_report_summary(c->r, "%s: %s is %" PRIu32 " x %" PRIu32 "; the frame is %" PRIu32 " x %" PRIu32,
+    rto__report_summary(c->r, "%s: %s is %" PRIu32 " x %" PRIu32 "; the frame is %" PRIu32 " x %" PRIu32,
                        rto_frame_fault_name(f), file, gw, gh, c->w, c->h);
 }
 
@@ -1746,11 +1746,11 @@ static void compare_accum(fcheck *c, const char *file, const float *e, const flo
         for (uint32_t k = 0; k < ch; k++) {
             const pixel_diff *x = &ps->list[i];
             if (!accum_close(c, x->e[k], x->a[k]))
-                add_row(c, (uint64_t)x->y * c->w + x->x, channel_names[k], rto_val_f32(x->e[k]), rto_val_f32(x->a[k]),
-                        rto_val_f64((double)x->a[k] - (double)x->e[k]),
-                        rto_val_f64(accum_tolerance(x->e[k], c->accum_abs)));
+                add_row(c, (uint64_t)x->y * c->w + x->x, channel_names[k], rto__val_f32(x->e[k]), rto__val_f32(x->a[k]),
+                        rto__val_f64((double)x->a[k] - (double)x->e[k]),
+                        rto__val_f64(accum_tolerance(x->e[k], c->accum_abs)));
         }
-    rto_report_summary(c->r, "accum: %s: pixel %" PRIu32 " (x %" PRIu32 ", y %" PRIu32 ") channel %s is %.9g, the "
+    rto__report_summary(c->r, "accum: %s: pixel %" PRIu32 " (x %" PRIu32 ", y %" PRIu32 ") channel %s is %.9g, the "
                        "oracle's %.9g (|diff| %.3g > %.3g); %" PRIu64 " of %" PRIu64 " compared pixels outside 1e-4 "
                        "relative + %g", file, f->y * c->w + f->x, f->x, f->y, channel_names[k0], (double)f->a[k0],
                        (double)f->e[k0], fabs((double)f->a[k0] - (double)f->e[k0]),
@@ -1763,11 +1763,11 @@ static rto_status keep_images(pixel_stats *ps, uint32_t w, uint32_t h, uint32_t 
     /* the pair the diff image is made of: the expected image cut to the compared channels, and the actual one with
      * the pixels that are not comparable set to the expected values, so that they show no difference */
     const size_t vs = t == RTO_PIXEL_U8 ? 1 : 4, n = (size_t)w * h;
-    void *pe = rto_alloc(n * ch, vs), *pa = rto_alloc(n * ch, vs);
+    void *pe = rto__alloc(n * ch, vs), *pa = rto__alloc(n * ch, vs);
     if (!pe || !pa) {
         free(pe);
         free(pa);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     }
     for (size_t p = 0; p < n; p++) {
         memcpy((char *)pe + p * ch * vs, (const char *)e + p * e_stride * vs, ch * vs);
@@ -1874,7 +1874,7 @@ static rto_status step_image(fcheck *c)
     }
     rto_msg m = {{0}};
     if ((s = rto_bundle_read_image(c->b, name, &e, &m))) {
-        s = rto_fail(c->msg, s, "expected bundle %s: %s: %s", c->desc->expected_dir, name, m.text);
+        s = rto__fail(c->msg, s, "expected bundle %s: %s: %s", c->desc->expected_dir, name, m.text);
         goto out;
     }
     if (e.type != RTO_PIXEL_U8 || e.channels != 4 || e.width != c->w || e.height != c->h) {
@@ -1935,13 +1935,13 @@ static rto_status step_image(fcheck *c)
             const pixel_diff *f = &ps->list[i];
             for (uint32_t k = 0; k < ch; k++)
                 if (fabsf(f->a[k] - f->e[k]) > IMAGE_STEP)
-                    add_row(c, (uint64_t)f->y * c->w + f->x, channel_names[k], rto_val_uint((uint64_t)f->e[k]),
-                            rto_val_uint((uint64_t)f->a[k]), rto_val_int((int64_t)f->a[k] - (int64_t)f->e[k]),
-                            rto_val_uint(IMAGE_STEP));
+                    add_row(c, (uint64_t)f->y * c->w + f->x, channel_names[k], rto__val_uint((uint64_t)f->e[k]),
+                            rto__val_uint((uint64_t)f->a[k]), rto__val_int((int64_t)f->a[k] - (int64_t)f->e[k]),
+                            rto__val_uint(IMAGE_STEP));
         }
         c->r->tolerance_bound = IMAGE_STEP;
         const pixel_diff *f = &ps->list[0];
-        rto_report_summary(c->r, "image: %" PRIu64 " of %" PRIu64 " compared pixels (%.3g %%) differ by more than +-1 "
+        rto__report_summary(c->r, "image: %" PRIu64 " of %" PRIu64 " compared pixels (%.3g %%) differ by more than +-1 "
                            "in a channel, over the %.3g %% allowed; the first: pixel %" PRIu32 " (x %" PRIu32
                            ", y %" PRIu32 "), rgba (%g, %g, %g, %g), the oracle's (%g, %g, %g, %g)", ps->over,
                            ps->compared, ps->compared ? 100.0 * (double)ps->over / (double)ps->compared : 0.0,
@@ -1979,10 +1979,10 @@ static json_t *stats_json(const fcheck *c, const pixel_stats *ps, const char *ru
         {"compared_pixels", json_integer((json_int_t)ps->compared)},
         {"not_comparable_pixels", json_integer((json_int_t)ps->excluded)},
         {"failing_pixels", json_integer((json_int_t)ps->over)},
-        {"max_error", rto_json_real(ps->max_diff)},
+        {"max_error", rto__json_real(ps->max_diff)},
         {"max_error_at", json_pack("[III]", (json_int_t)ps->max_x, (json_int_t)ps->max_y, (json_int_t)ps->max_c)},
-        {"rms_error", ps->have_oiio ? rto_json_real(ps->oiio.rms_error) : json_null()},
-        {"psnr", ps->have_oiio ? rto_json_real(ps->oiio.psnr) : json_null()},
+        {"rms_error", ps->have_oiio ? rto__json_real(ps->oiio.rms_error) : json_null()},
+        {"psnr", ps->have_oiio ? rto__json_real(ps->oiio.psnr) : json_null()},
     };
     for (size_t i = 0; i < sizeof kv / sizeof kv[0]; i++)
         if (!kv[i].v || json_object_set_new(o, kv[i].k, kv[i].v))
@@ -1992,7 +1992,7 @@ static json_t *stats_json(const fcheck *c, const pixel_stats *ps, const char *ru
         const pixel_diff *p = &ps->list[i];
         json_t *e = json_array(), *a = json_array();
         for (uint32_t k = 0; e && a && k < ps->channels; k++)
-            if (json_array_append_new(e, rto_json_real(p->e[k])) || json_array_append_new(a, rto_json_real(p->a[k])))
+            if (json_array_append_new(e, rto__json_real(p->e[k])) || json_array_append_new(a, rto__json_real(p->a[k])))
                 *bad = 1;
         json_t *item = json_pack("{s:I, s:I, s:o, s:o}", "x", (json_int_t)p->x, "y", (json_int_t)p->y, "expected",
                                  e ? e : json_null(), "actual", a ? a : json_null());
@@ -2009,7 +2009,7 @@ static rto_status write_listing(fcheck *c, const char *path)
     int bad = 0;
     json_t *root = json_object();
     if (!root)
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     char accum_rule[128];
     snprintf(accum_rule, sizeof accum_rule, "|actual - expected| <= 1e-4 |expected| + %g per channel (DESIGN.md §9)",
              c->accum_abs);
@@ -2022,21 +2022,21 @@ static rto_status write_listing(fcheck *c, const char *path)
         if (json_object_set_new(root, "image", stats_json(c, &c->image, rule, &bad)))
             bad = 1;
     }
-    char *text = bad ? NULL : rto_json_text(root, JSON_INDENT(2) | JSON_REAL_PRECISION(9));
+    char *text = bad ? NULL : rto__json_text(root, JSON_INDENT(2) | JSON_REAL_PRECISION(9));
     json_decref(root);
     if (!text)
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory writing %s", path);
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory writing %s", path);
     rto_msg m = {{0}};
     rto_status s = rto_file_write(path, text, strlen(text), &m);
     free(text);
-    return s ? rto_fail(c->msg, s, "cannot write the diff listing: %s", m.text) : RTO_OK;
+    return s ? rto__fail(c->msg, s, "cannot write the diff listing: %s", m.text) : RTO_OK;
 }
 
 static rto_status write_diff(fcheck *c, pixel_stats *ps, uint32_t bit, double scale)
 {
     char *path = join(c->desc->artifact_dir, rto_frame_artifact_name(bit));
     if (!path)
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     rto_image_compare_desc d;
     memset(&d, 0, sizeof d);
     d.fail = 1.0 / 255.0; /* thresholds only shape OpenImageIO's counts; the verdict is this validator's */
@@ -2047,7 +2047,7 @@ static rto_status write_diff(fcheck *c, pixel_stats *ps, uint32_t bit, double sc
     rto_status s = rto_image_compare(&ps->expected, &ps->actual, &d, &ps->oiio, &m);
     free(path);
     if (s)
-        return rto_fail(c->msg, s, "cannot write the diff image: %s", m.text);
+        return rto__fail(c->msg, s, "cannot write the diff image: %s", m.text);
     ps->have_oiio = 1;
     c->artifacts |= bit;
     return RTO_OK;
@@ -2065,7 +2065,7 @@ static rto_status write_artifacts(fcheck *c)
         return s;
     char *path = join(c->desc->artifact_dir, rto_frame_artifact_name(RTO_FRAME_ARTIFACT_LISTING));
     if (!path)
-        return rto_fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     s = write_listing(c, path);
     free(path);
     if (!s)
@@ -2085,41 +2085,41 @@ static void finish_report(fcheck *c)
         conflict += (c->mask[p] & RTO_PIXEL_CONFLICT) != 0;
         dropped += (c->mask[p] & (RTO_PIXEL_DROPPED | MASK_DROP_QUEUE)) != 0;
     }
-    rto_report_fact(r, "width", c->w);
-    rto_report_fact(r, "height", c->h);
-    rto_report_fact(r, "files_compared", (int64_t)c->files_compared);
-    rto_report_fact(r, "not_dumped", (int64_t)c->files_not_dumped);
-    rto_report_fact(r, "not_comparable", (int64_t)nc);
-    rto_report_fact(r, "rays_compared", (int64_t)c->rays_compared);
-    rto_report_fact(r, "accum_over", (int64_t)c->accum.over);
-    rto_report_fact(r, "image_over", (int64_t)c->image.over);
+    rto__report_fact(r, "width", c->w);
+    rto__report_fact(r, "height", c->h);
+    rto__report_fact(r, "files_compared", (int64_t)c->files_compared);
+    rto__report_fact(r, "not_dumped", (int64_t)c->files_not_dumped);
+    rto__report_fact(r, "not_comparable", (int64_t)nc);
+    rto__report_fact(r, "rays_compared", (int64_t)c->rays_compared);
+    rto__report_fact(r, "accum_over", (int64_t)c->accum.over);
+    rto__report_fact(r, "image_over", (int64_t)c->image.over);
     if (r->code == RTO_FRAME_OK) {
-        rto_report_summary(r, "ok: %" PRIu64 " file(s) of the GPU dump agree with the frame (%" PRIu64
+        rto__report_summary(r, "ok: %" PRIu64 " file(s) of the GPU dump agree with the frame (%" PRIu64
                            " rays compared)", c->files_compared, c->rays_compared);
         if (c->image.run && c->image.over)
-            rto_report_append(r, "; %" PRIu64 " image pixel(s) beyond +-1, within the %.3g %% allowed", c->image.over,
+            rto__report_append(r, "; %" PRIu64 " image pixel(s) beyond +-1, within the %.3g %% allowed", c->image.over,
                               c->fail_percent);
     } else if (c->nlater) {
-        rto_report_append(r, "; later:");
+        rto__report_append(r, "; later:");
         for (uint32_t i = 0; i < c->nlater; i++) {
             if (c->later[i].bounce >= 0)
-                rto_report_append(r, "%s %s at bounce %" PRId64, i ? "," : "", rto_frame_fault_name(c->later[i].f),
+                rto__report_append(r, "%s %s at bounce %" PRId64, i ? "," : "", rto_frame_fault_name(c->later[i].f),
                                   c->later[i].bounce);
             else
-                rto_report_append(r, "%s %s", i ? "," : "", rto_frame_fault_name(c->later[i].f));
+                rto__report_append(r, "%s %s", i ? "," : "", rto_frame_fault_name(c->later[i].f));
         }
     }
     if (nc)
-        rto_report_append(r, "; not comparable: %" PRIu64 " pixel(s) left out of accum and image (%" PRIu64
+        rto__report_append(r, "; not comparable: %" PRIu64 " pixel(s) left out of accum and image (%" PRIu64
                           " conflict, %" PRIu64 " drop)", nc, conflict, dropped);
     if (c->drop_queue != NONE32)
-        rto_report_append(r, "; queue %" PRIu32 " dropped %" PRIu32 " ray(s): it and later queues compared by counts "
+        rto__report_append(r, "; queue %" PRIu32 " dropped %" PRIu32 " ray(s): it and later queues compared by counts "
                           "only%s%s%s", c->drop_queue, c->cnt[c->drop_queue].dropped,
                           c->drop_skipped[0] ? " (not compared: " : "", c->drop_skipped, c->drop_skipped[0] ? ")" : "");
     if (c->skipped[0])
-        rto_report_append(r, "; not compared: %s", c->skipped);
+        rto__report_append(r, "; not compared: %s", c->skipped);
     if (c->not_dumped[0])
-        rto_report_append(r, "; not dumped: %s", c->not_dumped);
+        rto__report_append(r, "; not dumped: %s", c->not_dumped);
 }
 
 static void fcheck_free(fcheck *c)
@@ -2152,22 +2152,22 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
     if (artifacts)
         *artifacts = 0;
     if (!desc || !report)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL descriptor or report");
-    rto_report_begin(report, "check-frame");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL descriptor or report");
+    rto__report_begin(report, "check-frame");
     for (size_t k = 0; k < sizeof check_names / sizeof check_names[0]; k++)
-        rto_report_add_check(report, check_names[k]);
+        rto__report_add_check(report, check_names[k]);
     if (!desc->expected_dir || !desc->expected_dir[0])
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no expected frame bundle given");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "no expected frame bundle given");
     if (!desc->gpu_dir || !desc->gpu_dir[0])
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no GPU dump directory given");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "no GPU dump directory given");
     const double pct = desc->image_fail_percent_set ? desc->image_fail_percent : IMAGE_PERCENT_DEFAULT;
     if (!(pct >= 0.0 && pct <= 100.0))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "the image failure percentage %g is outside 0 .. 100", pct);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "the image failure percentage %g is outside 0 .. 100", pct);
     struct stat st;
     if (stat(desc->gpu_dir, &st) != 0)
-        return rto_fail(msg, RTO_ERR_IO, "GPU dump %s: %s", desc->gpu_dir, strerror(errno));
+        return rto__fail(msg, RTO_ERR_IO, "GPU dump %s: %s", desc->gpu_dir, strerror(errno));
     if (!S_ISDIR(st.st_mode))
-        return rto_fail(msg, RTO_ERR_IO, "GPU dump %s is not a directory (name the directory the dump's files are in)",
+        return rto__fail(msg, RTO_ERR_IO, "GPU dump %s is not a directory (name the directory the dump's files are in)",
                         desc->gpu_dir);
 
     fcheck c;
@@ -2183,7 +2183,7 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
     rto_msg m = {{0}};
     rto_status s = rto_bundle_open(desc->expected_dir, &c.b, &m);
     if (s) {
-        rto_fail(msg, s, "expected bundle: %s", m.text);
+        rto__fail(msg, s, "expected bundle: %s", m.text);
         goto out;
     }
     if ((s = read_manifest(&c)) || (s = read_frame_arrays(&c)) || (s = read_scale(&c)) ||
@@ -2204,7 +2204,7 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
     if ((s = step_accum(&c)) || (s = step_image(&c)))
         goto out;
     if (!c.files_compared) {
-        s = rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+        s = rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                      "GPU dump %s holds nothing to compare with the frame: none of its file names (emit_counts.npy, "
                      "indirect_args.npy, bounce_D_rays.npy, accum.npy, image.png, ...)%s%s", desc->gpu_dir,
                      c.skipped[0] ? " that the bundle keeps; not compared: " : "", c.skipped);
@@ -2217,7 +2217,7 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
                         c.hits_run, c.accum.run, c.image.run};
     for (size_t k = 0; k < 7; k++)
         if (ran[k])
-            rto_report_mark(report, check_names[k], RTO_CHECK_PASSED);
+            rto__report_mark(report, check_names[k], RTO_CHECK_PASSED);
     {
         const char *program = rto_bundle_get_str(c.b, "program", "name");
         const char *scene = rto_bundle_get_str(c.b, "", "scene");

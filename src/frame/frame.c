@@ -294,14 +294,14 @@ static rto_status apply_logs(run *r, uint32_t q, size_t *qcap, uint32_t row, rto
     size_t total = 0;
     for (uint32_t i = 0; i < r->nworkers; i++) {
         if (r->workers[i].oom)
-            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for the logs of a %s pass",
+            return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for the logs of a %s pass",
                             row == q ? "GENERATE" : "SHADE");
         total += r->workers[i].nrays;
     }
     const size_t room = (size_t)f->capacity - dst->count;
     const size_t store = total < room ? total : room;
     if (store && !grow_queue(dst, qcap, store, f->capacity, r->payload_words))
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays of queue %u", dst->count + store, q);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays of queue %u", dst->count + store, q);
     const size_t pixels = (size_t)f->width * f->height;
     for (uint32_t i = 0; i < r->nworkers; i++) {
         worker *w = &r->workers[i];
@@ -403,13 +403,13 @@ static rto_status resolve_params(const rto_frame_desc *desc, const rto_program *
         while (i < p->param_count && strcmp(p->params[i].name, o->name))
             i++;
         if (i == p->param_count)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "program %s has no parameter '%s'", p->name, o->name);
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "program %s has no parameter '%s'", p->name, o->name);
         if (o->count != p->params[i].count)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "parameter %s of program %s takes %u value%s, not %u",
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "parameter %s of program %s takes %u value%s, not %u",
                             o->name, p->name, p->params[i].count, p->params[i].count == 1 ? "" : "s", o->count);
         for (uint32_t c = 0; c < o->count; c++)
             if (!isfinite(o->value[c]))
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "parameter %s: value %u is not finite", o->name, c);
+                return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "parameter %s: value %u is not finite", o->name, c);
         memcpy(f->params[i].value, o->value, sizeof o->value);
     }
     return RTO_OK;
@@ -425,7 +425,7 @@ static const rto_aabb stage2_bounds = {{-10.0f, -2.0f, -10.0f}, {10.0f, 1.0f, 10
 rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg *msg)
 {
     if (!desc || !out || !desc->program)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL frame description, program or output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL frame description, program or output");
     *out = NULL;
     const rto_program *p = desc->program;
     rto_status s = rto_program_validate(p, msg);
@@ -433,19 +433,19 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
         return s;
     const int stage2 = desc->scene_kind == RTO_FRAME_SCENE_STAGE2;
     if (!stage2 && (desc->scene_kind != RTO_FRAME_SCENE_MESH || !desc->accel))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "a mesh frame needs an accel (or scene kind stage2)");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "a mesh frame needs an accel (or scene kind stage2)");
     if (!desc->width || !desc->height || (uint64_t)desc->width * desc->height > FRAME_MAX_PIXELS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "image size %ux%u: need 1 .. %llu pixels", desc->width,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "image size %ux%u: need 1 .. %llu pixels", desc->width,
                         desc->height, (unsigned long long)FRAME_MAX_PIXELS);
     const uint32_t depth = desc->max_depth ? desc->max_depth : p->max_depth;
     if (depth > 64)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "maxDepth %u: at most 64", depth);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "maxDepth %u: at most 64", depth);
     if (desc->keep & ~RTO_FRAME_KEEP_ALL)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown keep bits 0x%x", desc->keep & ~RTO_FRAME_KEEP_ALL);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown keep bits 0x%x", desc->keep & ~RTO_FRAME_KEEP_ALL);
 
     rto_frame *f = calloc(1, sizeof *f);
     if (!f)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for a frame");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for a frame");
     snprintf(f->program, sizeof f->program, "%s", p->name);
     f->width = desc->width;
     f->height = desc->height;
@@ -489,7 +489,7 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
                             rto__ray_offset(&bounds, &f->camera_uniforms), (const float(*)[4])params, NULL};
     r.nworkers = rto__thread_count(desc->threads);
     r.workers = calloc(r.nworkers, sizeof *r.workers);
-    r.acc_item = rto_alloc(pixels, sizeof *r.acc_item);
+    r.acc_item = rto__alloc(pixels, sizeof *r.acc_item);
     r.acc_pass = calloc(pixels, sizeof *r.acc_pass);
     if (!f->counters || !f->indirect_args || !f->queues || !f->accum || !f->image || !f->not_comparable ||
         !r.workers || !r.acc_item || !r.acc_pass) {
@@ -497,7 +497,7 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
         free(r.acc_item);
         free(r.acc_pass);
         rto_frame_destroy(f);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for a %ux%u frame", f->width, f->height);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for a %ux%u frame", f->width, f->height);
     }
     for (uint32_t i = 0; i < r.nworkers; i++) {
         r.workers[i].pub.api = &r.api;
@@ -509,7 +509,7 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
         char why[256] = "";
         inited = p->init(&r.env, &r.env.user, why, sizeof why);
         if (!inited)
-            s = rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s refuses the frame: %s", p->name,
+            s = rto__fail(msg, RTO_ERR_UNSUPPORTED, "program %s refuses the frame: %s", p->name,
                          why[0] ? why : "no reason given");
     }
     const double passes = 2.0 + 3.0 * depth;
@@ -563,7 +563,7 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
         if (keep_counters)
             q->trace_counters = rto__alloc_large(q->count, sizeof *q->trace_counters);
         if ((keep_hits ? !q->hits : !chunk_hits) || (keep_counters && !q->trace_counters)) {
-            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu hit records", keep_hits ? q->count
+            s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu hit records", keep_hits ? q->count
                                                                                                   : chunk_max);
             break;
         }
@@ -583,7 +583,7 @@ rto_status rto_frame_render(const rto_frame_desc *desc, rto_frame **out, rto_msg
                 const rto_trace_desc td = {desc->threads};
                 s = rto_trace(desc->accel, r.rays, n, &td, r.hits, r.trace_counters, msg);
                 if (s) {
-                    rto_fail(msg, s, "bounce %u: %s", d, msg ? msg->text : "tracing failed");
+                    rto__fail(msg, s, "bounce %u: %s", d, msg ? msg->text : "tracing failed");
                     break;
                 }
             }
@@ -709,7 +709,7 @@ int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg)
                  {"all", RTO_FRAME_KEEP_ALL},
                  {"none", 0}};
     if (!list || !keep) {
-        rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL stage list");
+        rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL stage list");
         return 0;
     }
     uint32_t bits = 0;
@@ -721,7 +721,7 @@ int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg)
         while (i < sizeof names / sizeof names[0] && (strlen(names[i].name) != len || strncmp(names[i].name, p, len)))
             i++;
         if (i == sizeof names / sizeof names[0]) {
-            rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+            rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                      "unknown stage '%.*s' (rays, hits, trace-counters, payloads, accum, accum-exr, lean, all, none)",
                      (int)len, p);
             return 0;

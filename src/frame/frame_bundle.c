@@ -11,7 +11,7 @@ static rto_status add(rto_bundle *b, rto_bundle_file f, uint32_t index, const ch
     char name[RTO_BUNDLE_FILE_NAME_MAX];
     rto_status s = rto_bundle_file_name(f, index, name, sizeof name);
     if (s)
-        return rto_fail(msg, s, "bundle file name");
+        return rto__fail(msg, s, "bundle file name");
     return rto_bundle_add_npy(b, name, rto_bundle_file_role(f), layout, d, data, msg);
 }
 
@@ -50,7 +50,7 @@ static void keep_text(uint32_t keep, char *text, size_t cap)
 rto_status rto_frame_write_bundle(const rto_frame *f, int with_timings, rto_bundle *b, rto_msg *msg)
 {
     if (!f || !b)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL frame or bundle");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL frame or bundle");
     const uint32_t rows = f->max_depth + 1;
     uint32_t emit[65];
     for (uint32_t d = 0; d < rows; d++)

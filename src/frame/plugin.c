@@ -17,19 +17,19 @@ struct rto_plugin {
 rto_status rto_plugin_load(const char *path, rto_plugin **out, rto_msg *msg)
 {
     if (!path || !out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL plugin path or output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL plugin path or output");
     *out = NULL;
     struct stat st;
     if (stat(path, &st))
-        return rto_fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
+        return rto__fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
     if (!S_ISREG(st.st_mode))
-        return rto_fail(msg, RTO_ERR_IO, "%s: not a regular file", path);
+        return rto__fail(msg, RTO_ERR_IO, "%s: not a regular file", path);
     /* A name without a slash would make dlopen search the library path: always name the file itself. */
     char *local = NULL;
     if (!strchr(path, '/')) {
         local = malloc(strlen(path) + 3);
         if (!local)
-            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         strcpy(local, "./");
         strcat(local, path);
     }
@@ -38,7 +38,7 @@ rto_status rto_plugin_load(const char *path, rto_plugin **out, rto_msg *msg)
     free(local);
     if (!h) {
         const char *e = dlerror();
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "%s: cannot load: %s", path, e ? e : "dlopen failed");
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: cannot load: %s", path, e ? e : "dlopen failed");
     }
     union {
         void *p;
@@ -46,19 +46,19 @@ rto_status rto_plugin_load(const char *path, rto_plugin **out, rto_msg *msg)
     } entry = {dlsym(h, RTO_PROGRAM_ENTRY_SYMBOL)};
     if (!entry.p) {
         dlclose(h);
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "%s: no %s symbol (not an rtoracle program plugin, or another ABI)",
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: no %s symbol (not an rtoracle program plugin, or another ABI)",
                         path, RTO_PROGRAM_ENTRY_SYMBOL);
     }
     const rto_program *prog = entry.f();
     rto_msg why = {{0}};
     if (rto_program_validate(prog, &why)) {
         dlclose(h);
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "%s: %s", path, why.text);
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: %s", path, why.text);
     }
     rto_plugin *pl = calloc(1, sizeof *pl);
     if (!pl) {
         dlclose(h);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     }
     pl->handle = h;
     pl->program = prog;

@@ -317,42 +317,42 @@ static int name_ok(const char *s, const char *extra)
 rto_status rto_program_validate(const rto_program *p, rto_msg *msg)
 {
     if (!p)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "no program");
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "no program");
     if (p->abi_version != RTO_PROGRAM_ABI_VERSION)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program ABI version %u (this rtoracle speaks %u)", p->abi_version,
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program ABI version %u (this rtoracle speaks %u)", p->abi_version,
                         RTO_PROGRAM_ABI_VERSION);
     if (!name_ok(p->name, "-"))
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program name must be 1-48 characters of a-z, 0-9 and '-'");
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program name must be 1-48 characters of a-z, 0-9 and '-'");
     /* A bundle names its program: another program under a built-in's name would be taken for it (check-frame holds
      * `triangle`'s accum to the barycentric rule, for one). */
     const rto_program *b = rto_program_builtin(p->name);
     if (b && b != p)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program name %s is taken by the built-in program", p->name);
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program name %s is taken by the built-in program", p->name);
     if (p->payload_size % 4 || p->payload_size > RTO_PAYLOAD_MAX)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s: payload size %u is not a multiple of 4 up to %d",
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program %s: payload size %u is not a multiple of 4 up to %d",
                         p->name, p->payload_size, RTO_PAYLOAD_MAX);
     if (p->max_depth < 1 || p->max_depth > 64)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s: default maxDepth %u is not 1 .. 64", p->name,
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program %s: default maxDepth %u is not 1 .. 64", p->name,
                         p->max_depth);
     if (!p->raygen)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s has no raygen", p->name);
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program %s has no raygen", p->name);
     if (p->param_count > RTO_PROGRAM_PARAMS_MAX || (p->param_count && !p->params))
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s: %u parameters (at most %d, with a table)", p->name,
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program %s: %u parameters (at most %d, with a table)", p->name,
                         p->param_count, RTO_PROGRAM_PARAMS_MAX);
     for (uint32_t i = 0; i < p->param_count; i++) {
         const rto_program_param *q = &p->params[i];
         if (!name_ok(q->name, "_") || strlen(q->name) >= sizeof(((rto_param_value *)0)->name))
-            return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s: parameter %u's name must be 1-31 of a-z, 0-9, '_'",
+            return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program %s: parameter %u's name must be 1-31 of a-z, 0-9, '_'",
                             p->name, i);
         if (q->count < 1 || q->count > 4)
-            return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s: parameter %s has %u values (1 .. 4)", p->name,
+            return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program %s: parameter %s has %u values (1 .. 4)", p->name,
                             q->name, q->count);
         for (uint32_t k = 0; k < i; k++)
             if (!strcmp(p->params[k].name, q->name))
-                return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s: parameter %s declared twice", p->name, q->name);
+                return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program %s: parameter %s declared twice", p->name, q->name);
         for (uint32_t c = 0; c < q->count; c++)
             if (!isfinite(q->value[c]))
-                return rto_fail(msg, RTO_ERR_UNSUPPORTED, "program %s: parameter %s's default is not finite", p->name,
+                return rto__fail(msg, RTO_ERR_UNSUPPORTED, "program %s: parameter %s's default is not finite", p->name,
                                 q->name);
     }
     return RTO_OK;

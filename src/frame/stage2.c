@@ -6,7 +6,7 @@
  * Transliteration rules (docs/frame.md, "The stage2 scene"):
  * - every WGSL expression keeps its evaluation order: `b * b - 4.0 * a * c` is (b*b) - ((4*a)*c), `center -
  *   halfExtents - ray.origin` is ((center - halfExtents) - origin), dot(a, b) is (a.x*b.x + a.y*b.y) + a.z*b.z;
- * - WGSL min / max on vec3 are rto_minf / rto_maxf per component (a < b ? a : b, a > b ? a : b): the same result as
+ * - WGSL min / max on vec3 are rto__minf / rto__maxf per component (a < b ? a : b, a > b ? a : b): the same result as
  *   any min / max for numbers, and a fixed choice for NaN, which WGSL leaves to the implementation;
  * - `1.0 / ray.direction` is IEEE division per component: a zero component gives +-inf, as WGSL on real GPUs (the
  *   seed has no clamp; DESIGN.md §2's 1e-20 clamp is the triangle tracer's, not this scene's). A ray whose origin
@@ -79,11 +79,11 @@ static int box_hit(const float o[3], const float d[3], const float center[3], co
         const float inv_dir = 1.0f / d[a];
         const float t0 = ((center[a] - half[a]) - o[a]) * inv_dir;
         const float t1 = ((center[a] + half[a]) - o[a]) * inv_dir;
-        t_min[a] = rto_minf(t0, t1);
-        t_max[a] = rto_maxf(t0, t1);
+        t_min[a] = rto__minf(t0, t1);
+        t_max[a] = rto__maxf(t0, t1);
     }
-    const float t_near = rto_maxf(rto_maxf(t_min[0], t_min[1]), t_min[2]);
-    const float t_far = rto_minf(rto_minf(t_max[0], t_max[1]), t_max[2]);
+    const float t_near = rto__maxf(rto__maxf(t_min[0], t_min[1]), t_min[2]);
+    const float t_far = rto__minf(rto__minf(t_max[0], t_max[1]), t_max[2]);
     if (t_near > t_far || t_far < 0.0f)
         return 0;
     float t = t_near;

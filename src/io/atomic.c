@@ -102,7 +102,7 @@ static void stop_signals(sigset_t *set)
 static atomic_int g_guard;
 static atomic_int g_deferred;
 
-void rto_signals_hold(sigset_t *old)
+void rto__signals_hold(sigset_t *old)
 {
     sigset_t set;
     stop_signals(&set);
@@ -134,7 +134,7 @@ static _Noreturn void stop_now(int sig)
     _exit(128 + sig); /* not reached: sig's default action ends the process */
 }
 
-void rto_signals_release(const sigset_t *old)
+void rto__signals_release(const sigset_t *old)
 {
     int sig = 0, zero = 0;
     if (atomic_fetch_sub(&g_guard, 1) == 1 && (sig = atomic_load(&g_deferred)) != 0 &&
@@ -288,7 +288,7 @@ static void remove_stale(const char *target)
     closedir(d);
 }
 
-rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp_out, int *fd_out, rto_msg *msg)
+rto_status rto__tmp_create(const char *target, bool is_dir, char **tmp_out, int *fd_out, rto_msg *msg)
 {
     *tmp_out = NULL;
     if (fd_out)
@@ -297,7 +297,7 @@ rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp_out, int *
     size_t len = strlen(target);
     char *tmp = malloc(len + 40);
     if (!tmp)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     int err = EEXIST;
     for (int attempt = 0; attempt < 100 && err == EEXIST; attempt++) {
         char suffix[7];
@@ -305,7 +305,7 @@ rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp_out, int *
         /* The PID lets a later run tell an abandoned temporary from a live one (remove_stale). */
         snprintf(tmp, len + 40, "%s.tmp.%ld-%s", target, (long)getpid(), suffix);
         sigset_t old;
-        rto_signals_hold(&old);
+        rto__signals_hold(&old);
         int fd = -1, ok;
         if (is_dir)
             ok = mkdir(tmp, 0777) == 0;
@@ -314,7 +314,7 @@ rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp_out, int *
         err = ok ? 0 : errno;
         if (ok)
             registry_add(tmp);
-        rto_signals_release(&old);
+        rto__signals_release(&old);
         if (ok) {
             *tmp_out = tmp;
             if (fd_out)
@@ -323,11 +323,11 @@ rto_status rto_tmp_create(const char *target, bool is_dir, char **tmp_out, int *
         }
     }
     free(tmp);
-    return rto_fail(msg, RTO_ERR_IO, "cannot create a temporary %s beside %s: %s", is_dir ? "directory" : "file",
+    return rto__fail(msg, RTO_ERR_IO, "cannot create a temporary %s beside %s: %s", is_dir ? "directory" : "file",
                     target, strerror(err));
 }
 
-void rto_tmp_forget(const char *tmp)
+void rto__tmp_forget(const char *tmp)
 {
     if (tmp)
         registry_remove(tmp);
@@ -344,18 +344,18 @@ static rto_status check_parent(const char *path, const char *what, rto_msg *msg)
     size_t n = slash == path ? 1 : (size_t)(slash - path);
     char *parent = strndup(path, n);
     if (!parent)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     struct stat st;
     rto_status s = RTO_OK;
     if (stat(parent, &st) != 0)
-        s = rto_fail(msg, RTO_ERR_IO, "cannot write %s %s: directory %s: %s", what, path, parent, strerror(errno));
+        s = rto__fail(msg, RTO_ERR_IO, "cannot write %s %s: directory %s: %s", what, path, parent, strerror(errno));
     else if (!S_ISDIR(st.st_mode))
-        s = rto_fail(msg, RTO_ERR_IO, "cannot write %s %s: %s is not a directory", what, path, parent);
+        s = rto__fail(msg, RTO_ERR_IO, "cannot write %s %s: %s is not a directory", what, path, parent);
     free(parent);
     return s;
 }
 
-rto_status rto_output_target(const char *path, bool is_dir, bool allow_special, char **where, bool *in_place,
+rto_status rto__output_target(const char *path, bool is_dir, bool allow_special, char **where, bool *in_place,
                              rto_msg *msg)
 {
     *where = NULL;
@@ -364,12 +364,12 @@ rto_status rto_output_target(const char *path, bool is_dir, bool allow_special, 
     struct stat st;
     if (lstat(path, &st) != 0) {
         if (errno != ENOENT)
-            return rto_fail(msg, RTO_ERR_IO, "cannot write %s %s: %s", what, path, strerror(errno));
+            return rto__fail(msg, RTO_ERR_IO, "cannot write %s %s: %s", what, path, strerror(errno));
         rto_status s = check_parent(path, what, msg);
         if (s)
             return s;
         *where = strdup(path);
-        return *where ? RTO_OK : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return *where ? RTO_OK : rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     }
     /* A link is followed to what it names (the link stays a link), and "." / ".." are named by their real path, so
      * the temporary sibling and the rename happen where the output really is. */
@@ -379,12 +379,12 @@ rto_status rto_output_target(const char *path, bool is_dir, bool allow_special, 
     if (S_ISLNK(st.st_mode) || !strcmp(base, ".") || !strcmp(base, "..") || !*base) {
         real = realpath(path, NULL);
         if (!real && errno == ENOMEM)
-            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         if (!real)
-            return rto_fail(msg, RTO_ERR_IO, "refusing to write %s %s: it is a symbolic link to a missing path (%s)",
+            return rto__fail(msg, RTO_ERR_IO, "refusing to write %s %s: it is a symbolic link to a missing path (%s)",
                             what, path, strerror(errno));
         if (stat(real, &st) != 0) {
-            rto_status s = rto_fail(msg, RTO_ERR_IO, "cannot write %s %s: %s", what, real, strerror(errno));
+            rto_status s = rto__fail(msg, RTO_ERR_IO, "cannot write %s %s: %s", what, real, strerror(errno));
             free(real);
             return s;
         }
@@ -392,12 +392,12 @@ rto_status rto_output_target(const char *path, bool is_dir, bool allow_special, 
     const char *arrow = real ? " -> " : "", *shown = real ? real : "";
     rto_status s = RTO_OK;
     if (is_dir && !S_ISDIR(st.st_mode))
-        s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s%s%s: it exists and is not a directory", path, arrow,
+        s = rto__fail(msg, RTO_ERR_IO, "refusing to replace %s%s%s: it exists and is not a directory", path, arrow,
                      shown);
     else if (!is_dir && S_ISDIR(st.st_mode))
-        s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s%s%s: it is a directory", path, arrow, shown);
+        s = rto__fail(msg, RTO_ERR_IO, "refusing to replace %s%s%s: it is a directory", path, arrow, shown);
     else if (!is_dir && !S_ISREG(st.st_mode) && !(allow_special && (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode))))
-        s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s%s%s: it is not a regular file", path, arrow, shown);
+        s = rto__fail(msg, RTO_ERR_IO, "refusing to replace %s%s%s: it is not a regular file", path, arrow, shown);
     else if (!is_dir && !S_ISREG(st.st_mode))
         *in_place = true; /* /dev/null, a pipe: written through the name as given, never unlinked */
     if (!s) {
@@ -408,39 +408,39 @@ rto_status rto_output_target(const char *path, bool is_dir, bool allow_special, 
         *where = real;
         real = NULL;
         if (!*where)
-            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     }
     free(real);
     return s;
 }
 
-rto_status rto_atomic_open(rto_atomic_file *f, const char *path, bool allow_special, rto_msg *msg)
+rto_status rto__atomic_open(rto_atomic_file *f, const char *path, bool allow_special, rto_msg *msg)
 {
     memset(f, 0, sizeof *f);
-    rto_status s = rto_output_target(path, false, allow_special, &f->path, &f->in_place, msg);
+    rto_status s = rto__output_target(path, false, allow_special, &f->path, &f->in_place, msg);
     if (s)
         return s;
     int fd = -1;
     if (f->in_place) {
         fd = open(f->path, O_WRONLY | O_CLOEXEC);
         if (fd < 0)
-            s = rto_fail(msg, RTO_ERR_IO, "cannot open %s: %s", path, strerror(errno));
+            s = rto__fail(msg, RTO_ERR_IO, "cannot open %s: %s", path, strerror(errno));
     } else {
-        s = rto_tmp_create(f->path, false, &f->tmp, &fd, msg);
+        s = rto__tmp_create(f->path, false, &f->tmp, &fd, msg);
     }
     if (!s) {
         f->fp = fdopen(fd, "wb");
         if (!f->fp) {
-            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot open a stream on %s: %s", path, strerror(errno));
+            s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot open a stream on %s: %s", path, strerror(errno));
             close(fd);
         }
     }
     if (s)
-        rto_atomic_discard(f);
+        rto__atomic_discard(f);
     return s;
 }
 
-rto_status rto_atomic_close(rto_atomic_file *f, rto_msg *msg)
+rto_status rto__atomic_close(rto_atomic_file *f, rto_msg *msg)
 {
     rto_status s = RTO_OK;
     errno = 0;
@@ -453,34 +453,34 @@ rto_status rto_atomic_close(rto_atomic_file *f, rto_msg *msg)
         }
         f->fp = NULL;
         if (bad)
-            s = rto_fail(msg, RTO_ERR_IO, "writing %s: %s", f->path, strerror(e ? e : EIO));
+            s = rto__fail(msg, RTO_ERR_IO, "writing %s: %s", f->path, strerror(e ? e : EIO));
     }
     if (!s && f->tmp) {
         sigset_t old;
-        rto_signals_hold(&old);
+        rto__signals_hold(&old);
         if (rename(f->tmp, f->path) != 0) {
-            s = rto_fail(msg, RTO_ERR_IO, "cannot rename %s to %s: %s", f->tmp, f->path, strerror(errno));
+            s = rto__fail(msg, RTO_ERR_IO, "cannot rename %s to %s: %s", f->tmp, f->path, strerror(errno));
         } else {
-            rto_tmp_forget(f->tmp);
+            rto__tmp_forget(f->tmp);
             free(f->tmp);
             f->tmp = NULL;
         }
-        rto_signals_release(&old);
+        rto__signals_release(&old);
     }
-    rto_atomic_discard(f);
+    rto__atomic_discard(f);
     return s;
 }
 
-void rto_atomic_discard(rto_atomic_file *f)
+void rto__atomic_discard(rto_atomic_file *f)
 {
     if (f->fp)
         fclose(f->fp);
     if (f->tmp) {
         sigset_t old;
-        rto_signals_hold(&old);
+        rto__signals_hold(&old);
         unlink(f->tmp);
-        rto_tmp_forget(f->tmp);
-        rto_signals_release(&old);
+        rto__tmp_forget(f->tmp);
+        rto__signals_release(&old);
     }
     free(f->tmp);
     free(f->path);
@@ -490,19 +490,19 @@ void rto_atomic_discard(rto_atomic_file *f)
 rto_status rto_file_write(const char *path, const void *data, size_t len, rto_msg *msg)
 {
     if (!path || (!data && len))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path or data");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path or data");
     rto_atomic_file f;
-    rto_status s = rto_atomic_open(&f, path, false, msg);
+    rto_status s = rto__atomic_open(&f, path, false, msg);
     if (s)
         return s;
     errno = 0;
     bool ok = fwrite(data, 1, len, f.fp) == len;
     if (!ok) {
         int e = errno;
-        rto_atomic_discard(&f);
-        return rto_fail(msg, RTO_ERR_IO, "writing %s: %s", path, strerror(e ? e : EIO));
+        rto__atomic_discard(&f);
+        return rto__fail(msg, RTO_ERR_IO, "writing %s: %s", path, strerror(e ? e : EIO));
     }
-    return rto_atomic_close(&f, msg);
+    return rto__atomic_close(&f, msg);
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
@@ -533,13 +533,13 @@ static bool is_bundle_dir(const char *dir)
 rto_status rto_output_check(const char *path, int is_dir, const char *const *inputs, size_t n, rto_msg *msg)
 {
     if (!path)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no output path given");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "no output path given");
     struct stat so;
     const bool exists = stat(path, &so) == 0;
     for (size_t i = 0; exists && i < n; i++) {
         struct stat si;
         if (inputs[i] && stat(inputs[i], &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "refusing to write %s: it is the input %s", path,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "refusing to write %s: it is the input %s", path,
                             inputs[i]);
     }
     /* The directory the output lands in (the output itself for a directory that exists), then each one above it. */
@@ -557,7 +557,7 @@ rto_status rto_output_check(const char *path, int is_dir, const char *const *inp
     rto_status s = RTO_OK;
     for (;;) {
         if (is_bundle_dir(dir)) {
-            s = rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+            s = rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                          "refusing to write %s: it is inside the bundle %s, which holds only the files its manifest "
                          "lists (write it elsewhere)", path, dir);
             break;

@@ -8,7 +8,7 @@
 
 static rto_status manifest_fail(rto_msg *msg)
 {
-    return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "cannot add a field to the manifest (out of memory, or text that "
+    return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "cannot add a field to the manifest (out of memory, or text that "
                     "is not UTF-8)");
 }
 
@@ -17,7 +17,7 @@ static rto_status add(rto_bundle *b, rto_bundle_file f, uint32_t mesh, const cha
 {
     char name[RTO_BUNDLE_FILE_NAME_MAX];
     if (rto_bundle_file_name(f, mesh, name, sizeof name))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no name for bundle file %d", (int)f);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "no name for bundle file %d", (int)f);
     return rto_bundle_add_npy(b, name, rto_bundle_file_role(f), layout, d, data, msg);
 }
 
@@ -37,9 +37,9 @@ static rto_status add_keys(rto_bundle *b, rto_bundle_file f, uint32_t mesh, rto_
 
 static rto_status write_tlas(const rto_accel_tlas *t, const rto_scene *sc, rto_bundle *b, rto_msg *msg)
 {
-    rto_instance_record *rec = rto_alloc(sc->instance_count, sizeof *rec);
+    rto_instance_record *rec = rto__alloc(sc->instance_count, sizeof *rec);
     if (!rec)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     for (uint32_t i = 0; i < sc->instance_count; i++)
         rec[i] = rto_instance_record_make(&sc->instances[i]);
     rto_status s = add_layout(b, RTO_FILE_INSTANCES, 0, RTO_LAYOUT_INSTANCE, sc->instance_count, rec, msg);
@@ -98,7 +98,7 @@ rto_status rto_accel_write_bundle(const rto_accel *accel, rto_bundle *b, rto_msg
 {
     const rto_scene *sc = rto_accel_scene(accel);
     if (!sc || !b)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel or bundle");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel or bundle");
     uint64_t triangles = 0, blas_nodes = 0;
     int bad = 0;
     for (uint32_t i = 0; i < sc->instance_count; i++)

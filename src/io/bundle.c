@@ -48,13 +48,13 @@ rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg)
     /* A bundle's file may be anything by now: a FIFO or a link to /dev/zero would hash forever. */
     uint64_t size;
     rto_status opened = RTO_OK;
-    FILE *fp = rto_open_regular(path, &size, &opened, msg);
+    FILE *fp = rto__open_regular(path, &size, &opened, msg);
     if (!fp)
         return opened;
     EVP_MD_CTX *ctx = EVP_MD_CTX_new();
     rto_status s = RTO_OK;
     if (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1) {
-        s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot start SHA-256");
+        s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot start SHA-256");
         goto out;
     }
     unsigned char buf[1 << 16];
@@ -62,7 +62,7 @@ rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg)
     while ((got = fread(buf, 1, sizeof buf, fp)) > 0)
         EVP_DigestUpdate(ctx, buf, got);
     if (ferror(fp)) {
-        s = rto_fail(msg, RTO_ERR_IO, "%s: read error", path);
+        s = rto__fail(msg, RTO_ERR_IO, "%s: read error", path);
         goto out;
     }
     unsigned char md[EVP_MAX_MD_SIZE];
@@ -142,7 +142,7 @@ static rto_status refuse(rto_msg *msg, const char *top, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(reason, sizeof reason, fmt, ap);
     va_end(ap);
-    return rto_fail(msg, RTO_ERR_IO, "refusing to replace %s: it is not an rtoracle bundle (%s)", top, reason);
+    return rto__fail(msg, RTO_ERR_IO, "refusing to replace %s: it is not an rtoracle bundle (%s)", top, reason);
 }
 
 /* Loads dir/manifest.json if it is an rtoracle bundle manifest of this format version, else says why not. */
@@ -151,7 +151,7 @@ static rto_status load_own_manifest(const char *dir, const char *top, json_t **o
     *out = NULL;
     char *path = rto__path_join(dir, "manifest.json");
     if (!path)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     struct stat st;
     json_t *root = NULL;
     json_error_t jerr;
@@ -162,7 +162,7 @@ static rto_status load_own_manifest(const char *dir, const char *top, json_t **o
         s = refuse(msg, top, "%s has %lld bytes", path, (long long)st.st_size);
     else if (!(root = json_load_file(path, JSON_REJECT_DUPLICATES, &jerr)))
         s = json_error_code(&jerr) == json_error_out_of_memory
-                ? rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: out of memory reading %s", top, path)
+                ? rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: out of memory reading %s", top, path)
                 : refuse(msg, top, "%s: %s", path, jerr.text);
     if (root) {
         const char *format = json_string_value(json_object_get(root, "format"));
@@ -192,7 +192,7 @@ static rto_status listed_entries(json_t *manifest, const char *dir, const char *
     json_t *set = json_object();
     *out = NULL;
     if (!set)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     static const struct {
         const char *list, *field;
         int is_file;
@@ -215,7 +215,7 @@ static rto_status listed_entries(json_t *manifest, const char *dir, const char *
             }
             if (json_object_set_new(set, name, json_boolean(kinds[k].is_file))) {
                 json_decref(set);
-                return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+                return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
             }
         }
     }
@@ -244,7 +244,7 @@ static rto_status scan_bundle(const char *dir, const char *top, int depth, bool 
         return s;
     DIR *d = opendir(dir);
     if (!d)
-        s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s: cannot list %s: %s", top, dir, strerror(errno));
+        s = rto__fail(msg, RTO_ERR_IO, "refusing to replace %s: cannot list %s: %s", top, dir, strerror(errno));
     for (struct dirent *e; !s && d && (e = readdir(d));) {
         const char *name = e->d_name;
         if (!strcmp(name, ".") || !strcmp(name, "..") || !strcmp(name, "manifest.json"))
@@ -252,11 +252,11 @@ static rto_status scan_bundle(const char *dir, const char *top, int depth, bool 
         json_t *kind = json_object_get(listed, name); /* NULL also for a name that is not UTF-8 */
         char *path = rto__path_join(dir, name);
         if (!path)
-            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         else if (!kind)
             s = refuse(msg, top, "%s is not listed in its manifest.json", path);
         else if (lstat(path, &st) != 0)
-            s = rto_fail(msg, RTO_ERR_IO, "refusing to replace %s: %s: %s", top, path, strerror(errno));
+            s = rto__fail(msg, RTO_ERR_IO, "refusing to replace %s: %s: %s", top, path, strerror(errno));
         else if (json_is_true(kind) && !S_ISREG(st.st_mode))
             s = refuse(msg, top, "%s is listed as a file but is not a regular file", path);
         else if (!json_is_true(kind) && depth + 1 >= BUNDLE_NEST_MAX)
@@ -309,7 +309,7 @@ static rto_status keep_error(rto_bundle *b, rto_status s, const rto_msg *why, co
         if (why && why->text[0])
             b->err_msg = *why;
         else
-            rto_fail(&b->err_msg, s, "%s: cannot record %s%s%s%s in manifest.json (%s)", b->name, what,
+            rto__fail(&b->err_msg, s, "%s: cannot record %s%s%s%s in manifest.json (%s)", b->name, what,
                      section && *section ? section : "", section && *section ? "." : "", key ? key : "(NULL)",
                      rto_status_string(s));
     }
@@ -497,21 +497,21 @@ rto_status rto_bundle_begin(const char *outdir, const char *kind, rto_bundle **o
 {
     *out = NULL;
     if (!outdir || !*outdir || !kind)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no output directory given");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "no output directory given");
     rto_bundle *b = calloc(1, sizeof *b);
     if (!b)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     size_t len = strlen(outdir);
     while (len > 1 && outdir[len - 1] == '/')
         len--;
     b->name = strndup(outdir, len);
     bool in_place = false;
-    rto_status s = b->name ? rto_output_target(b->name, true, false, &b->outdir, &in_place, msg)
-                           : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    rto_status s = b->name ? rto__output_target(b->name, true, false, &b->outdir, &in_place, msg)
+                           : rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     if (!s)
         s = check_replaceable(b->outdir, b->name, msg);
     if (!s)
-        s = rto_tmp_create(b->outdir, true, &b->tmpdir, NULL, msg);
+        s = rto__tmp_create(b->outdir, true, &b->tmpdir, NULL, msg);
     if (!s) {
         b->root = json_object();
         b->files = json_array();
@@ -522,7 +522,7 @@ rto_status rto_bundle_begin(const char *outdir, const char *kind, rto_bundle **o
         bad |= json_object_set_new(b->root, "tool_version", json_string(RTO_VERSION_STRING));
         bad |= json_object_set_new(b->root, "kind", json_string(kind));
         if (bad)
-            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot start manifest.json (out of memory)", b->name);
+            s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot start manifest.json (out of memory)", b->name);
     }
     if (s) {
         rto_bundle_abort(b);
@@ -571,7 +571,7 @@ rto_status rto_bundle_set_str(rto_bundle *b, const char *section, const char *ke
 {
     if (b && !value)
         return keep_error(b, RTO_ERR_INVALID_ARGUMENT, NULL, "", section, key);
-    return set_value(b, section, key, b ? rto_json_string(value) : NULL);
+    return set_value(b, section, key, b ? rto__json_string(value) : NULL);
 }
 
 rto_status rto_bundle_set_int(rto_bundle *b, const char *section, const char *key, int64_t value)
@@ -581,7 +581,7 @@ rto_status rto_bundle_set_int(rto_bundle *b, const char *section, const char *ke
 
 rto_status rto_bundle_set_real(rto_bundle *b, const char *section, const char *key, double value)
 {
-    return set_value(b, section, key, b ? rto_json_real(value) : NULL);
+    return set_value(b, section, key, b ? rto__json_real(value) : NULL);
 }
 
 /* Ends a file's manifest entry e with its sha256 and lists it; bad: building e failed already. */
@@ -590,7 +590,7 @@ static rto_status list_file(rto_bundle *b, const char *name, json_t *e, const ch
     bad |= json_object_set_new(e, "sha256", json_string(hex));
     bad |= json_array_append_new(b->files, e);
     if (bad)
-        return rto_fail(why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list %s in manifest.json (out of memory, or a name "
+        return rto__fail(why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list %s in manifest.json (out of memory, or a name "
                         "that is not UTF-8)", b->name, name);
     return RTO_OK;
 }
@@ -611,8 +611,8 @@ rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role,
     char *path = b && plain_name(name) && role && desc ? rto__path_join(b->tmpdir, name) : NULL;
     rto_status s = path ? RTO_OK
                  : b && plain_name(name) && role && desc
-                     ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
-                     : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
+                     ? rto__fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
+                     : rto__fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
     if (!s && b->share) {
         /* The file's bytes hashed in memory first: an identical file already written is linked to, else this one
          * is written (without hashing it again) and remembered. */
@@ -653,8 +653,8 @@ rto_status rto__bundle_add_image(rto_bundle *b, const char *name, const char *ro
     const bool valid = b && plain_name(name) && role && image && write;
     char *path = valid ? rto__path_join(b->tmpdir, name) : NULL;
     rto_status s = path    ? write(path, image, &why)
-                   : valid ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
-                           : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
+                   : valid ? rto__fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
+                           : rto__fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
     if (!s)
         s = rto_sha256_file(path, hex, &why);
     free(path);
@@ -681,8 +681,8 @@ rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case
     char *dir = valid ? rto__path_join(b->tmpdir, name) : NULL;
     char *m = dir ? rto__path_join(dir, "manifest.json") : NULL;
     rto_status s = m       ? rto_sha256_file(m, hex, &why)
-                   : valid ? rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
-                           : rto_fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad case '%s'", name ? name : "(null)");
+                   : valid ? rto__fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
+                           : rto__fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad case '%s'", name ? name : "(null)");
     free(dir);
     free(m);
     if (!s) {
@@ -697,7 +697,7 @@ rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case
         bad |= json_object_set_new(e, "manifest_sha256", json_string(hex));
         bad |= json_array_append_new(b->cases, e);
         if (bad)
-            s = rto_fail(&why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list case %s in manifest.json (out of memory, or a "
+            s = rto__fail(&why, RTO_ERR_OUT_OF_MEMORY, "%s: cannot list case %s in manifest.json (out of memory, or a "
                          "name that is not UTF-8)", b->name, name);
     }
     if (s && msg)
@@ -709,7 +709,7 @@ rto_status rto_bundle_set_request(rto_bundle *b, const char *request, const char
                                   rto_msg *msg)
 {
     if (!b || !request || (count && !sources))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle, request or sources");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle, request or sources");
     char *head = NULL;
     rto_status s = rto__stamp_head(request, sources, count, &head, msg);
     if (!s) {
@@ -725,7 +725,7 @@ void rto_bundle_abort(rto_bundle *b)
         return;
     if (b->tmpdir) {
         remove_tree(b->tmpdir);
-        rto_tmp_forget(b->tmpdir);
+        rto__tmp_forget(b->tmpdir);
     }
     json_decref(b->root);
     json_decref(b->files);
@@ -743,16 +743,16 @@ void rto_bundle_abort(rto_bundle *b)
 static rto_status write_manifest(rto_bundle *b, rto_msg *msg)
 {
     if (json_object_set(b->root, "files", b->files))
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot assemble manifest.json (out of memory)", b->name);
-    char *text = rto_json_text(b->root, JSON_INDENT(2));
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot assemble manifest.json (out of memory)", b->name);
+    char *text = rto__json_text(b->root, JSON_INDENT(2));
     if (!text)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot serialise manifest.json (out of memory)", b->name);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "%s: cannot serialise manifest.json (out of memory)", b->name);
     char *path = rto__path_join(b->tmpdir, "manifest.json");
     int fd = path ? open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666) : -1;
     FILE *fp = fd >= 0 ? fdopen(fd, "wb") : NULL;
     rto_status s = RTO_OK;
     if (!fp) {
-        s = rto_fail(msg, path ? RTO_ERR_IO : RTO_ERR_OUT_OF_MEMORY, "cannot write %s: %s",
+        s = rto__fail(msg, path ? RTO_ERR_IO : RTO_ERR_OUT_OF_MEMORY, "cannot write %s: %s",
                      path ? path : "manifest.json", strerror(errno));
         if (fd >= 0)
             close(fd);
@@ -765,7 +765,7 @@ static rto_status write_manifest(rto_bundle *b, rto_msg *msg)
             e = errno;
         }
         if (bad)
-            s = rto_fail(msg, RTO_ERR_IO, "cannot write %s: %s", path, strerror(e ? e : EIO));
+            s = rto__fail(msg, RTO_ERR_IO, "cannot write %s: %s", path, strerror(e ? e : EIO));
     }
     free(path);
     free(text);
@@ -783,38 +783,38 @@ static rto_status install(rto_bundle *b, rto_msg *msg)
 {
     rto_status s = RTO_OK;
     sigset_t old;
-    rto_signals_hold(&old);
+    rto__signals_hold(&old);
     struct stat st;
     if (lstat(b->outdir, &st) != 0 && errno == ENOENT) {
         /* rename replaces nothing but an empty directory that appeared meanwhile */
         if (rename(b->tmpdir, b->outdir) != 0)
-            s = rto_fail(msg, RTO_ERR_IO, "cannot rename %s to %s: %s", b->tmpdir, b->outdir, strerror(errno));
+            s = rto__fail(msg, RTO_ERR_IO, "cannot rename %s to %s: %s", b->tmpdir, b->outdir, strerror(errno));
     } else if (renameat2(AT_FDCWD, b->tmpdir, AT_FDCWD, b->outdir, RENAME_EXCHANGE) != 0) {
-        s = rto_fail(msg, RTO_ERR_IO, "cannot replace %s: %s", b->name, strerror(errno));
+        s = rto__fail(msg, RTO_ERR_IO, "cannot replace %s: %s", b->name, strerror(errno));
     } else if (empty_dir(b->tmpdir)) {
         rmdir(b->tmpdir);
     } else if ((s = scan_bundle(b->tmpdir, b->name, 0, true, msg)) != RTO_OK &&
                renameat2(AT_FDCWD, b->tmpdir, AT_FDCWD, b->outdir, RENAME_EXCHANGE) != 0) {
         /* The new bundle stays at outdir; what was there is left untouched under the temporary name. */
-        rto_fail(msg, RTO_ERR_IO, "%s changed while the bundle was written and could not be put back: it is now %s",
+        rto__fail(msg, RTO_ERR_IO, "%s changed while the bundle was written and could not be put back: it is now %s",
                  b->name, b->tmpdir);
-        rto_tmp_forget(b->tmpdir);
+        rto__tmp_forget(b->tmpdir);
         free(b->tmpdir);
         b->tmpdir = NULL;
     }
     if (!s) {
-        rto_tmp_forget(b->tmpdir);
+        rto__tmp_forget(b->tmpdir);
         free(b->tmpdir);
         b->tmpdir = NULL;
     }
-    rto_signals_release(&old);
+    rto__signals_release(&old);
     return s;
 }
 
 rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg)
 {
     if (!b)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle");
     rto_status s = b->err;
     if (s && msg)
         *msg = b->err_msg;
@@ -856,16 +856,16 @@ static rto_status validate_manifest(const char *dir, json_t *root, rto_msg *msg)
 {
     json_t *files = json_object_get(root, "files");
     if (!json_is_array(files))
-        return rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json has no files list", dir);
+        return rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json has no files list", dir);
     const size_t count = json_array_size(files);
     const char **names = calloc(count ? count : 1, sizeof *names);
     if (!names)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     rto_status s = RTO_OK;
     long long meshes = -1;
     json_t *jm = json_object_get(json_object_get(root, "counts"), "meshes");
     if (jm && (!json_is_integer(jm) || json_integer_value(jm) < 0 || json_integer_value(jm) > UINT32_MAX))
-        s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is not a count", dir);
+        s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is not a count", dir);
     else if (jm)
         meshes = json_integer_value(jm);
     size_t i;
@@ -877,11 +877,11 @@ static rto_status validate_manifest(const char *dir, json_t *root, rto_msg *msg)
         json_t *jn = json_object_get(e, "name");
         const char *name = json_string_value(jn);
         if (!json_is_object(e) || !name) {
-            s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: files entry %zu has no name", dir, i);
+            s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: files entry %zu has no name", dir, i);
             break;
         }
         if (!plain_name(name) || strlen(name) != json_string_length(jn)) {
-            s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: files entry %zu names '%.200s', not a plain file name "
+            s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: files entry %zu names '%.200s', not a plain file name "
                          "inside the bundle", dir, i, name);
             break;
         }
@@ -907,7 +907,7 @@ static rto_status validate_manifest(const char *dir, json_t *root, rto_msg *msg)
                 bad = 2;
             free(path);
             if (bad) {
-                s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: the shape of %.200s %s", dir, name,
+                s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: the shape of %.200s %s", dir, name,
                              bad == 2 ? "has more elements than the file has bytes"
                                       : "is not a list of non-negative integers with a product under 2^62");
                 break;
@@ -916,7 +916,7 @@ static rto_status validate_manifest(const char *dir, json_t *root, rto_msg *msg)
         for (int p = 0; p < 2 && meshes >= 0; p++) {
             const long long n = indexed_name(name, p ? "blas_" : "mesh_");
             if (n >= meshes) {
-                s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is %lld, but the bundle lists %s",
+                s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is %lld, but the bundle lists %s",
                              dir, meshes, name);
                 break;
             }
@@ -926,7 +926,7 @@ static rto_status validate_manifest(const char *dir, json_t *root, rto_msg *msg)
         qsort(names, count, sizeof *names, cmp_cstr);
         for (i = 1; i < count && !s; i++)
             if (strcmp(names[i - 1], names[i]) == 0)
-                s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json lists %.200s twice", dir, names[i]);
+                s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json lists %.200s twice", dir, names[i]);
     }
     /* Every mesh counted has its files, when the bundle holds mesh or BLAS files at all. */
     for (int p = 0; p < 2 && !s && meshes > 0; p++) {
@@ -934,7 +934,7 @@ static rto_status validate_manifest(const char *dir, json_t *root, rto_msg *msg)
         unsigned char *seen = calloc((size_t)meshes, 1);
         size_t listed = 0;
         if (!seen) {
-            s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
             break;
         }
         for (i = 0; i < count; i++) {
@@ -946,7 +946,7 @@ static rto_status validate_manifest(const char *dir, json_t *root, rto_msg *msg)
         }
         for (long long m = 0; listed && m < meshes && !s; m++)
             if (!seen[m])
-                s = rto_fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is %lld, but no %s%lld_ file is "
+                s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is %lld, but no %s%lld_ file is "
                              "listed", dir, meshes, prefix, m);
         free(seen);
     }
@@ -959,12 +959,12 @@ rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *ms
     *out = NULL;
     char *path = dir ? rto__path_join(dir, "manifest.json") : NULL;
     if (!path)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no bundle directory given");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "no bundle directory given");
     json_error_t err;
     /* Opened as a plain file first: json_load_file would wait for ever on a manifest.json that is a FIFO. */
     uint64_t size;
     rto_status opened = RTO_OK;
-    FILE *fp = rto_open_regular(path, &size, &opened, msg);
+    FILE *fp = rto__open_regular(path, &size, &opened, msg);
     if (!fp) {
         free(path);
         return opened;
@@ -972,7 +972,7 @@ rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *ms
     json_t *root = json_loadf(fp, JSON_REJECT_DUPLICATES, &err);
     fclose(fp);
     if (!root) {
-        rto_status s = rto_fail(msg, RTO_ERR_PARSE, "%s: %s (line %d)", path, err.text, err.line);
+        rto_status s = rto__fail(msg, RTO_ERR_PARSE, "%s: %s (line %d)", path, err.text, err.line);
         free(path);
         return s;
     }
@@ -981,10 +981,10 @@ rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *ms
     const char *format = json_string_value(json_object_get(root, "format"));
     json_t *version = json_object_get(root, "format_version");
     if (!format || strcmp(format, "rtoracle-bundle") != 0)
-        s = rto_fail(msg, RTO_ERR_PARSE, "%s is not an rtoracle bundle (manifest format '%s')", dir,
+        s = rto__fail(msg, RTO_ERR_PARSE, "%s is not an rtoracle bundle (manifest format '%s')", dir,
                      format ? format : "missing");
     else if (!json_is_integer(version) || json_integer_value(version) != RTO_BUNDLE_FORMAT_VERSION)
-        s = rto_fail(msg, RTO_ERR_UNSUPPORTED, "%s: bundle format version %lld is not supported (this rtoracle reads %d)",
+        s = rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: bundle format version %lld is not supported (this rtoracle reads %d)",
                      dir, json_is_integer(version) ? (long long)json_integer_value(version) : -1LL,
                      RTO_BUNDLE_FORMAT_VERSION);
     else
@@ -993,7 +993,7 @@ rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *ms
     if (!s && (!r || !(r->dir = strdup(dir)))) {
         free(r);
         r = NULL;
-        s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     }
     if (s) {
         json_decref(root);
@@ -1044,12 +1044,12 @@ static rto_status checked_path(rto_bundle_reader *r, const char *key, const char
         if (!v || strcmp(v, value) != 0)
             continue;
         if (!plain_name(name) || !sha)
-            return rto_fail(msg, RTO_ERR_PARSE, "%s: manifest entry '%s' lacks a plain name or sha256", r->dir, value);
+            return rto__fail(msg, RTO_ERR_PARSE, "%s: manifest entry '%s' lacks a plain name or sha256", r->dir, value);
         char *path = rto__path_join(r->dir, name);
         char hex[65];
-        rto_status s = path ? rto_sha256_file(path, hex, msg) : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        rto_status s = path ? rto_sha256_file(path, hex, msg) : rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         if (!s && strcmp(hex, sha) != 0)
-            s = rto_fail(msg, RTO_ERR_PARSE, "%s: sha256 %s does not match the manifest's %s (file changed?)", path,
+            s = rto__fail(msg, RTO_ERR_PARSE, "%s: sha256 %s does not match the manifest's %s (file changed?)", path,
                          hex, sha);
         if (s)
             free(path);
@@ -1057,7 +1057,7 @@ static rto_status checked_path(rto_bundle_reader *r, const char *key, const char
             *out = path;
         return s;
     }
-    return rto_fail(msg, RTO_ERR_IO, "%s: the bundle has no file with %s '%s'", r ? r->dir : "(null)", key, value);
+    return rto__fail(msg, RTO_ERR_IO, "%s: the bundle has no file with %s '%s'", r ? r->dir : "(null)", key, value);
 }
 
 /* Loads the file of the first manifest entry whose field `key` equals `value`, after checking its sha256. */
@@ -1075,7 +1075,7 @@ rto_status rto__bundle_checked_path(rto_bundle_reader *r, const char *name, char
 {
     *path = NULL;
     if (!r || !name)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle or name");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle or name");
     return checked_path(r, "name", name, path, msg);
 }
 

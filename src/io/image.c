@@ -30,7 +30,7 @@ static const rto_image_module *image_module(const char *what, rto_status *s, rto
     const char *error = "";
     const rto_image_module *m = rto__image_module(&error);
     if (!m)
-        *s = rto_fail(msg, RTO_ERR_UNSUPPORTED, "%s: %s", what, error);
+        *s = rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: %s", what, error);
     return m;
 }
 
@@ -50,17 +50,17 @@ static size_t pixel_bytes(rto_pixel_type t) { return t == RTO_PIXEL_U8 ? 1 : 4; 
 static rto_status image_check(const rto_image *im, const char *what, rto_msg *msg)
 {
     if (!im)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL %s image", what);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL %s image", what);
     if (im->type != RTO_PIXEL_U8 && im->type != RTO_PIXEL_F32)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s image: unknown pixel type %d", what, (int)im->type);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s image: unknown pixel type %d", what, (int)im->type);
     if (!im->width || !im->height || im->channels < 1 || im->channels > 4)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s image: %ux%u with %u channels (1 to 4 channels, at least "
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s image: %ux%u with %u channels (1 to 4 channels, at least "
                         "one pixel)", what, im->width, im->height, im->channels);
     if ((uint64_t)im->width * im->height > RTO_IMAGE_MODULE_MAX_PIXELS)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "%s image: %ux%u is more than 2^28 pixels", what, im->width,
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s image: %ux%u is more than 2^28 pixels", what, im->width,
                         im->height);
     if (!im->pixels)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s image: NULL pixels", what);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s image: NULL pixels", what);
     return RTO_OK;
 }
 
@@ -86,20 +86,20 @@ static rto_status load_file(const char *path, unsigned char **bytes, size_t *len
     *len = 0;
     uint64_t size = 0;
     rto_status s = RTO_OK;
-    FILE *fp = rto_open_regular(path, &size, &s, msg);
+    FILE *fp = rto__open_regular(path, &size, &s, msg);
     if (!fp)
         return s;
     if (size > IMAGE_MAX_FILE_BYTES || size > SIZE_MAX)
-        s = rto_fail(msg, RTO_ERR_UNSUPPORTED, "'%s' is %llu bytes, too large for an image of at most 2^28 pixels",
+        s = rto__fail(msg, RTO_ERR_UNSUPPORTED, "'%s' is %llu bytes, too large for an image of at most 2^28 pixels",
                      path, (unsigned long long)size);
     else if (size == 0)
-        s = rto_fail(msg, RTO_ERR_PARSE, "'%s' is empty", path);
-    unsigned char *buf = s ? NULL : rto_alloc((size_t)size, 1);
+        s = rto__fail(msg, RTO_ERR_PARSE, "'%s' is empty", path);
+    unsigned char *buf = s ? NULL : rto__alloc((size_t)size, 1);
     if (!s && !buf)
-        s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "'%s': out of memory for %llu bytes", path, (unsigned long long)size);
+        s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "'%s': out of memory for %llu bytes", path, (unsigned long long)size);
     /* One byte more than the size asked for: a file that grew since fstat is noticed rather than cut short. */
     if (!s && (fread(buf, 1, (size_t)size, fp) != (size_t)size || fgetc(fp) != EOF || ferror(fp)))
-        s = rto_fail(msg, RTO_ERR_IO, "'%s': read error (the file changed while it was read?)", path);
+        s = rto__fail(msg, RTO_ERR_IO, "'%s': read error (the file changed while it was read?)", path);
     fclose(fp);
     if (s) {
         free(buf);
@@ -122,12 +122,12 @@ static rto_status decode(const char *path, const unsigned char *bytes, size_t le
     rto_image info = {0};
     int code = m->probe(bytes, len, base_name(path), &info, why, sizeof why);
     if (code)
-        return rto_fail(msg, module_status(code), "'%s': %s", path, why);
+        return rto__fail(msg, module_status(code), "'%s': %s", path, why);
     if (info.channels < 1 || info.channels > 4)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "'%s': %u channels (1 to 4 are supported)", path, info.channels);
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "'%s': %u channels (1 to 4 are supported)", path, info.channels);
     const uint64_t pixels = (uint64_t)info.width * info.height;
     if (!pixels || pixels > RTO_IMAGE_MODULE_MAX_PIXELS)
-        return rto_fail(msg, pixels ? RTO_ERR_UNSUPPORTED : RTO_ERR_PARSE, "'%s': %ux%u %s", path, info.width,
+        return rto__fail(msg, pixels ? RTO_ERR_UNSUPPORTED : RTO_ERR_PARSE, "'%s': %ux%u %s", path, info.width,
                         info.height, pixels ? "is more than 2^28 pixels" : "is empty");
     const uint64_t need = pixels * info.channels * pixel_bytes(info.type);
     if (!budget) {
@@ -135,18 +135,18 @@ static rto_status decode(const char *path, const unsigned char *bytes, size_t le
         return RTO_OK;
     }
     if (need > budget)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "'%s': %ux%u with %u channel%s of %s needs %llu MiB decoded, over "
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "'%s': %ux%u with %u channel%s of %s needs %llu MiB decoded, over "
                         "the budget of %llu MiB", path, info.width, info.height, info.channels,
                         info.channels == 1 ? "" : "s", info.type == RTO_PIXEL_U8 ? "8 bits" : "float",
                         (unsigned long long)((need + (1u << 20) - 1) >> 20), (unsigned long long)(budget >> 20));
-    info.pixels = rto_alloc((size_t)pixels * info.channels, pixel_bytes(info.type));
+    info.pixels = rto__alloc((size_t)pixels * info.channels, pixel_bytes(info.type));
     if (!info.pixels)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "'%s': out of memory for %ux%u pixels", path, info.width,
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "'%s': out of memory for %ux%u pixels", path, info.width,
                         info.height);
     code = m->read(bytes, len, base_name(path), &info, why, sizeof why);
     if (code) {
         free(info.pixels);
-        return rto_fail(msg, module_status(code), "'%s': %s", path, why);
+        return rto__fail(msg, module_status(code), "'%s': %s", path, why);
     }
     *out = info;
     return RTO_OK;
@@ -156,10 +156,10 @@ static rto_status decode(const char *path, const unsigned char *bytes, size_t le
 static rto_status read_with(const char *path, size_t budget, rto_image *out, rto_msg *msg)
 {
     if (!out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output image");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output image");
     memset(out, 0, sizeof *out);
     if (!path)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
     unsigned char *bytes = NULL;
     size_t len = 0;
     rto_status s = load_file(path, &bytes, &len, msg);
@@ -192,16 +192,16 @@ void rto_image_free(rto_image *image)
 rto_status rto_image_write(const char *path, const rto_image *image, rto_msg *msg)
 {
     if (!path || !*path)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "no image path given");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "no image path given");
     rto_status s = image_check(image, "output", msg);
     if (s)
         return s;
     const bool exr = has_ext(path, ".exr");
     if (!exr && !has_ext(path, ".png"))
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "cannot write %s: images are written as .png (8-bit) or .exr "
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "cannot write %s: images are written as .png (8-bit) or .exr "
                         "(32-bit float)", path);
     if (image->type != (exr ? RTO_PIXEL_F32 : RTO_PIXEL_U8))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "cannot write %s: %s holds %s pixels", path,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "cannot write %s: %s holds %s pixels", path,
                         exr ? "OpenEXR" : "PNG", exr ? "32-bit float" : "8-bit");
     unsigned char *bytes = NULL;
     size_t len = 0;
@@ -212,11 +212,11 @@ rto_status rto_image_write(const char *path, const rto_image *image, rto_msg *ms
         char why[256] = "";
         int code = m->encode(image, exr, &bytes, &len, why, sizeof why);
         if (code)
-            s = rto_fail(msg, module_status(code), "cannot encode %s: %s", path, why);
+            s = rto__fail(msg, module_status(code), "cannot encode %s: %s", path, why);
     } else if ((s = rto__png_encode(image, &bytes, &len, msg))) {
         char why[sizeof msg->text];
         snprintf(why, sizeof why, "%s", msg ? msg->text : "PNG encoding failed");
-        s = rto_fail(msg, s, "cannot encode %s: %s", path, why);
+        s = rto__fail(msg, s, "cannot encode %s: %s", path, why);
     }
     if (!s)
         s = rto_file_write(path, bytes, len, msg);
@@ -230,7 +230,7 @@ rto_status rto_image_write(const char *path, const rto_image *image, rto_msg *ms
 static rto_status threshold(double v, double def, const char *name, double *out, rto_msg *msg)
 {
     if (!(v >= 0) || !isfinite(v))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s = %g: expected a finite number >= 0", name, v);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s = %g: expected a finite number >= 0", name, v);
     *out = v > 0 ? v : def;
     return RTO_OK;
 }
@@ -238,7 +238,7 @@ static rto_status threshold(double v, double def, const char *name, double *out,
 static rto_status percent(double v, const char *name, rto_msg *msg)
 {
     if (!(v >= 0 && v <= 100))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s = %g: expected a percentage 0 .. 100", name, v);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s = %g: expected a percentage 0 .. 100", name, v);
     return RTO_OK;
 }
 
@@ -246,7 +246,7 @@ rto_status rto_image_compare(const rto_image *expected, const rto_image *actual,
                              rto_image_compare_result *result, rto_msg *msg)
 {
     if (!result)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL result");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL result");
     memset(result, 0, sizeof *result);
     rto_image_compare_desc d = {0};
     if (desc)
@@ -280,13 +280,13 @@ rto_status rto_image_compare(const rto_image *expected, const rto_image *actual,
     if (d.diff_path) {
         const bool exr = has_ext(d.diff_path, ".exr");
         if (!exr && !has_ext(d.diff_path, ".png"))
-            return rto_fail(msg, RTO_ERR_UNSUPPORTED, "cannot write the diff image %s: it must be a .png or .exr",
+            return rto__fail(msg, RTO_ERR_UNSUPPORTED, "cannot write the diff image %s: it must be a .png or .exr",
                             d.diff_path);
         diff = *expected;
         diff.type = exr ? RTO_PIXEL_F32 : RTO_PIXEL_U8;
-        diff.pixels = rto_alloc((size_t)diff.width * diff.height * diff.channels, pixel_bytes(diff.type));
+        diff.pixels = rto__alloc((size_t)diff.width * diff.height * diff.channels, pixel_bytes(diff.type));
         if (!diff.pixels)
-            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for the diff image");
+            return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for the diff image");
     }
     const rto_image_module *m = image_module("cannot compare images", &s, msg);
     if (m) {
@@ -294,7 +294,7 @@ rto_status rto_image_compare(const rto_image *expected, const rto_image *actual,
         int code = m->compare(expected, actual, fail, warn, scale, d.diff_path ? &diff : NULL, result, why,
                               sizeof why);
         if (code)
-            s = rto_fail(msg, module_status(code), "cannot compare the images: %s", why);
+            s = rto__fail(msg, module_status(code), "cannot compare the images: %s", why);
     }
     if (!s) {
         /* The verdict of Debian's idiff 2.4.7 (OpenImageIO 2.4.7), measured on a table of cases (tests/cli_compare.sh
@@ -328,7 +328,7 @@ rto_status rto_bundle_add_image(rto_bundle *b, const char *name, const char *rol
 rto_status rto_bundle_read_image(rto_bundle_reader *r, const char *name, rto_image *out, rto_msg *msg)
 {
     if (!out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output image");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output image");
     memset(out, 0, sizeof *out);
     char *path = NULL;
     rto_status s = rto__bundle_checked_path(r, name, &path, msg);

@@ -150,7 +150,7 @@ rto_status rto_layout_accept(rto_layout layout, const rto_npy *npy, size_t *coun
 {
     const char *name = rto_layout_name(layout);
     if (!name || !npy || !count)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown layout %d or NULL array", (int)layout);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown layout %d or NULL array", (int)layout);
     const size_t rec = rto_layout_size(layout), words = rec / 4;
     const rto_npy_desc *d = &npy->desc, want = rto_layout_desc(layout, 0);
     if (d->dtype == RTO_DTYPE_STRUCT) {
@@ -159,13 +159,13 @@ rto_status rto_layout_accept(rto_layout layout, const rto_npy *npy, size_t *coun
             same = d->fields[i].type == want.fields[i].type && d->fields[i].count == want.fields[i].count &&
                    d->fields[i].offset == want.fields[i].offset;
         if (!same)
-            return rto_fail(msg, RTO_ERR_PARSE, "a structured dump must be 1-D with the %s layout (%zu bytes)", name,
+            return rto__fail(msg, RTO_ERR_PARSE, "a structured dump must be 1-D with the %s layout (%zu bytes)", name,
                             rec);
         *count = (size_t)d->shape[0];
         return RTO_OK;
     }
     if (d->dtype != RTO_DTYPE_U32 && d->dtype != RTO_DTYPE_F32)
-        return rto_fail(msg, RTO_ERR_PARSE, "expected %s records, a (count, %zu) or a flat uint32/float32 array", name,
+        return rto__fail(msg, RTO_ERR_PARSE, "expected %s records, a (count, %zu) or a flat uint32/float32 array", name,
                         words);
     if (d->ndim == 2 && d->shape[1] == words) {
         *count = (size_t)d->shape[0];
@@ -175,7 +175,7 @@ rto_status rto_layout_accept(rto_layout layout, const rto_npy *npy, size_t *coun
         *count = (size_t)(d->shape[0] / words);
         return RTO_OK;
     }
-    return rto_fail(msg, RTO_ERR_PARSE, "a raw %s dump must have shape (count, %zu) or a multiple of %zu words", name,
+    return rto__fail(msg, RTO_ERR_PARSE, "a raw %s dump must have shape (count, %zu) or a multiple of %zu words", name,
                     words, words);
 }
 

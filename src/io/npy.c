@@ -204,44 +204,44 @@ uint64_t rto_npy_count(const rto_npy_desc *desc, int *ok)
 static rto_status check_desc(const rto_npy_desc *d, rto_msg *msg)
 {
     if (!d)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL array description");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL array description");
     if (d->ndim > RTO_NPY_MAX_DIMS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "ndim %u exceeds the maximum of %d", d->ndim,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "ndim %u exceeds the maximum of %d", d->ndim,
                         RTO_NPY_MAX_DIMS);
     if (scalar_find(d->dtype))
         return RTO_OK;
     if (d->dtype != RTO_DTYPE_STRUCT)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "invalid dtype %d", (int)d->dtype);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "invalid dtype %d", (int)d->dtype);
     if (d->nfields == 0 || d->nfields > RTO_NPY_MAX_FIELDS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "a structured dtype needs 1 to %d fields, got %u",
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "a structured dtype needs 1 to %d fields, got %u",
                         RTO_NPY_MAX_FIELDS, d->nfields);
     uint64_t offset = 0;
     for (uint32_t i = 0; i < d->nfields; i++) {
         const rto_npy_field *f = &d->fields[i];
         const char *nul = memchr(f->name, '\0', sizeof f->name);
         if (!nul)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "field %u: name is not NUL-terminated within %d bytes", i,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "field %u: name is not NUL-terminated within %d bytes", i,
                             RTO_NPY_NAME_MAX);
         if (nul == f->name)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "field %u has an empty name", i);
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "field %u has an empty name", i);
         for (const char *c = f->name; c < nul; c++)
             if (!name_char_ok((unsigned char)*c))
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+                return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                                 "field %u: names must be printable ASCII without quotes or backslashes", i);
         for (uint32_t j = 0; j < i; j++)
             if (strcmp(d->fields[j].name, f->name) == 0)
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "duplicate field name '%s'", f->name);
+                return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "duplicate field name '%s'", f->name);
         const scalar_info *s = scalar_find(f->type);
         if (!s)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "field '%s': invalid dtype %d", f->name, (int)f->type);
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "field '%s': invalid dtype %d", f->name, (int)f->type);
         if (f->count == 0)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "field '%s': count must be at least 1", f->name);
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "field '%s': count must be at least 1", f->name);
         if (f->offset != offset)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "field '%s': offset %u, but packed fields put it at %llu",
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "field '%s': offset %u, but packed fields put it at %llu",
                             f->name, f->offset, (unsigned long long)offset);
         offset += (uint64_t)f->count * s->size;
         if (offset > NPY_MAX_RECORD)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "record size exceeds %ld bytes", (long)NPY_MAX_RECORD);
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "record size exceeds %ld bytes", (long)NPY_MAX_RECORD);
     }
     return RTO_OK;
 }
@@ -331,7 +331,7 @@ static const char *found(const parser *ps, char *buf, size_t cap)
 static rto_status expected(parser *ps, const char *what)
 {
     char buf[16];
-    return rto_fail(ps->msg, RTO_ERR_PARSE, "header: expected %s at offset %zu, found %s", what, ps->pos,
+    return rto__fail(ps->msg, RTO_ERR_PARSE, "header: expected %s at offset %zu, found %s", what, ps->pos,
                     found(ps, buf, sizeof buf));
 }
 
@@ -354,18 +354,18 @@ static rto_status parse_string(parser *ps, token *t, const char *what)
     size_t start = ps->pos;
     for (;;) {
         if (ps->pos >= ps->end)
-            return rto_fail(ps->msg, RTO_ERR_PARSE, "header: unterminated string at offset %zu", t->at);
+            return rto__fail(ps->msg, RTO_ERR_PARSE, "header: unterminated string at offset %zu", t->at);
         unsigned char c = ps->p[ps->pos];
         if (c == q)
             break;
         if (c == '\n' || c == '\r')
-            return rto_fail(ps->msg, RTO_ERR_PARSE, "header: unterminated string at offset %zu", t->at);
+            return rto__fail(ps->msg, RTO_ERR_PARSE, "header: unterminated string at offset %zu", t->at);
         /* Escapes and non-ASCII are legal Python but never needed by a supported dtype or field name. */
         if (c == '\\')
-            return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED,
+            return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED,
                             "header: escape sequences in strings are not supported (offset %zu)", ps->pos);
         if (c < 0x20 || c >= 0x7f)
-            return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED,
+            return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED,
                             "header: non-ASCII or control byte 0x%02x in a string at offset %zu is not supported",
                             (unsigned)c, ps->pos);
         ps->pos++;
@@ -380,7 +380,7 @@ static rto_status parse_uint(parser *ps, uint64_t *v)
 {
     int c = peek(ps);
     if (c == '-')
-        return rto_fail(ps->msg, RTO_ERR_PARSE, "header: negative integer at offset %zu", ps->pos);
+        return rto__fail(ps->msg, RTO_ERR_PARSE, "header: negative integer at offset %zu", ps->pos);
     if (c < '0' || c > '9')
         return expected(ps, "a non-negative integer");
     size_t at = ps->pos;
@@ -388,13 +388,13 @@ static rto_status parse_uint(parser *ps, uint64_t *v)
     while (ps->pos < ps->end && ps->p[ps->pos] >= '0' && ps->p[ps->pos] <= '9') {
         unsigned d = (unsigned)(ps->p[ps->pos] - '0');
         if (x > (UINT64_MAX - d) / 10)
-            return rto_fail(ps->msg, RTO_ERR_PARSE, "header: integer at offset %zu does not fit in 64 bits", at);
+            return rto__fail(ps->msg, RTO_ERR_PARSE, "header: integer at offset %zu does not fit in 64 bits", at);
         x = x * 10 + d;
         ps->pos++;
     }
     /* Python 3 rejects "05"; so does numpy, so accepting it would make files only this reader loads. */
     if (ps->p[at] == '0' && ps->pos - at > 1)
-        return rto_fail(ps->msg, RTO_ERR_PARSE, "header: integer with a leading zero at offset %zu", at);
+        return rto__fail(ps->msg, RTO_ERR_PARSE, "header: integer with a leading zero at offset %zu", at);
     *v = x;
     return RTO_OK;
 }
@@ -425,7 +425,7 @@ static rto_status parse_tuple(parser *ps, uint64_t *dims, uint32_t cap, uint32_t
         if (c == ')') {
             ps->pos++;
             if (n == 1)
-                return rto_fail(ps->msg, RTO_ERR_PARSE,
+                return rto__fail(ps->msg, RTO_ERR_PARSE,
                                 "header: '(%llu)' at offset %zu is an integer, not a tuple (write '(%llu,)')",
                                 (unsigned long long)v, at, (unsigned long long)v);
             break;
@@ -472,8 +472,8 @@ static rto_status scalar_from_token(parser *ps, const token *t, rto_dtype *type)
             return RTO_OK;
         }
     if (t->n > 0 && t->s[0] == '>')
-        return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "big-endian dtype " TOK_FMT " is not supported", TOK_ARG(*t));
-    return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "unknown dtype " TOK_FMT " (supported: '|u1', '<u4', '<u8', "
+        return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "big-endian dtype " TOK_FMT " is not supported", TOK_ARG(*t));
+    return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "unknown dtype " TOK_FMT " (supported: '|u1', '<u4', '<u8', "
                     "'<i4', '<f4')", TOK_ARG(*t));
 }
 
@@ -482,34 +482,34 @@ static rto_status parse_field(parser *ps, rto_npy_desc *d, uint64_t *offset)
 {
     uint32_t index = d->nfields;
     if (peek(ps) == '[')
-        return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "fields written as lists rather than tuples are not supported "
+        return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "fields written as lists rather than tuples are not supported "
                         "(offset %zu)", ps->pos);
     rto_status s = expect(ps, '(', "'(' to start a field");
     if (s != RTO_OK)
         return s;
     if (peek(ps) == '(')
-        return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "field titles ((title, name) pairs) are not supported "
+        return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "field titles ((title, name) pairs) are not supported "
                         "(offset %zu)", ps->pos);
     token name;
     if ((s = parse_string(ps, &name, "a field name")) != RTO_OK)
         return s;
     if (name.n == 0)
-        return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "field %u has an empty name (padding fields are not "
+        return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "field %u has an empty name (padding fields are not "
                         "supported)", index);
     if (name.n >= RTO_NPY_NAME_MAX)
-        return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "field name " TOK_FMT " is longer than %d characters",
+        return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "field name " TOK_FMT " is longer than %d characters",
                         TOK_ARG(name), RTO_NPY_NAME_MAX - 1);
     for (size_t i = 0; i < name.n; i++)
         if (!name_char_ok((unsigned char)name.s[i]))
-            return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "field name " TOK_FMT " contains a quote character",
+            return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "field name " TOK_FMT " contains a quote character",
                             TOK_ARG(name));
     for (uint32_t j = 0; j < index; j++)
         if (tok_is(&name, d->fields[j].name))
-            return rto_fail(ps->msg, RTO_ERR_PARSE, "duplicate field name " TOK_FMT, TOK_ARG(name));
+            return rto__fail(ps->msg, RTO_ERR_PARSE, "duplicate field name " TOK_FMT, TOK_ARG(name));
     if ((s = expect(ps, ',', "',' after the field name")) != RTO_OK)
         return s;
     if (peek(ps) == '[')
-        return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "nested structured field " TOK_FMT " is not supported",
+        return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "nested structured field " TOK_FMT " is not supported",
                         TOK_ARG(name));
     token type;
     rto_dtype t = RTO_DTYPE_NONE;
@@ -526,17 +526,17 @@ static rto_status parse_field(parser *ps, rto_npy_desc *d, uint64_t *offset)
             if ((s = parse_tuple(ps, &dim, 1, &n, "a subarray shape")) != RTO_OK)
                 return s;
             if (n != 1)
-                return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "field " TOK_FMT ": subarray shapes of %u dimensions "
+                return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "field " TOK_FMT ": subarray shapes of %u dimensions "
                                 "are not supported (only (n,))", TOK_ARG(name), n);
             if (dim == 0)
-                return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "field " TOK_FMT ": zero-length subarrays are not "
+                return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "field " TOK_FMT ": zero-length subarrays are not "
                                 "supported", TOK_ARG(name));
             count = dim;
             if (peek(ps) == ',')
                 ps->pos++;
             c = peek(ps);
         } else if (c >= '0' && c <= '9') {
-            return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "field " TOK_FMT ": a subarray shape must be a tuple such "
+            return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "field " TOK_FMT ": a subarray shape must be a tuple such "
                             "as (3,) (offset %zu)", TOK_ARG(name), ps->pos);
         } else if (c != ')') {
             return expected(ps, "a subarray shape or ')'");
@@ -548,7 +548,7 @@ static rto_status parse_field(parser *ps, rto_npy_desc *d, uint64_t *offset)
     uint64_t size = rto_dtype_size(t);
     /* count is bounded first so that count * size cannot wrap. */
     if (count > NPY_MAX_RECORD || *offset + count * size > NPY_MAX_RECORD)
-        return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "record size exceeds %ld bytes at field " TOK_FMT,
+        return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "record size exceeds %ld bytes at field " TOK_FMT,
                         (long)NPY_MAX_RECORD, TOK_ARG(name));
     rto_npy_field *f = &d->fields[index];
     memcpy(f->name, name.s, name.n);
@@ -578,13 +578,13 @@ static rto_status parse_descr(parser *ps, rto_npy_desc *d)
         c = peek(ps);
         if (c == ']') {
             if (d->nfields == 0)
-                return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "structured dtype with no fields (offset %zu) is not "
+                return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "structured dtype with no fields (offset %zu) is not "
                                 "supported", at);
             ps->pos++;
             return RTO_OK;
         }
         if (d->nfields == RTO_NPY_MAX_FIELDS)
-            return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "structured dtype has more than %d fields",
+            return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "structured dtype has more than %d fields",
                             RTO_NPY_MAX_FIELDS);
         rto_status s = parse_field(ps, d, &offset);
         if (s != RTO_OK)
@@ -620,11 +620,11 @@ static rto_status parse_header(parser *ps, rto_npy_desc *d)
         while (k < KEY_COUNT && !tok_is(&key, header_keys[k]))
             k++;
         if (k == KEY_COUNT)
-            return rto_fail(ps->msg, RTO_ERR_PARSE, "header: unexpected key " TOK_FMT " at offset %zu",
+            return rto__fail(ps->msg, RTO_ERR_PARSE, "header: unexpected key " TOK_FMT " at offset %zu",
                             TOK_ARG(key), key.at);
         /* Python keeps the last of duplicate keys; refusing them avoids guessing which one a writer meant. */
         if (have[k])
-            return rto_fail(ps->msg, RTO_ERR_PARSE, "header: duplicate key '%s' at offset %zu", header_keys[k],
+            return rto__fail(ps->msg, RTO_ERR_PARSE, "header: duplicate key '%s' at offset %zu", header_keys[k],
                             key.at);
         have[k] = true;
         if ((s = expect(ps, ':', "':'")) != RTO_OK)
@@ -635,12 +635,12 @@ static rto_status parse_header(parser *ps, rto_npy_desc *d)
             bool fortran = false;
             s = parse_bool(ps, &fortran);
             if (s == RTO_OK && fortran)
-                return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "fortran_order arrays are not supported");
+                return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "fortran_order arrays are not supported");
         } else {
             uint32_t n = 0;
             s = parse_tuple(ps, d->shape, RTO_NPY_MAX_DIMS, &n, "a tuple for 'shape'");
             if (s == RTO_OK && n > RTO_NPY_MAX_DIMS)
-                return rto_fail(ps->msg, RTO_ERR_UNSUPPORTED, "shape has %u dimensions; at most %d are supported", n,
+                return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "shape has %u dimensions; at most %d are supported", n,
                                 RTO_NPY_MAX_DIMS);
             d->ndim = n;
         }
@@ -658,29 +658,29 @@ static rto_status parse_header(parser *ps, rto_npy_desc *d)
     }
     if (peek(ps) != -1) {
         char buf[16];
-        return rto_fail(ps->msg, RTO_ERR_PARSE, "header: unexpected %s at offset %zu after the closing '}'",
+        return rto__fail(ps->msg, RTO_ERR_PARSE, "header: unexpected %s at offset %zu after the closing '}'",
                         found(ps, buf, sizeof buf), ps->pos);
     }
     for (int k = 0; k < KEY_COUNT; k++)
         if (!have[k])
-            return rto_fail(ps->msg, RTO_ERR_PARSE, "header: missing key '%s'", header_keys[k]);
+            return rto__fail(ps->msg, RTO_ERR_PARSE, "header: missing key '%s'", header_keys[k]);
     return RTO_OK;
 }
 
 rto_status rto_npy_parse(const void *buf, size_t len, rto_npy *out, rto_msg *msg)
 {
     if (!out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
     memset(out, 0, sizeof *out);
     if (!buf && len)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL buffer of %zu bytes", len);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL buffer of %zu bytes", len);
     if (len == 0)
-        return rto_fail(msg, RTO_ERR_PARSE, "truncated: empty file");
+        return rto__fail(msg, RTO_ERR_PARSE, "truncated: empty file");
     const unsigned char *p = buf;
     if (memcmp(p, npy_magic, len < sizeof npy_magic ? len : sizeof npy_magic) != 0)
-        return rto_fail(msg, RTO_ERR_PARSE, "bad magic: not a .npy file");
+        return rto__fail(msg, RTO_ERR_PARSE, "bad magic: not a .npy file");
     if (len < 8)
-        return rto_fail(msg, RTO_ERR_PARSE, "truncated: %zu bytes end inside the .npy preamble", len);
+        return rto__fail(msg, RTO_ERR_PARSE, "truncated: %zu bytes end inside the .npy preamble", len);
     unsigned major = p[6], minor = p[7];
     size_t pre;
     if (major == 1 && minor == 0)
@@ -688,15 +688,15 @@ rto_status rto_npy_parse(const void *buf, size_t len, rto_npy *out, rto_msg *msg
     else if ((major == 2 || major == 3) && minor == 0)
         pre = 12; /* 3.0 differs from 2.0 only in allowing UTF-8 in the header, which this reader refuses anyway */
     else
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "unsupported .npy version %u.%u", major, minor);
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "unsupported .npy version %u.%u", major, minor);
     if (len < pre)
-        return rto_fail(msg, RTO_ERR_PARSE, "truncated: %zu bytes end inside the %zu-byte .npy %u.0 preamble", len,
+        return rto__fail(msg, RTO_ERR_PARSE, "truncated: %zu bytes end inside the %zu-byte .npy %u.0 preamble", len,
                         pre, major);
     uint64_t hlen = (uint64_t)p[8] | (uint64_t)p[9] << 8;
     if (pre == 12)
         hlen |= (uint64_t)p[10] << 16 | (uint64_t)p[11] << 24;
     if (hlen > len - pre)
-        return rto_fail(msg, RTO_ERR_PARSE, "truncated: header length is %llu bytes but only %zu bytes follow the "
+        return rto__fail(msg, RTO_ERR_PARSE, "truncated: header length is %llu bytes but only %zu bytes follow the "
                         "preamble", (unsigned long long)hlen, len - pre);
 
     rto_npy_desc d;
@@ -713,22 +713,22 @@ rto_status rto_npy_parse(const void *buf, size_t len, rto_npy *out, rto_msg *msg
     char shape[128];
     format_shape(&d, shape, sizeof shape);
     if (!ok)
-        return rto_fail(msg, RTO_ERR_PARSE, "truncated: shape %s has 2^64 or more elements but %zu data bytes follow",
+        return rto__fail(msg, RTO_ERR_PARSE, "truncated: shape %s has 2^64 or more elements but %zu data bytes follow",
                         shape, avail);
     if (count > UINT64_MAX / item)
-        return rto_fail(msg, RTO_ERR_PARSE, "truncated: header says %llu elements of %llu bytes (2^64 bytes or more) "
+        return rto__fail(msg, RTO_ERR_PARSE, "truncated: header says %llu elements of %llu bytes (2^64 bytes or more) "
                         "but %zu data bytes follow", (unsigned long long)count, (unsigned long long)item, avail);
     uint64_t nbytes = count * item;
     if (nbytes > avail)
-        return rto_fail(msg, RTO_ERR_PARSE, "truncated: header says %llu elements (%llu bytes) but %zu data bytes "
+        return rto__fail(msg, RTO_ERR_PARSE, "truncated: header says %llu elements (%llu bytes) but %zu data bytes "
                         "follow", (unsigned long long)count, (unsigned long long)nbytes, avail);
     if (nbytes < avail)
-        return rto_fail(msg, RTO_ERR_PARSE, "trailing garbage: %llu bytes after the data",
+        return rto__fail(msg, RTO_ERR_PARSE, "trailing garbage: %llu bytes after the data",
                         (unsigned long long)(avail - nbytes));
 
-    void *data = rto_alloc((size_t)nbytes, 1);
+    void *data = rto__alloc((size_t)nbytes, 1);
     if (!data)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot allocate %llu bytes for the array data",
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot allocate %llu bytes for the array data",
                         (unsigned long long)nbytes);
     memcpy(data, p + ps.end, (size_t)nbytes);
     out->desc = d;
@@ -748,32 +748,32 @@ void rto_npy_free(rto_npy *npy)
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Files */
 
-FILE *rto_open_regular(const char *path, uint64_t *size, rto_status *status, rto_msg *msg)
+FILE *rto__open_regular(const char *path, uint64_t *size, rto_status *status, rto_msg *msg)
 {
     /* O_NONBLOCK: open() of a FIFO waits for a writer, so without it a FIFO would hang the command before fstat
      * could refuse it. On a regular file the flag changes nothing; it is cleared anyway before the stream is made. */
     int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
     if (fd < 0) {
-        *status = rto_fail(msg, RTO_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+        *status = rto__fail(msg, RTO_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
         return NULL;
     }
     struct stat st;
     int flags;
     if (fstat(fd, &st) != 0 || (flags = fcntl(fd, F_GETFL)) < 0) {
-        *status = rto_fail(msg, RTO_ERR_IO, "cannot stat '%s': %s", path, strerror(errno));
+        *status = rto__fail(msg, RTO_ERR_IO, "cannot stat '%s': %s", path, strerror(errno));
         close(fd);
         return NULL;
     }
     /* The size of a FIFO or a device is unknown (/dev/zero never ends): only plain files are inputs. */
     if (!S_ISREG(st.st_mode)) {
-        *status = rto_fail(msg, RTO_ERR_IO, S_ISDIR(st.st_mode) ? "'%s' is a directory" : "'%s' is not a regular file",
+        *status = rto__fail(msg, RTO_ERR_IO, S_ISDIR(st.st_mode) ? "'%s' is a directory" : "'%s' is not a regular file",
                            path);
         close(fd);
         return NULL;
     }
     FILE *fp = fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) == 0 ? fdopen(fd, "rb") : NULL;
     if (!fp) {
-        *status = rto_fail(msg, RTO_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+        *status = rto__fail(msg, RTO_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
         close(fd);
         return NULL;
     }
@@ -784,25 +784,25 @@ FILE *rto_open_regular(const char *path, uint64_t *size, rto_status *status, rto
 rto_status rto_npy_read(const char *path, rto_npy *out, rto_msg *msg)
 {
     if (!out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
     memset(out, 0, sizeof *out);
     if (!path)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
     uint64_t file_size = 0;
     rto_status opened = RTO_OK;
-    FILE *fp = rto_open_regular(path, &file_size, &opened, msg);
+    FILE *fp = rto__open_regular(path, &file_size, &opened, msg);
     if (!fp)
         return opened;
     if (file_size > NPY_MAX_FILE_BYTES || file_size > SIZE_MAX) {
         fclose(fp);
-        return rto_fail(msg, RTO_ERR_IO, "'%s' is %llu bytes; files over 16 GiB are refused", path,
+        return rto__fail(msg, RTO_ERR_IO, "'%s' is %llu bytes; files over 16 GiB are refused", path,
                         (unsigned long long)file_size);
     }
     size_t size = (size_t)file_size;
-    unsigned char *buf = rto_alloc(size, 1);
+    unsigned char *buf = rto__alloc(size, 1);
     if (!buf) {
         fclose(fp);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot allocate %zu bytes to read '%s'", size, path);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot allocate %zu bytes to read '%s'", size, path);
     }
     size_t got = fread(buf, 1, size, fp);
     int e = errno;
@@ -813,14 +813,14 @@ rto_status rto_npy_read(const char *path, rto_npy *out, rto_msg *msg)
     if (bad || changed) {
         free(buf);
         if (bad)
-            return rto_fail(msg, RTO_ERR_IO, "reading '%s': %s", path, strerror(e));
-        return rto_fail(msg, RTO_ERR_IO, "'%s' changed size while being read", path);
+            return rto__fail(msg, RTO_ERR_IO, "reading '%s': %s", path, strerror(e));
+        return rto__fail(msg, RTO_ERR_IO, "'%s' changed size while being read", path);
     }
     rto_msg inner = {{0}};
     rto_status s = rto_npy_parse(buf, size, out, &inner);
     free(buf);
     if (s != RTO_OK)
-        return rto_fail(msg, s, "%s: %s", path, inner.text);
+        return rto__fail(msg, s, "%s: %s", path, inner.text);
     return RTO_OK;
 }
 
@@ -871,7 +871,7 @@ static rto_status npy_prepare(const char *path, const rto_npy_desc *desc, const 
                               size_t *plen, size_t *nbytes, rto_msg *msg)
 {
     if (!path)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path");
     rto_status s = check_desc(desc, msg);
     if (s != RTO_OK)
         return s;
@@ -881,15 +881,15 @@ static rto_status npy_prepare(const char *path, const rto_npy_desc *desc, const 
     if (!ok || (item && count > UINT64_MAX / item) || count * item > SIZE_MAX) {
         char shape[128];
         format_shape(desc, shape, sizeof shape);
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "shape %s of %llu-byte elements does not fit in memory", shape,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shape %s of %llu-byte elements does not fit in memory", shape,
                         (unsigned long long)item);
     }
     *nbytes = (size_t)(count * item);
     if (!data && *nbytes)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL data for %zu bytes", *nbytes);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL data for %zu bytes", *nbytes);
     *plen = build_preamble(desc, pre);
     if (*plen == 0)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "header for '%s' is too long", path);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "header for '%s' is too long", path);
     return RTO_OK;
 }
 
@@ -904,16 +904,16 @@ rto_status rto_npy_write(const char *path, const rto_npy_desc *desc, const void 
     /* Atomically through a temporary sibling (io/atomic.c): a reader never sees half a file and a failed write
      * leaves the previous file intact. /dev/null or a FIFO is written through and never unlinked. */
     rto_atomic_file f;
-    s = rto_atomic_open(&f, path, true, msg);
+    s = rto__atomic_open(&f, path, true, msg);
     if (s != RTO_OK)
         return s;
     errno = 0;
     if (fwrite(pre, 1, plen, f.fp) != plen || (nbytes && fwrite(data, 1, nbytes, f.fp) != nbytes)) {
         int e = errno;
-        rto_atomic_discard(&f);
-        return rto_fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(e ? e : EIO));
+        rto__atomic_discard(&f);
+        return rto__fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(e ? e : EIO));
     }
-    return rto_atomic_close(&f, msg);
+    return rto__atomic_close(&f, msg);
 }
 
 /* The file's bytes are the preamble then the data: both writers and the hasher go through these two parts. */
@@ -927,7 +927,7 @@ rto_status rto__npy_hash(const char *name, const rto_npy_desc *desc, const void 
                          uint64_t *file_bytes, rto_msg *msg)
 {
     if (!hex || !file_bytes)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hex or size");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hex or size");
     unsigned char pre[NPY_HEADER_CAP];
     size_t plen = 0, nbytes = 0;
     rto_status s = npy_prepare(name, desc, data, pre, &plen, &nbytes, msg);
@@ -941,7 +941,7 @@ rto_status rto__npy_hash(const char *name, const rto_npy_desc *desc, const void 
              mdlen == 32;
     EVP_MD_CTX_free(ctx);
     if (!ok)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot compute SHA-256");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot compute SHA-256");
     hex_digest(md, hex);
     *file_bytes = (uint64_t)plen + nbytes;
     return RTO_OK;
@@ -958,12 +958,12 @@ rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, con
     EVP_MD_CTX *ctx = hex ? EVP_MD_CTX_new() : NULL;
     if (hex && (!ctx || EVP_DigestInit_ex(ctx, EVP_sha256(), NULL) != 1)) {
         EVP_MD_CTX_free(ctx);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot start SHA-256");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "cannot start SHA-256");
     }
     int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0) {
         EVP_MD_CTX_free(ctx);
-        return rto_fail(msg, RTO_ERR_IO, "cannot create %s: %s", path, strerror(errno));
+        return rto__fail(msg, RTO_ERR_IO, "cannot create %s: %s", path, strerror(errno));
     }
     /* The bytes are hashed as they go out, in the same chunks, while they are still in cache. */
     const unsigned char *parts[2] = {pre, data};
@@ -993,7 +993,7 @@ rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, con
     EVP_MD_CTX_free(ctx);
     if (err) {
         unlink(path); /* ours: created above with O_EXCL */
-        return rto_fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(err));
+        return rto__fail(msg, RTO_ERR_IO, "writing '%s': %s", path, strerror(err));
     }
     if (hex)
         hex_digest(md, hex);
@@ -1003,13 +1003,13 @@ rto_status rto__npy_write_hashed(const char *path, const rto_npy_desc *desc, con
 rto_status rto_npy_as_keys(const rto_npy *npy, rto_key_format *f, size_t *n, rto_msg *msg)
 {
     if (!npy || !f || !n)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL argument");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL argument");
     const rto_npy_desc *d = &npy->desc;
     if (d->ndim == 1 && (d->dtype == RTO_DTYPE_U32 || d->dtype == RTO_DTYPE_U64)) {
         uint64_t size = rto_dtype_size(d->dtype);
         /* A hand-filled rto_npy could disagree with itself; keys are read through data, so check it covers them. */
         if (d->shape[0] > SIZE_MAX / size || npy->nbytes != d->shape[0] * size || (!npy->data && npy->nbytes))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "array of %llu keys holds %zu data bytes",
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "array of %llu keys holds %zu data bytes",
                             (unsigned long long)d->shape[0], npy->nbytes);
         *f = d->dtype == RTO_DTYPE_U32 ? RTO_KEY_U32 : RTO_KEY_U64;
         *n = (size_t)d->shape[0];
@@ -1019,14 +1019,14 @@ rto_status rto_npy_as_keys(const rto_npy *npy, rto_key_format *f, size_t *n, rto
     format_shape(d, shape, sizeof shape);
     const scalar_info *s = scalar_find(d->dtype);
     if (s)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                         "expected a 1-D array of uint32 or uint64 keys, got %s with shape %s", s->name, shape);
     char descr[NPY_HEADER_CAP];
     if (d->dtype == RTO_DTYPE_STRUCT && rto_npy_descr(d, descr, sizeof descr) == RTO_OK)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                         "expected a 1-D array of uint32 or uint64 keys, got structured dtype %s with shape %s", descr,
                         shape);
-    return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+    return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                     "expected a 1-D array of uint32 or uint64 keys, got invalid dtype %d with shape %s", (int)d->dtype,
                     shape);
 }

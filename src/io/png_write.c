@@ -50,7 +50,7 @@ rto_status rto__png_encode(const rto_image *im, unsigned char **bytes, size_t *l
     *bytes = NULL;
     *len = 0;
     if (im->type != RTO_PIXEL_U8 || im->channels < 1 || im->channels > 4)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "a PNG holds 1 to 4 channels of 8-bit pixels");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "a PNG holds 1 to 4 channels of 8-bit pixels");
     /* on the heap, and the pointer never changed after setjmp: its contents are sure after a longjmp */
     png_out *const o = calloc(1, sizeof *o);
     png_structp png = o ? png_create_write_struct(PNG_LIBPNG_VER_STRING, o, on_error, on_warning) : NULL;
@@ -58,14 +58,14 @@ rto_status rto__png_encode(const rto_image *im, unsigned char **bytes, size_t *l
     if (!info) {
         png_destroy_write_struct(&png, NULL);
         free(o);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for a PNG encoder");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for a PNG encoder");
     }
     /* volatile: read after a longjmp */
     png_bytep *volatile rows = NULL;
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         free(rows);
-        rto_status s = rto_fail(msg, strstr(o->why, "memory") ? RTO_ERR_OUT_OF_MEMORY : RTO_ERR_IO,
+        rto_status s = rto__fail(msg, strstr(o->why, "memory") ? RTO_ERR_OUT_OF_MEMORY : RTO_ERR_IO,
                                 "PNG encoding: %s", o->why);
         free(o->bytes);
         free(o);

@@ -350,7 +350,7 @@ rto_status rto__stamp_head(const char *request, const char *const *sources, size
 {
     *out = NULL;
     if (!request)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL request");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL request");
     if (!g_build[0])
         return RTO_OK; /* no build identity: bundles go unstamped */
     char req[65];
@@ -358,7 +358,7 @@ rto_status rto__stamp_head(const char *request, const char *const *sources, size
     size_t len = 0;
     char *text = malloc(256);
     if (!text)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     len = (size_t)snprintf(text, 256, "rtoracle-stamp 1\nbuild %s\nrequest %s\n", g_build, req);
     for (size_t i = 0; i < count; i++) {
         /* A name the one-line text cannot hold, or more than fits: the bundle goes unstamped (rewritten each run). */
@@ -380,7 +380,7 @@ rto_status rto__stamp_head(const char *request, const char *const *sources, size
         if (!grown) {
             free(line);
             free(text);
-            return line ? RTO_OK : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            return line ? RTO_OK : rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         }
         text = grown;
         memcpy(text + len, line, n + 1);

@@ -21,10 +21,10 @@ rto_aabb rto_mesh_triangle_aabb(const rto_mesh *m, uint32_t t)
 rto_status rto_blas_keys_from_boxes(const rto_aabb *boxes, size_t n, uint64_t *keys, rto_msg *msg)
 {
     if (n && (!boxes || !keys))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL boxes or keys");
-    rto_vec3 *c = rto_alloc(n, sizeof *c);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL boxes or keys");
+    rto_vec3 *c = rto__alloc(n, sizeof *c);
     if (!c)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     for (size_t t = 0; t < n; t++)
         c[t] = rto_aabb_centroid(&boxes[t]);
     rto_status s = rto_blas_keys(c, n, keys, msg);
@@ -35,10 +35,10 @@ rto_status rto_blas_keys_from_boxes(const rto_aabb *boxes, size_t n, uint64_t *k
 rto_status rto_mesh_keys(const rto_mesh *mesh, uint64_t *keys, rto_msg *msg)
 {
     if (!mesh || (mesh->triangle_count && !keys))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL mesh or keys");
-    rto_aabb *b = rto_alloc(mesh->triangle_count, sizeof *b);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL mesh or keys");
+    rto_aabb *b = rto__alloc(mesh->triangle_count, sizeof *b);
     if (!b)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     for (uint32_t t = 0; t < mesh->triangle_count; t++)
         b[t] = rto_mesh_triangle_aabb(mesh, t);
     rto_status s = rto_blas_keys_from_boxes(b, mesh->triangle_count, keys, msg);
@@ -49,16 +49,16 @@ rto_status rto_mesh_keys(const rto_mesh *mesh, uint64_t *keys, rto_msg *msg)
 rto_status rto_tlas_keys_from_boxes(const rto_aabb *boxes, size_t n, uint32_t *keys, size_t *key_count, rto_msg *msg)
 {
     if (!key_count || (n && (!boxes || !keys)))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL boxes, keys or key count");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL boxes, keys or key count");
     *key_count = 0;
     if (n > RTO_TLAS_MAX_INSTANCES)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu instances: a TLAS key indexes at most %u", n,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu instances: a TLAS key indexes at most %u", n,
                         RTO_TLAS_MAX_INSTANCES);
-    rto_vec3 *c = rto_alloc(n, sizeof *c);
-    uint32_t *index = rto_alloc(n, sizeof *index);
+    rto_vec3 *c = rto__alloc(n, sizeof *c);
+    uint32_t *index = rto__alloc(n, sizeof *index);
     rto_status s = RTO_OK;
     if (!c || !index)
-        s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     /* An empty box (the world box of an instance of an empty BLAS) has no centroid: it gets no key, and the
      * quantisation bounds are those of the keyed boxes only (DESIGN.md §5). */
     size_t m = 0;
@@ -69,7 +69,7 @@ rto_status rto_tlas_keys_from_boxes(const rto_aabb *boxes, size_t n, uint32_t *k
         index[m++] = (uint32_t)i;
     }
     if (!s)
-        s = rto_tlas_keys_indexed(c, index, m, keys, msg);
+        s = rto__tlas_keys_indexed(c, index, m, keys, msg);
     if (!s)
         *key_count = m;
     free(c);
@@ -90,15 +90,15 @@ void rto__key_part_init(rto__key_part *p)
     p->bad = 0;
 }
 
-/* u = u ∪ b, the later operand kept when equal (rto_minf / rto_maxf). */
+/* u = u ∪ b, the later operand kept when equal (rto__minf / rto__maxf). */
 static inline void union_into(rto_aabb *u, const rto_aabb *b)
 {
-    u->min.x = rto_minf(u->min.x, b->min.x);
-    u->min.y = rto_minf(u->min.y, b->min.y);
-    u->min.z = rto_minf(u->min.z, b->min.z);
-    u->max.x = rto_maxf(u->max.x, b->max.x);
-    u->max.y = rto_maxf(u->max.y, b->max.y);
-    u->max.z = rto_maxf(u->max.z, b->max.z);
+    u->min.x = rto__minf(u->min.x, b->min.x);
+    u->min.y = rto__minf(u->min.y, b->min.y);
+    u->min.z = rto__minf(u->min.z, b->min.z);
+    u->max.x = rto__maxf(u->max.x, b->max.x);
+    u->max.y = rto__maxf(u->max.y, b->max.y);
+    u->max.z = rto__maxf(u->max.z, b->max.z);
 }
 
 /* One item into a part: its box into the union, its centroid c into the centroid bounds (the earlier kept when
@@ -114,7 +114,7 @@ static inline void part_add(rto__key_part *p, const rto_aabb *b, const float c[3
 }
 
 /* Both folds are associative with their tie rules, so parts merged in range order give the sequential bytes: the
- * union keeps the later operand when equal (rto_minf), the centroid bounds the earlier (centroid_bounds). */
+ * union keeps the later operand when equal (rto__minf), the centroid bounds the earlier (centroid_bounds). */
 void rto__key_part_merge(rto__key_part *into, const rto__key_part *p)
 {
     union_into(&into->u, &p->u);
@@ -136,12 +136,12 @@ void rto__blas_boxes_part(const rto_mesh *mesh, size_t begin, size_t end, rto_aa
         const float *p0 = &pos[3 * (size_t)idx[3 * t]], *p1 = &pos[3 * (size_t)idx[3 * t + 1]],
                     *p2 = &pos[3 * (size_t)idx[3 * t + 2]];
         rto_aabb b;
-        b.min.x = rto_minf(rto_minf(p0[0], p1[0]), p2[0]);
-        b.min.y = rto_minf(rto_minf(p0[1], p1[1]), p2[1]);
-        b.min.z = rto_minf(rto_minf(p0[2], p1[2]), p2[2]);
-        b.max.x = rto_maxf(rto_maxf(p0[0], p1[0]), p2[0]);
-        b.max.y = rto_maxf(rto_maxf(p0[1], p1[1]), p2[1]);
-        b.max.z = rto_maxf(rto_maxf(p0[2], p1[2]), p2[2]);
+        b.min.x = rto__minf(rto__minf(p0[0], p1[0]), p2[0]);
+        b.min.y = rto__minf(rto__minf(p0[1], p1[1]), p2[1]);
+        b.min.z = rto__minf(rto__minf(p0[2], p1[2]), p2[2]);
+        b.max.x = rto__maxf(rto__maxf(p0[0], p1[0]), p2[0]);
+        b.max.y = rto__maxf(rto__maxf(p0[1], p1[1]), p2[1]);
+        b.max.z = rto__maxf(rto__maxf(p0[2], p1[2]), p2[2]);
         boxes[t] = b;
         const float c[3] = {(b.min.x + b.max.x) * 0.5f, (b.min.y + b.max.y) * 0.5f, (b.min.z + b.max.z) * 0.5f};
         for (int a = 0; a < 3; a++)

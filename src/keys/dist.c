@@ -91,13 +91,13 @@ rto_status rto_centroids_generate(const char *dist, uint32_t seed, size_t n, rto
 {
     const rto_dist_info *d = rto_dist_find(dist);
     if (!d || d->kind != RTO_DIST_CENTROID)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%s' is not a centroid distribution", dist ? dist : "(null)");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%s' is not a centroid distribution", dist ? dist : "(null)");
     /* 3 draws per element index a u32 counter: keep 3n below 2^32. */
     if ((uint64_t)n > RTO_MAX_KEYS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu", n,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu", n,
                         (unsigned long long)RTO_MAX_KEYS);
     if (n && !out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
     centroids_range(d, seed, n, 0, n, out);
     return RTO_OK;
 }
@@ -131,12 +131,12 @@ static int cmp_u64(const void *a, const void *b)
 static rto_status blas_keys_chunked(const rto_dist_info *d, uint32_t seed, size_t n, uint64_t *keys, rto_msg *msg)
 {
     const size_t cap = n < KEY_CHUNK ? n : KEY_CHUNK;
-    rto_vec3 *c = rto_alloc(cap, sizeof *c);
-    float *cent = rto_alloc(3 * cap, sizeof *cent);
+    rto_vec3 *c = rto__alloc(cap, sizeof *c);
+    float *cent = rto__alloc(3 * cap, sizeof *cent);
     if (!c || !cent) {
         free(c);
         free(cent);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu centroids", cap);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu centroids", cap);
     }
     rto__key_part all;
     rto__key_part_init(&all);
@@ -153,7 +153,7 @@ static rto_status blas_keys_chunked(const rto_dist_info *d, uint32_t seed, size_
     }
     /* generated centroids lie in [0, 1]: the bounds are always usable */
     rto_status s = rto__key_bounds_ok(&all, n) ? RTO_OK
-                                               : rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unusable centroid bounds of '%s'", d->name);
+                                               : rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unusable centroid bounds of '%s'", d->name);
     float *const soa[3] = {cent, cent + cap, cent + 2 * cap};
     for (size_t begin = 0; !s && begin < n; begin += KEY_CHUNK) {
         const size_t m = n - begin < KEY_CHUNK ? n - begin : KEY_CHUNK;
@@ -189,27 +189,27 @@ rto_status rto_keys_generate(const char *dist, rto_key_format f, uint32_t seed, 
 {
     const rto_dist_info *d = rto_dist_find(dist);
     if (!d)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown distribution '%s'", dist ? dist : "(null)");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown distribution '%s'", dist ? dist : "(null)");
     if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
     if (d->u64_only && f == RTO_KEY_U32)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "distribution '%s' needs 64-bit keys", d->name);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "distribution '%s' needs 64-bit keys", d->name);
     if ((uint64_t)n > RTO_MAX_KEYS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", n,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", n,
                         (unsigned long long)RTO_MAX_KEYS);
     if (n && !keys)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL output");
 
     if (d->kind == RTO_DIST_CENTROID) {
         if (f == RTO_KEY_U32 && n > RTO_TLAS_MAX_INSTANCES)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                             "n = %zu: TLAS keys index at most %u instances (use --format u64)", n,
                             RTO_TLAS_MAX_INSTANCES);
         if (f == RTO_KEY_U64)
             return blas_keys_chunked(d, seed, n, keys, msg);
-        rto_vec3 *c = rto_alloc(n, sizeof *c);
+        rto_vec3 *c = rto__alloc(n, sizeof *c);
         if (!c)
-            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu centroids", n);
+            return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu centroids", n);
         rto_status s = rto_centroids_generate(d->name, seed, n, c, msg);
         if (!s)
             s = rto_tlas_keys(c, n, keys, msg);
@@ -242,16 +242,16 @@ rto_status rto_keys_generate(const char *dist, rto_key_format f, uint32_t seed, 
         } else { /* random, sorted, reversed */
             v = raw(f, seed, i);
         }
-        rto_key_put(f, keys, k, v);
+        rto__key_put(f, keys, k, v);
     }
     int sorted = strcmp(name, "sorted") == 0, reversed = strcmp(name, "reversed") == 0;
     if (sorted || reversed) {
         qsort(keys, n, rto_key_size(f), f == RTO_KEY_U32 ? cmp_u32 : cmp_u64);
         if (reversed) {
             for (size_t a = 0, b = n; a + 1 < b; a++, b--) {
-                uint64_t t = rto_key_get(f, keys, a);
-                rto_key_put(f, keys, a, rto_key_get(f, keys, b - 1));
-                rto_key_put(f, keys, b - 1, t);
+                uint64_t t = rto__key_get(f, keys, a);
+                rto__key_put(f, keys, a, rto__key_get(f, keys, b - 1));
+                rto__key_put(f, keys, b - 1, t);
             }
         }
     }
@@ -310,7 +310,7 @@ rto_status rto_size_class(const char *name, size_t *sizes, size_t *count, rto_ms
             add_size(sizes, count, large[t]);
     }
     if (!any)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown size class '%s' (tiny, tile, pow2, large, all)",
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown size class '%s' (tiny, tile, pow2, large, all)",
                         name ? name : "(null)");
     qsort(sizes, *count, sizeof *sizes, cmp_size);
     return RTO_OK;

@@ -30,7 +30,7 @@ static rto_status centroid_bounds(const rto_vec3 *c, const uint32_t *index, size
         for (int a = 0; a < 3; a++) {
             float v = axis(&c[i], a);
             if (!isfinite(v))
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "centroid %zu has a non-finite coordinate (%g)",
+                return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "centroid %zu has a non-finite coordinate (%g)",
                                 index ? (size_t)index[i] : i, (double)v);
             lo[a] = v < lo[a] ? v : lo[a];
             hi[a] = v > hi[a] ? v : hi[a];
@@ -38,7 +38,7 @@ static rto_status centroid_bounds(const rto_vec3 *c, const uint32_t *index, size
     }
     for (int a = 0; a < 3; a++)
         if (n > 0 && !isfinite(hi[a] - lo[a]))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "centroid bounds on axis %c span more than binary32 holds",
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "centroid bounds on axis %c span more than binary32 holds",
                             "xyz"[a]);
     return RTO_OK;
 }
@@ -61,17 +61,17 @@ uint32_t rto__tlas_key(rto_vec3 c, const float lo[3], const float hi[3], uint32_
     return (rto_morton15(q[0], q[1], q[2]) << 16) | index;
 }
 
-rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *index, size_t n, uint32_t *keys,
+rto_status rto__tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *index, size_t n, uint32_t *keys,
                                  rto_msg *msg)
 {
     if (n > RTO_TLAS_MAX_INSTANCES)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu instances: a TLAS key indexes at most %u", n,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu instances: a TLAS key indexes at most %u", n,
                         RTO_TLAS_MAX_INSTANCES);
     if (n && (!centroids || !keys))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL centroids or keys");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL centroids or keys");
     for (size_t i = 0; index && i < n; i++)
         if (index[i] >= RTO_TLAS_MAX_INSTANCES)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance index %u: a TLAS key indexes at most %u",
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance index %u: a TLAS key indexes at most %u",
                             index[i], RTO_TLAS_MAX_INSTANCES);
     float lo[3], hi[3];
     rto_status s = centroid_bounds(centroids, index, n, lo, hi, msg);
@@ -84,15 +84,15 @@ rto_status rto_tlas_keys_indexed(const rto_vec3 *centroids, const uint32_t *inde
 
 rto_status rto_tlas_keys(const rto_vec3 *centroids, size_t n, uint32_t *keys, rto_msg *msg)
 {
-    return rto_tlas_keys_indexed(centroids, NULL, n, keys, msg);
+    return rto__tlas_keys_indexed(centroids, NULL, n, keys, msg);
 }
 
 rto_status rto_blas_keys(const rto_vec3 *centroids, size_t n, uint64_t *keys, rto_msg *msg)
 {
     if ((uint64_t)n > UINT32_MAX)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu triangles: a BLAS key indexes fewer than 2^32", n);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%zu triangles: a BLAS key indexes fewer than 2^32", n);
     if (n && (!centroids || !keys))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL centroids or keys");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL centroids or keys");
     float lo[3], hi[3];
     rto_status s = centroid_bounds(centroids, NULL, n, lo, hi, msg);
     if (s)

@@ -1616,7 +1616,7 @@ struct Loader {
 
     template <typename T> static T *c_array(const std::vector<T> &v)
     {
-        T *p = static_cast<T *>(rto_alloc(v.size(), sizeof(T)));
+        T *p = static_cast<T *>(rto__alloc(v.size(), sizeof(T)));
         if (!p)
             throw std::bad_alloc();
         if (!v.empty())
@@ -1726,18 +1726,18 @@ extern "C" rto_status rto__gltf_load(const char *path, const rto_scene_load_desc
                                      rto_msg *msg)
 {
     if (!path || !opts || !scene)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path, options or scene");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL path, options or scene");
     // Messages do not name the file: rto_scene_load_ex puts the path in front of every failure, once.
     try {
         load(path, opts, scene);
         return RTO_OK;
     } catch (const Refusal &r) {
-        return rto_fail(msg, r.status, "%s", r.text.c_str());
+        return rto__fail(msg, r.status, "%s", r.text.c_str());
     } catch (const std::bad_alloc &) {
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     } catch (const std::exception &e) {
-        return rto_fail(msg, RTO_ERR_PARSE, "%s", first_line(e.what()).c_str());
+        return rto__fail(msg, RTO_ERR_PARSE, "%s", first_line(e.what()).c_str());
     } catch (...) {
-        return rto_fail(msg, RTO_ERR_PARSE, "unknown C++ exception");
+        return rto__fail(msg, RTO_ERR_PARSE, "unknown C++ exception");
     }
 }

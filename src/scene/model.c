@@ -97,11 +97,11 @@ void rto_scene_destroy(rto_scene *scene)
 rto_status rto_instance_set_transform(rto_instance *inst, const double m[3][4], rto_msg *msg)
 {
     if (!inst || !m)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL instance or matrix");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL instance or matrix");
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 4; c++)
             if (!isfinite(m[r][c]))
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "transform element [%d][%d] is not finite (%g)", r, c,
+                return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "transform element [%d][%d] is not finite (%g)", r, c,
                                 m[r][c]);
     /* Inverse of the linear part through the adjugate: inv = adj(A) / det, adj(A)[r][c] = cofactor(A)[c][r]. */
     double cof[3][3];
@@ -119,7 +119,7 @@ rto_status rto_instance_set_transform(rto_instance *inst, const double m[3][4], 
     for (int r = 0; r < 3; r++)
         rows *= sqrt(m[r][0] * m[r][0] + m[r][1] * m[r][1] + m[r][2] * m[r][2]);
     if (det == 0.0 || !isfinite(det) || !(fabs(det) > 1e-12 * rows))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "singular transform (determinant %g)", det);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "singular transform (determinant %g)", det);
     double inv[3][4];
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++)
@@ -134,7 +134,7 @@ rto_status rto_instance_set_transform(rto_instance *inst, const double m[3][4], 
             o2w.m[r][c] = (float)m[r][c];
             w2o.m[r][c] = (float)inv[r][c];
             if (!isfinite(o2w.m[r][c]) || !isfinite(w2o.m[r][c]))
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+                return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                                 "transform or its inverse overflows binary32 (element [%d][%d]: %g, inverse %g)", r, c,
                                 m[r][c], inv[r][c]);
         }
@@ -193,7 +193,7 @@ rto_aabb rto_scene_aabb(const rto_scene *scene)
     if (!scene || !scene->instance_count)
         return b;
     /* Each mesh's object box once, not once per instance: a scene of 65,536 instances of one mesh stays cheap. */
-    rto_aabb *ob = rto_alloc(scene->mesh_count, sizeof *ob);
+    rto_aabb *ob = rto__alloc(scene->mesh_count, sizeof *ob);
     for (uint32_t m = 0; ob && m < scene->mesh_count; m++)
         ob[m] = rto_mesh_aabb(&scene->meshes[m]);
     for (uint32_t i = 0; i < scene->instance_count; i++) {
@@ -235,29 +235,29 @@ static rto_status validate_mesh(const rto_scene *s, uint32_t i, rto_msg *msg)
     const rto_mesh *me = &s->meshes[i];
     size_t bad;
     if ((me->vertex_count && !me->positions) || (me->triangle_count && !me->indices))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u ('%s'): missing positions or indices", i, me->name);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %u ('%s'): missing positions or indices", i, me->name);
     if (!all_finite(me->positions, 3 * (size_t)me->vertex_count, &bad)) {
         const float *p = &me->positions[bad / 3 * 3];
-        return rto_fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): vertex %zu has a non-finite position (%g, %g, %g)", i,
+        return rto__fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): vertex %zu has a non-finite position (%g, %g, %g)", i,
                         me->name, bad / 3, (double)p[0], (double)p[1], (double)p[2]);
     }
     for (size_t k = 0; k < 3 * (size_t)me->vertex_count; k++)
         if (!coord_ok(me->positions[k]))
-            return rto_fail(msg, RTO_ERR_UNSUPPORTED,
+            return rto__fail(msg, RTO_ERR_UNSUPPORTED,
                             "mesh %u ('%s'): vertex %zu has coordinate %g, beyond +-%g (box centroids would overflow "
                             "binary32)",
                             i, me->name, k / 3, (double)me->positions[k], (double)RTO_SCENE_MAX_COORD);
     if (me->normals && !all_finite(me->normals, 3 * (size_t)me->vertex_count, &bad))
-        return rto_fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): vertex %zu has a non-finite normal", i, me->name, bad / 3);
+        return rto__fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): vertex %zu has a non-finite normal", i, me->name, bad / 3);
     if (me->uvs && !all_finite(me->uvs, 2 * (size_t)me->vertex_count, &bad))
-        return rto_fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): vertex %zu has a non-finite texture coordinate", i,
+        return rto__fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): vertex %zu has a non-finite texture coordinate", i,
                         me->name, bad / 2);
     for (size_t k = 0; k < 3 * (size_t)me->triangle_count; k++)
         if (me->indices[k] >= me->vertex_count)
-            return rto_fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): triangle %zu has vertex index %u >= vertex count %u",
+            return rto__fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): triangle %zu has vertex index %u >= vertex count %u",
                             i, me->name, k / 3, me->indices[k], me->vertex_count);
     if (me->material < -1 || (me->material >= 0 && (uint32_t)me->material >= s->material_count))
-        return rto_fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): material %d out of range (%u materials)", i, me->name,
+        return rto__fail(msg, RTO_ERR_PARSE, "mesh %u ('%s'): material %d out of range (%u materials)", i, me->name,
                         (int)me->material, s->material_count);
     return RTO_OK;
 }
@@ -266,19 +266,19 @@ rto_status rto__scene_validate(const rto_scene *s, rto_msg *msg)
 {
     if ((s->mesh_count && !s->meshes) || (s->instance_count && !s->instances) ||
         (s->material_count && !s->materials) || (s->texture_count && !s->textures) || (s->camera_count && !s->cameras))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "scene arrays missing");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "scene arrays missing");
     if (s->mesh_count > RTO_SCENE_MAX_MESHES)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "%u meshes: at most %u are supported", s->mesh_count,
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%u meshes: at most %u are supported", s->mesh_count,
                         RTO_SCENE_MAX_MESHES);
     if (s->instance_count > RTO_SCENE_MAX_INSTANCES)
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "%u instances: at most %u are supported", s->instance_count,
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%u instances: at most %u are supported", s->instance_count,
                         RTO_SCENE_MAX_INSTANCES);
     uint64_t tris = 0, verts = 0;
     for (uint32_t i = 0; i < s->mesh_count; i++) {
         tris += s->meshes[i].triangle_count;
         verts += s->meshes[i].vertex_count;
         if (tris > RTO_SCENE_MAX_TRIANGLES || verts > RTO_SCENE_MAX_VERTICES)
-            return rto_fail(msg, RTO_ERR_UNSUPPORTED,
+            return rto__fail(msg, RTO_ERR_UNSUPPORTED,
                             "more than %u triangles or %u vertices in the meshes: too large for this oracle",
                             RTO_SCENE_MAX_TRIANGLES, RTO_SCENE_MAX_VERTICES);
         rto_status st = validate_mesh(s, i, msg);
@@ -288,18 +288,18 @@ rto_status rto__scene_validate(const rto_scene *s, rto_msg *msg)
     for (uint32_t i = 0; i < s->instance_count; i++) {
         const rto_instance *in = &s->instances[i];
         if (in->blas >= s->mesh_count)
-            return rto_fail(msg, RTO_ERR_PARSE, "instance %u: BLAS %u out of range (%u meshes)", i, in->blas,
+            return rto__fail(msg, RTO_ERR_PARSE, "instance %u: BLAS %u out of range (%u meshes)", i, in->blas,
                             s->mesh_count);
         if (!mat_finite(&in->obj_to_world) || !mat_finite(&in->world_to_obj))
-            return rto_fail(msg, RTO_ERR_PARSE, "instance %u: non-finite transform", i);
+            return rto__fail(msg, RTO_ERR_PARSE, "instance %u: non-finite transform", i);
         if (in->custom_index > RTO_INSTANCE_CUSTOM_INDEX_MASK || in->mask > 0xFFu)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance %u: customIndex or mask wider than 24 / 8 bits",
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance %u: customIndex or mask wider than 24 / 8 bits",
                             i);
     }
     /* World bounds: each mesh's object box once, then through every instance (as rto_instance_aabb computes it). */
-    rto_aabb *ob = rto_alloc(s->mesh_count, sizeof *ob);
+    rto_aabb *ob = rto__alloc(s->mesh_count, sizeof *ob);
     if (!ob)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     for (uint32_t m = 0; m < s->mesh_count; m++)
         ob[m] = rto_mesh_aabb(&s->meshes[m]);
     for (uint32_t i = 0; i < s->instance_count; i++) {
@@ -308,7 +308,7 @@ rto_status rto__scene_validate(const rto_scene *s, rto_msg *msg)
         if (!rto__aabb_in_range(&w)) {
             const uint32_t m = in->blas;
             free(ob);
-            return rto_fail(msg, RTO_ERR_UNSUPPORTED,
+            return rto__fail(msg, RTO_ERR_UNSUPPORTED,
                             "instance %u (mesh %u '%s'): world bounds (%g, %g, %g) .. (%g, %g, %g) reach beyond +-%g "
                             "(box centroids would overflow binary32)",
                             i, m, s->meshes[m].name, (double)w.min.x, (double)w.min.y, (double)w.min.z,
@@ -320,16 +320,16 @@ rto_status rto__scene_validate(const rto_scene *s, rto_msg *msg)
         const rto_material *ma = &s->materials[i];
         size_t bad;
         if (!all_finite(ma->base_color, 4, &bad) || !all_finite(ma->emissive, 3, &bad))
-            return rto_fail(msg, RTO_ERR_PARSE, "material %u: non-finite colour factor", i);
+            return rto__fail(msg, RTO_ERR_PARSE, "material %u: non-finite colour factor", i);
         if (ma->base_color_texture < -1 ||
             (ma->base_color_texture >= 0 && (uint32_t)ma->base_color_texture >= s->texture_count))
-            return rto_fail(msg, RTO_ERR_PARSE, "material %u: texture %d out of range (%u textures)", i,
+            return rto__fail(msg, RTO_ERR_PARSE, "material %u: texture %d out of range (%u textures)", i,
                             (int)ma->base_color_texture, s->texture_count);
     }
     for (uint32_t i = 0; i < s->texture_count; i++) {
         const rto_texture *t = &s->textures[i];
         if ((uint64_t)t->width * t->height > RTO_SCENE_MAX_TEXELS || (t->width && t->height && !t->rgba))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "texture %u ('%s'): bad size %ux%u", i, t->name, t->width,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "texture %u ('%s'): bad size %ux%u", i, t->name, t->width,
                             t->height);
     }
     for (uint32_t i = 0; i < s->camera_count; i++) {
@@ -338,7 +338,7 @@ rto_status rto__scene_validate(const rto_scene *s, rto_msg *msg)
                              c->up.x,       c->up.y,       c->up.z,       c->fov_y,    c->aspect,   c->znear};
         size_t bad;
         if (!all_finite(v, 12, &bad) || !(c->fov_y > 0.0f) || !(c->aspect >= 0.0f) || !(c->zfar >= 0.0f))
-            return rto_fail(msg, RTO_ERR_PARSE, "camera %u ('%s'): non-finite or out-of-range parameters", i, c->name);
+            return rto__fail(msg, RTO_ERR_PARSE, "camera %u ('%s'): non-finite or out-of-range parameters", i, c->name);
     }
     return RTO_OK;
 }

@@ -54,8 +54,8 @@ static rto_mesh *mesh_init(rto_mesh *m, const char *name, uint32_t vertices, uin
 {
     snprintf(m->name, sizeof m->name, "%s", name);
     m->material = -1;
-    m->positions = rto_alloc(3 * (size_t)vertices, sizeof(float));
-    m->indices = rto_alloc(3 * (size_t)triangles, sizeof(uint32_t));
+    m->positions = rto__alloc(3 * (size_t)vertices, sizeof(float));
+    m->indices = rto__alloc(3 * (size_t)triangles, sizeof(uint32_t));
     if (!m->positions || !m->indices)
         return NULL;
     m->vertex_count = vertices;
@@ -100,7 +100,7 @@ static rto_status alloc_instances(rto_scene *s, uint32_t n, rto_msg *msg)
 {
     s->instances = calloc(n ? n : 1, sizeof *s->instances);
     if (!s->instances)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u instances", n);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u instances", n);
     s->instance_count = n;
     return RTO_OK;
 }
@@ -143,7 +143,7 @@ static rto_status load_triangle(rto_scene *s, rto_msg *msg)
     static const float pos[9] = {1.0f, 1.0f, 0.0f, -1.0f, 1.0f, 0.0f, 0.0f, -1.0f, 0.0f};
     rto_mesh *m = add_mesh(s, "triangle", 3, 1);
     if (!m)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     memcpy(m->positions, pos, sizeof pos);
     m->indices[0] = 0;
     m->indices[1] = 1;
@@ -155,7 +155,7 @@ static rto_status load_triangle(rto_scene *s, rto_msg *msg)
         return st;
     s->cameras = calloc(1, sizeof *s->cameras);
     if (!s->cameras)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     s->camera_count = 1;
     rto_camera c = rto_camera_default();
     snprintf(c.name, sizeof c.name, "triangle");
@@ -169,9 +169,9 @@ static rto_status load_rtstress(const char *spec, const char *arg, rto_scene *s,
 {
     uint32_t n;
     if (!parse_count(arg, UINT32_MAX, &n) || n < 1 || n > RTSTRESS_MAX_N)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': N must be an integer 1 .. %u", spec, RTSTRESS_MAX_N);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': N must be an integer 1 .. %u", spec, RTSTRESS_MAX_N);
     if (!add_cube(s))
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     rto_status st = alloc_instances(s, n * n * n, msg);
     /* Instance i = ix + N (iy + N iz) at (2 ix - (N-1), ...): unit cubes with unit gaps, centred on the origin. */
     for (uint32_t i = 0; !st && i < n * n * n; i++) {
@@ -180,7 +180,7 @@ static rto_status load_rtstress(const char *spec, const char *arg, rto_scene *s,
                           msg);
     }
     if (!st && add_framing_camera(s, "rtstress", 0.0, 0.0, 0.0, sqrt(3.0) * n))
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     return st;
 }
 
@@ -188,11 +188,11 @@ static rto_status load_instances(const char *spec, const char *arg, rto_scene *s
 {
     const char *colon = strchr(arg, ':');
     if (!colon)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': expected instances:DIST:N", spec);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': expected instances:DIST:N", spec);
     char dist[64];
     size_t len = (size_t)(colon - arg);
     if (len == 0 || len >= sizeof dist)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': expected instances:DIST:N", spec);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': expected instances:DIST:N", spec);
     memcpy(dist, arg, len);
     dist[len] = '\0';
     const rto_dist_info *d = rto_dist_find(dist);
@@ -203,18 +203,18 @@ static rto_status load_instances(const char *spec, const char *arg, rto_scene *s
                 int w = snprintf(names + at, sizeof names - at, "%s%s", at ? ", " : "", rto_dist_at(i)->name);
                 at += w > 0 ? (size_t)w : 0;
             }
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': '%s' is %s; centroid distributions: %s", spec, dist,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': '%s' is %s; centroid distributions: %s", spec, dist,
                         d ? "not a centroid distribution" : "an unknown distribution", names);
     }
     uint32_t n;
     if (!parse_count(colon + 1, RTO_TLAS_MAX_INSTANCES, &n))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': N must be an integer 0 .. %u", spec,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': N must be an integer 0 .. %u", spec,
                         RTO_TLAS_MAX_INSTANCES);
     if (!add_cube(s))
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-    rto_vec3 *c = rto_alloc(n, sizeof *c);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    rto_vec3 *c = rto__alloc(n, sizeof *c);
     if (!c)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     rto_status st = rto_centroids_generate(dist, 1, n, c, msg);
     if (!st)
         st = alloc_instances(s, n, msg);
@@ -223,7 +223,7 @@ static rto_status load_instances(const char *spec, const char *arg, rto_scene *s
         st = set_instance(&s->instances[i], i, 2e-4, c[i].x, c[i].y, c[i].z, msg);
     free(c);
     if (!st && add_framing_camera(s, "instances", 0.5, 0.5, 0.5, 0.5 * sqrt(3.0)))
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     return st;
 }
 
@@ -298,13 +298,13 @@ static int icosphere(uint32_t level, double **pos_out, uint32_t **idx_out)
                                           {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
                                           {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
     const uint32_t vmax = 10u * (1u << (2 * level)) + 2u, tmax = 20u * (1u << (2 * level));
-    double *pos = rto_alloc(3 * (size_t)vmax, sizeof *pos);
-    uint32_t *idx = rto_alloc(3 * (size_t)tmax, sizeof *idx);
-    uint32_t *tmp = rto_alloc(3 * (size_t)tmax, sizeof *tmp);
+    double *pos = rto__alloc(3 * (size_t)vmax, sizeof *pos);
+    uint32_t *idx = rto__alloc(3 * (size_t)tmax, sizeof *idx);
+    uint32_t *tmp = rto__alloc(3 * (size_t)tmax, sizeof *tmp);
     /* A level splits 3 / 2 edges per input triangle, at most 3 T / 8 for the final T: a table of 2 T slots stays
      * under a fifth full, so probes are short. */
     const size_t slots = rto_next_pow2(2 * (size_t)tmax);
-    edge_slot *tab = rto_alloc(slots, sizeof *tab);
+    edge_slot *tab = rto__alloc(slots, sizeof *tab);
     if (!pos || !idx || !tmp || !tab) {
         free(pos);
         free(idx);
@@ -352,25 +352,25 @@ static rto_status load_sphere(const char *spec, const char *arg, rto_scene *s, r
     const size_t len = colon ? (size_t)(colon - arg) : strlen(arg);
     uint32_t level, seed = 0;
     if (len >= sizeof level_text)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': L must be an integer 0 .. %u", spec,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': L must be an integer 0 .. %u", spec,
                         SPHERE_MAX_LEVEL);
     memcpy(level_text, arg, len);
     level_text[len] = '\0';
     if (!parse_count(level_text, SPHERE_MAX_LEVEL, &level))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': L must be an integer 0 .. %u", spec,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': L must be an integer 0 .. %u", spec,
                         SPHERE_MAX_LEVEL);
     if (colon && !parse_u32(colon + 1, &seed))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': SEED must be an integer 0 .. 4294967295", spec);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': SEED must be an integer 0 .. 4294967295", spec);
     double *pos;
     uint32_t *idx;
     if (!icosphere(level, &pos, &idx))
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     const uint32_t nv = 10u * (1u << (2 * level)) + 2u, nt = 20u * (1u << (2 * level));
     rto_mesh *m = add_mesh(s, colon ? "icosphere-bumpy" : "icosphere", nv, nt);
     if (!m) {
         free(pos);
         free(idx);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     }
     /* With a seed, vertex v moves along its radius to 0.6 + 0.8 unit(v) of it: still closed, and star-shaped about
      * the origin (every triangle keeps det[a, b, c] > 0 seen from the centre), so it stays free of self-crossings and
@@ -388,7 +388,7 @@ static rto_status load_sphere(const char *spec, const char *arg, rto_scene *s, r
     if (!st)
         st = set_instance(&s->instances[0], 0, 1.0, 0.0, 0.0, 0.0, msg);
     if (!st && add_framing_camera(s, "sphere", 0.0, 0.0, 0.0, colon ? 1.4 : 1.0))
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     return st;
 }
 
@@ -503,16 +503,16 @@ static rto_status load_random(const char *spec, const char *arg, rto_scene *s, r
 {
     uint32_t seed;
     if (!parse_u32(arg, &seed))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': SEED must be an integer 0 .. 4294967295", spec);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "'%.100s': SEED must be an integer 0 .. 4294967295", spec);
     draws d = draws_start(seed, 0x201u);
     const uint32_t nm = 1 + draw_below(&d, RANDOM_MAX_MESHES);
     s->meshes = calloc(nm, sizeof *s->meshes);
     if (!s->meshes)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     s->mesh_count = nm;
     for (uint32_t i = 0; i < nm; i++)
         if (random_mesh(&d, &s->meshes[i], i))
-            return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     const uint32_t ni = 1 + draw_below(&d, RANDOM_MAX_INSTANCES);
     rto_status st = alloc_instances(s, ni, msg);
     if (st)
@@ -541,7 +541,7 @@ static rto_status load_random(const char *spec, const char *arg, rto_scene *s, r
     const double dx = (double)b.max.x - b.min.x, dy = (double)b.max.y - b.min.y, dz = (double)b.max.z - b.min.z;
     const double r = 0.5 * sqrt(dx * dx + dy * dy + dz * dz);
     if (add_framing_camera(s, "random", c[0], c[1], c[2], r > 0 ? r : 1.0))
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     return RTO_OK;
 }
 
@@ -563,7 +563,7 @@ rto_status rto__procedural_load(const char *spec, rto_scene *scene, rto_msg *msg
         return load_sphere(spec, spec + 7, scene, msg);
     if (!strncmp(spec, "random:", 7))
         return load_random(spec, spec + 7, scene, msg);
-    return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+    return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                     "unknown procedural scene '%.100s' (triangle, rtstress:N, instances:DIST:N, sphere:L[:SEED], "
                     "random:SEED)",
                     spec);

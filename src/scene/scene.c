@@ -26,14 +26,14 @@ rto_status rto_scene_load_ex(const char *spec, const rto_scene_load_desc *desc, 
     if (out)
         *out = NULL;
     if (!spec || !out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL scene spec or output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL scene spec or output");
     if (!*spec)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "empty scene spec");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "empty scene spec");
     rto_scene_load_desc opts;
     rto__load_desc_resolve(desc, &opts);
     rto_scene *s = calloc(1, sizeof *s);
     if (!s)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
     /* A path is bytes, not text: what lands in the scene (and in JSON downstream) is valid UTF-8. */
     rto__utf8_copy(s->source, sizeof s->source, spec, strlen(spec));
     rto_msg why = {{0}};
@@ -48,7 +48,7 @@ rto_status rto_scene_load_ex(const char *spec, const rto_scene_load_desc *desc, 
     else if (strchr(spec, ':'))
         st = rto__procedural_load(spec, s, &why);
     else
-        st = rto_fail(&why, RTO_ERR_INVALID_ARGUMENT,
+        st = rto__fail(&why, RTO_ERR_INVALID_ARGUMENT,
                       "'%.200s' is neither a .gltf / .glb path nor a procedural scene (triangle, rtstress:N, "
                       "instances:DIST:N, sphere:L[:SEED], random:SEED)",
                       spec);
@@ -59,9 +59,9 @@ rto_status rto_scene_load_ex(const char *spec, const rto_scene_load_desc *desc, 
         /* The one place a file's failure is prefixed with its path, so no message names it twice; procedural
          * messages quote their spec already. */
         if (file)
-            rto_fail(msg, st, "%.200s: %s", spec, why.text);
+            rto__fail(msg, st, "%.200s: %s", spec, why.text);
         else
-            rto_fail(msg, st, "%s", why.text);
+            rto__fail(msg, st, "%s", why.text);
         if (msg)
             rto__utf8_fix(msg->text, sizeof msg->text);
         return st;

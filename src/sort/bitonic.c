@@ -73,20 +73,20 @@ static void run_pass(uint64_t *a, uint32_t *idx, size_t n, size_t k, size_t j)
 rto_status rto__bitonic_sort_scalar(rto_key_format f, const void *keys, size_t n, void *sorted, uint32_t *perm,
                                     void *checkpoints, rto_msg *msg)
 {
-    rto_status st = rto_sort_args_check(f, keys, n, sorted, msg);
+    rto_status st = rto__sort_args_check(f, keys, n, sorted, msg);
     if (st)
         return st;
     size_t np = rto_next_pow2(n);
-    uint64_t *a = rto_alloc(np, sizeof *a);
-    uint32_t *idx = rto_alloc(np, sizeof *idx);
+    uint64_t *a = rto__alloc(np, sizeof *a);
+    uint32_t *idx = rto__alloc(np, sizeof *idx);
     if (!a || !idx) {
         free(a);
         free(idx);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
     }
     uint64_t sentinel = rto_key_sentinel(f);
     for (size_t i = 0; i < np; i++) {
-        a[i] = i < n ? rto_key_get(f, keys, i) : sentinel;
+        a[i] = i < n ? rto__key_get(f, keys, i) : sentinel;
         idx[i] = (uint32_t)i;
     }
     uint32_t pass = 0;
@@ -97,12 +97,12 @@ rto_status rto__bitonic_sort_scalar(rto_key_format f, const void *keys, size_t n
             if (checkpoints) {
                 unsigned char *dst = (unsigned char *)checkpoints + (size_t)pass * np * ksz;
                 for (size_t i = 0; i < np; i++)
-                    rto_key_put(f, dst, i, a[i]);
+                    rto__key_put(f, dst, i, a[i]);
             }
         }
     }
     for (size_t i = 0; i < np; i++)
-        rto_key_put(f, sorted, i, a[i]);
+        rto__key_put(f, sorted, i, a[i]);
     if (perm)
         memcpy(perm, idx, np * sizeof *idx);
     free(a);
@@ -390,11 +390,11 @@ static void run_checkpointed(const net *t, rto_key_format f, uint64_t bias, void
 rto_status rto__bitonic_sort_with(rto_key_format f, const void *keys, size_t n, void *sorted, uint32_t *perm,
                                   void *checkpoints, rto__bitonic_isa isa, uint32_t threads, rto_msg *msg)
 {
-    rto_status st = rto_sort_args_check(f, keys, n, sorted, msg);
+    rto_status st = rto__sort_args_check(f, keys, n, sorted, msg);
     if (st)
         return st;
     if ((unsigned)isa >= RTO__BITONIC_ISA_COUNT || !rto__bitonic_isa_supported(isa))
-        return rto_fail(msg, RTO_ERR_UNSUPPORTED, "bitonic path %s is not available on this CPU",
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "bitonic path %s is not available on this CPU",
                         rto__bitonic_isa_name(isa));
     if (isa == RTO__BITONIC_AUTO)
         isa = resolve_isa();
@@ -411,12 +411,12 @@ rto_status rto__bitonic_sort_with(rto_key_format f, const void *keys, size_t n, 
         if (K && np >= 8 * (size_t)K->lanes)
             t.K = K;
     }
-    t.a = rto_alloc(np, ksz);
-    t.ix = rto_alloc(np, sizeof *t.ix);
+    t.a = rto__alloc(np, ksz);
+    t.ix = rto__alloc(np, sizeof *t.ix);
     if (!t.a || !t.ix) {
         free(t.a);
         free(t.ix);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
     }
     const uint64_t bias = ksz == 4 ? UINT64_C(1) << 31 : UINT64_C(1) << 63;
     if (ksz == 4) {

@@ -71,20 +71,20 @@ static int hexw(rto_key_format f) { return f == RTO_KEY_U32 ? 8 : 16; }
 
 static rto_value key_value(rto_key_format f, uint64_t k)
 {
-    return f == RTO_KEY_U32 ? rto_val_hex32((uint32_t)k) : rto_val_hex64(k);
+    return f == RTO_KEY_U32 ? rto__val_hex32((uint32_t)k) : rto__val_hex64(k);
 }
 
 /* A row of the table: keys compare as bit patterns (diff = xor), carried values as indices (diff = actual -
  * expected). */
 static void add_diff(rto_report *r, rto_key_format f, int values, size_t slot, uint64_t expected, uint64_t actual)
 {
-    rto_report_row *row = rto_report_row_add(r, slot, "");
+    rto_report_row *row = rto__report_row_add(r, slot, "");
     if (!row)
         return;
     if (values) {
-        row->expected = rto_val_uint(expected);
-        row->actual = rto_val_uint(actual);
-        row->diff = rto_val_int((int64_t)(actual - expected));
+        row->expected = rto__val_uint(expected);
+        row->actual = rto__val_uint(actual);
+        row->diff = rto__val_int((int64_t)(actual - expected));
     } else {
         row->expected = key_value(f, expected);
         row->actual = key_value(f, actual);
@@ -96,10 +96,10 @@ static void add_diff(rto_report *r, rto_key_format f, int values, size_t slot, u
  * value and stability faults); later ones only fail their check. */
 static int claim(rto_report *r, rto_fault f, const char *check, int values)
 {
-    rto_report_mark(r, check, RTO_CHECK_FAILED);
-    if (!rto_report_claim(r, (int)f, rto_fault_name(f)))
+    rto__report_mark(r, check, RTO_CHECK_FAILED);
+    if (!rto__report_claim(r, (int)f, rto_fault_name(f)))
         return 0;
-    rto_report_table(r, values ? "source indices" : "keys", "slot");
+    rto__report_table(r, values ? "source indices" : "keys", "slot");
     return 1;
 }
 
@@ -117,13 +117,13 @@ static rto_status check_passes(const rto_sort_check_desc *d, rto_report *r, rto_
         passes = rto_radix_pass_count(f, d->radix_bits);
         len = d->n;
         if (!passes || d->radix_tile == 0)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "radix checkpoints need --radix-bits 4|8 and a tile >= 1");
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "radix checkpoints need --radix-bits 4|8 and a tile >= 1");
     }
-    rto_report_mark(r, "passes", RTO_CHECK_PASSED);
-    rto_report_fact(r, "passes", passes);
+    rto__report_mark(r, "passes", RTO_CHECK_PASSED);
+    rto__report_fact(r, "passes", passes);
     if (d->gpu_pass_count != passes || d->gpu_pass_len != len) {
         if (claim(r, RTO_FAULT_SIZE, "passes", 0))
-            rto_report_summary(r,
+            rto__report_summary(r,
                                "size: the checkpoint dump holds %" PRIu32 " passes of %zu keys; the %s oracle has "
                                "%" PRIu32 " passes of %zu",
                                d->gpu_pass_count, d->gpu_pass_len, d->algo == RTO_SORT_BITONIC ? "bitonic" : "radix",
@@ -132,20 +132,20 @@ static rto_status check_passes(const rto_sort_check_desc *d, rto_report *r, rto_
     }
     if (passes == 0 || len == 0)
         return RTO_OK;
-    unsigned char *expect = rto_alloc((size_t)passes * len, ksz);
+    unsigned char *expect = rto__alloc((size_t)passes * len, ksz);
     if (!expect)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %" PRIu32 " checkpoint passes", passes);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %" PRIu32 " checkpoint passes", passes);
     rto_status s;
     if (d->algo == RTO_SORT_BITONIC) {
-        void *sorted = rto_alloc(np, ksz);
+        void *sorted = rto__alloc(np, ksz);
         s = sorted ? rto_bitonic_sort(f, d->input, d->n, sorted, NULL, expect, msg)
-                   : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+                   : rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         free(sorted);
     } else {
-        void *sorted = rto_alloc(d->n, ksz);
+        void *sorted = rto__alloc(d->n, ksz);
         rto_radix_trace tr = {NULL, NULL, NULL, expect, NULL};
         s = sorted ? rto_radix_sort(f, d->input, d->n, d->radix_bits, d->radix_tile, sorted, NULL, &tr, msg)
-                   : rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+                   : rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
         free(sorted);
     }
     if (s) {
@@ -163,7 +163,7 @@ static rto_status check_passes(const rto_sort_check_desc *d, rto_report *r, rto_
         size_t first = SIZE_MAX;
         int own = claim(r, RTO_FAULT_PASS, "passes", 0);
         for (size_t i = 0; i < len; i++) {
-            uint64_t ev = rto_key_get(f, e, i), gv = rto_key_get(f, g, i);
+            uint64_t ev = rto__key_get(f, e, i), gv = rto__key_get(f, g, i);
             if (ev == gv)
                 continue;
             if (first == SIZE_MAX)
@@ -172,36 +172,36 @@ static rto_status check_passes(const rto_sort_check_desc *d, rto_report *r, rto_
                 add_diff(r, f, 0, i, ev, gv);
         }
         if (own) {
-            rto_report_at(r, "pass", p);
+            rto__report_at(r, "pass", p);
             if (d->algo == RTO_SORT_BITONIC) {
-                rto_report_at(r, "k", k);
-                rto_report_at(r, "j", j);
-                rto_report_at(r, "slot", (int64_t)first);
-                rto_report_at(r, "partner", (int64_t)(first ^ (size_t)j));
-                rto_report_summary(r,
+                rto__report_at(r, "k", k);
+                rto__report_at(r, "j", j);
+                rto__report_at(r, "slot", (int64_t)first);
+                rto__report_at(r, "partner", (int64_t)(first ^ (size_t)j));
+                rto__report_summary(r,
                                    "pass: checkpoint pass %" PRIu32 " (k=%" PRIu32 ", j=%" PRIu32
                                    ") is the first to diverge, at slot %zu (compare-exchange partner %zu): expected "
                                    "0x%0*" PRIx64 ", got 0x%0*" PRIx64,
-                                   p, k, j, first, first ^ (size_t)j, hexw(f), rto_key_get(f, e, first), hexw(f),
-                                   rto_key_get(f, g, first));
+                                   p, k, j, first, first ^ (size_t)j, hexw(f), rto__key_get(f, e, first), hexw(f),
+                                   rto__key_get(f, g, first));
             } else {
-                rto_report_at(r, "digit_bit", k);
-                rto_report_at(r, "slot", (int64_t)first);
-                rto_report_at(r, "tile", (int64_t)(first / d->radix_tile));
-                rto_report_summary(r,
+                rto__report_at(r, "digit_bit", k);
+                rto__report_at(r, "slot", (int64_t)first);
+                rto__report_at(r, "tile", (int64_t)(first / d->radix_tile));
+                rto__report_summary(r,
                                    "pass: radix pass %" PRIu32 " (digit bits %" PRIu32 "..%" PRIu32
                                    ") is the first to diverge, at slot %zu (tile %zu): expected 0x%0*" PRIx64
                                    ", got 0x%0*" PRIx64,
                                    p, k, k + d->radix_bits - 1, first, first / d->radix_tile, hexw(f),
-                                   rto_key_get(f, e, first), hexw(f), rto_key_get(f, g, first));
+                                   rto__key_get(f, e, first), hexw(f), rto__key_get(f, g, first));
             }
         } else {
             /* Another fault is primary; keep where the checkpoints diverge in the summary's tail. */
             if (d->algo == RTO_SORT_BITONIC)
-                rto_report_append(r, "; checkpoints first diverge at pass %" PRIu32 " (k=%" PRIu32 ", j=%" PRIu32
+                rto__report_append(r, "; checkpoints first diverge at pass %" PRIu32 " (k=%" PRIu32 ", j=%" PRIu32
                                   ") slot %zu", p, k, j, first);
             else
-                rto_report_append(r, "; checkpoints first diverge at radix pass %" PRIu32 " (digit bits %" PRIu32
+                rto__report_append(r, "; checkpoints first diverge at radix pass %" PRIu32 " (digit bits %" PRIu32
                                   "..%" PRIu32 ") slot %zu", p, k, k + d->radix_bits - 1, first);
         }
         break;
@@ -218,7 +218,7 @@ static uint64_t multiset_hash(rto_key_format f, const void *keys, size_t n)
 {
     uint64_t h = 0;
     for (size_t i = 0; i < n; i++) {
-        uint64_t z = rto_key_get(f, keys, i);
+        uint64_t z = rto__key_get(f, keys, i);
         z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
         z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
         h += z ^ (z >> 31);
@@ -248,7 +248,7 @@ static int all_sentinel(rto_key_format f, const void *keys, size_t from, size_t 
 {
     uint64_t and_all = ~UINT64_C(0);
     for (size_t i = from; i < to; i++)
-        and_all &= rto_key_get(f, keys, i);
+        and_all &= rto__key_get(f, keys, i);
     return from >= to || and_all == rto_key_sentinel(f);
 }
 
@@ -260,15 +260,15 @@ static rto_status sorted_wide(rto_key_format f, const void *keys, size_t n, int 
 {
     if (reference) {
         for (size_t i = 0; i < n; i++)
-            out[i] = rto_key_get(f, keys, i);
+            out[i] = rto__key_get(f, keys, i);
         qsort(out, n, sizeof *out, cmp_u64);
         return RTO_OK;
     }
     uint64_t *wide = rto__alloc_large(n, sizeof *wide);
     if (!wide)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking %zu keys", n);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking %zu keys", n);
     for (size_t i = 0; i < n; i++)
-        wide[i] = rto_key_get(f, keys, i);
+        wide[i] = rto__key_get(f, keys, i);
     rto_status s = rto_fast_radix_sort(RTO_KEY_U64, wide, n, out, msg);
     free(wide);
     return s;
@@ -279,11 +279,11 @@ static rto_status sorted_wide(rto_key_format f, const void *keys, size_t n, int 
 static keyed *stable_reference(const rto_sort_check_desc *d)
 {
     const size_t n = d->n, gn = d->gpu_n;
-    keyed *stable = rto_alloc(gn, sizeof *stable);
+    keyed *stable = rto__alloc(gn, sizeof *stable);
     if (!stable)
         return NULL;
     for (size_t i = 0; i < gn; i++) {
-        stable[i].key = i < n ? rto_key_get(d->format, d->input, i) : rto_key_sentinel(d->format);
+        stable[i].key = i < n ? rto__key_get(d->format, d->input, i) : rto_key_sentinel(d->format);
         stable[i].index = (uint32_t)i;
     }
     qsort(stable, gn, sizeof *stable, cmp_keyed);
@@ -301,40 +301,40 @@ static keyed *stable_reference(const rto_sort_check_desc *d)
 static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_msg *msg, int reference)
 {
     if (!d || !r)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL descriptor or report");
-    rto_report_begin(r, "check-sort");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL descriptor or report");
+    rto__report_begin(r, "check-sort");
     for (size_t i = 0; i < sizeof check_names / sizeof check_names[0]; i++)
-        rto_report_add_check(r, check_names[i]);
-    rto_report_table(r, "keys", "slot");
+        rto__report_add_check(r, check_names[i]);
+    rto__report_table(r, "keys", "slot");
     snprintf(r->tolerance, sizeof r->tolerance, "exact: keys, carried values and checkpoint passes compare bit for "
              "bit (DESIGN.md §9)");
     const rto_key_format f = d->format;
     if (f != RTO_KEY_U32 && f != RTO_KEY_U64)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown key format %d", (int)f);
     if ((uint64_t)d->n > RTO_MAX_KEYS)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", d->n,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "n = %zu exceeds the limit of %llu keys", d->n,
                         (unsigned long long)RTO_MAX_KEYS);
     if ((d->n && !d->input) || (d->gpu_n && !d->gpu_keys) || (d->gpu_pass_count && !d->gpu_passes))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL input, GPU keys or GPU passes");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL input, GPU keys or GPU passes");
     const size_t n = d->n, np = rto_next_pow2(n), gn = d->gpu_n, ksz = rto_key_size(f);
     /* The expected array decides a pass on its own, so it must be the input sorted: ascending, and the same multiset
      * (by hash: a wrong array is refused unless its hash collides, and a right one is never refused). */
     if (d->expected_keys && !reference && n &&
         (!ascending(f, d->expected_keys, n) ||
          multiset_hash(f, d->expected_keys, n) != multiset_hash(f, d->input, n)))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "the expected keys are not the input keys in ascending order");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "the expected keys are not the input keys in ascending order");
     const uint64_t sentinel = rto_key_sentinel(f);
     const int w = hexw(f);
     snprintf(r->context, sizeof r->context, "%zu keys (%s), GPU dump of %zu slots (n_padded %zu)", n,
              f == RTO_KEY_U32 ? "u32" : "u64", gn, np);
-    rto_report_fact(r, "n", (int64_t)n);
-    rto_report_fact(r, "n_padded", (int64_t)np);
-    rto_report_fact(r, "gpu_n", (int64_t)gn);
+    rto__report_fact(r, "n", (int64_t)n);
+    rto__report_fact(r, "n_padded", (int64_t)np);
+    rto__report_fact(r, "gpu_n", (int64_t)gn);
 
     if (gn != n && gn != np) {
         claim(r, RTO_FAULT_SIZE, "permutation", 0);
-        rto_report_at(r, "slot", (int64_t)(gn < n ? gn : n));
-        rto_report_summary(r, "size: the GPU dump holds %zu keys; expected n = %zu or n_padded = %zu", gn, n, np);
+        rto__report_at(r, "slot", (int64_t)(gn < n ? gn : n));
+        rto__report_summary(r, "size: the GPU dump holds %zu keys; expected n = %zu or n_padded = %zu", gn, n, np);
         return RTO_ERR_MISMATCH;
     }
 
@@ -343,9 +343,9 @@ static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_ms
     keyed *stable = NULL;
     unsigned char *seen = NULL;
     rto_status status = RTO_OK;
-#define G(i) rto_key_get(f, d->gpu_keys, (i))
-    rto_report_mark(r, "sorted", RTO_CHECK_PASSED);
-    rto_report_mark(r, "permutation", RTO_CHECK_PASSED);
+#define G(i) rto__key_get(f, d->gpu_keys, (i))
+    rto__report_mark(r, "sorted", RTO_CHECK_PASSED);
+    rto__report_mark(r, "permutation", RTO_CHECK_PASSED);
 
     /* The fast verdict: the real range equals the sorted input bit for bit (compared with expected_keys, or matched
      * bucket by bucket as rto__sort_match sorts the input), the tail is sentinels. */
@@ -356,7 +356,7 @@ static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_ms
         if (expect)
             match = n == 0 || memcmp(d->gpu_keys, expect, n * ksz) == 0;
         else if ((match = rto__sort_match(f, d->input, n, d->gpu_keys, NULL, d->threads)) < 0) {
-            status = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking %zu keys", n);
+            status = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking %zu keys", n);
             goto done;
         }
         keys_equal = match && all_sentinel(f, d->gpu_keys, n, gn);
@@ -364,7 +364,7 @@ static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_ms
     if (!reference && !keys_equal && !expect && n) { /* the full analysis needs the sorted input */
         own_sorted = rto__alloc_large(n, ksz);
         if (!own_sorted) {
-            status = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking %zu keys", n);
+            status = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking %zu keys", n);
             goto done;
         }
         if ((status = rto_fast_radix_sort(f, d->input, n, own_sorted, msg)))
@@ -373,19 +373,19 @@ static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_ms
     }
     if (keys_equal) {
         if (gn > n)
-            rto_report_mark(r, "tail", RTO_CHECK_PASSED);
+            rto__report_mark(r, "tail", RTO_CHECK_PASSED);
         goto values;
     }
 
     e = rto__alloc_large(n, sizeof *e);
     gs = rto__alloc_large(n, sizeof *gs);
     if (!e || !gs) {
-        status = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking %zu keys", n);
+        status = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking %zu keys", n);
         goto done;
     }
     if (expect) {
         for (size_t i = 0; i < n; i++)
-            e[i] = rto_key_get(f, expect, i);
+            e[i] = rto__key_get(f, expect, i);
     } else if ((status = sorted_wide(f, d->input, n, reference, e, msg))) {
         goto done;
     }
@@ -428,9 +428,9 @@ static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_ms
                     break;
                 }
         claim(r, fault, "permutation", 0);
-        rto_report_at(r, "slot", (int64_t)slot);
+        rto__report_at(r, "slot", (int64_t)slot);
         if (fault == RTO_FAULT_LOST) {
-            rto_report_summary(r,
+            rto__report_summary(r,
                                "lost-key: %zu input key(s) missing from the sorted range (first 0x%0*" PRIx64
                                ") and %" PRIu64 " extra sentinel(s) in their place; first bad slot %zu",
                                nmissing, w, first_missing, extra_sentinels, slot);
@@ -439,12 +439,12 @@ static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_ms
             int bits = 0;
             for (uint64_t t = x; t; t &= t - 1)
                 bits++;
-            rto_report_summary(r,
+            rto__report_summary(r,
                                "corrupt-key: slot %zu holds 0x%0*" PRIx64 ", which is not in the input; expected "
                                "0x%0*" PRIx64 " (%d bit%s differ)",
                                slot, w, G(slot), w, e[slot], bits, bits == 1 ? "" : "s");
         } else {
-            rto_report_summary(r,
+            rto__report_summary(r,
                                "duplicate-key: key 0x%0*" PRIx64 " appears %zu time(s), the input has it %zu time(s); "
                                "0x%0*" PRIx64 " is missing; first bad slot %zu",
                                w, first_extra, count_of(gs, n, first_extra), count_of(e, n, first_extra), w,
@@ -457,8 +457,8 @@ static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_ms
     for (size_t i = 0; i + 1 < n; i++) {
         if (G(i) > G(i + 1)) {
             if (claim(r, RTO_FAULT_ORDER, "sorted", 0)) {
-                rto_report_at(r, "slot", (int64_t)i);
-                rto_report_summary(r,
+                rto__report_at(r, "slot", (int64_t)i);
+                rto__report_summary(r,
                                    "order: a permutation of the input but not sorted: slot %zu holds 0x%0*" PRIx64
                                    " > slot %zu 0x%0*" PRIx64,
                                    i, w, G(i), i + 1, w, G(i + 1));
@@ -470,13 +470,13 @@ static rto_status sort_check(const rto_sort_check_desc *d, rto_report *r, rto_ms
         }
     }
     if (gn > n) {
-        rto_report_mark(r, "tail", RTO_CHECK_PASSED);
+        rto__report_mark(r, "tail", RTO_CHECK_PASSED);
         for (size_t i = n; i < gn; i++) {
             if (G(i) == sentinel)
                 continue;
             if (claim(r, RTO_FAULT_TAIL, "tail", 0)) {
-                rto_report_at(r, "slot", (int64_t)i);
-                rto_report_summary(r, "tail: padded slot %zu (of %zu) holds 0x%0*" PRIx64 " instead of the sentinel", i,
+                rto__report_at(r, "slot", (int64_t)i);
+                rto__report_summary(r, "tail: padded slot %zu (of %zu) holds 0x%0*" PRIx64 " instead of the sentinel", i,
                                    gn, w, G(i));
                 for (size_t s = i; s < gn; s++)
                     if (G(s) != sentinel)
@@ -494,16 +494,16 @@ values:
          * network (docs/sort.md), so every value below n_padded names a source. */
         seen = calloc(np ? np : 1, 1);
         if (!seen) {
-            status = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking values");
+            status = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking values");
             goto done;
         }
-        rto_report_mark(r, "values", RTO_CHECK_PASSED);
+        rto__report_mark(r, "values", RTO_CHECK_PASSED);
         for (size_t i = 0; i < gn; i++) {
             /* The source keys are read in the dump's order, all over the input: ask for them ahead of use. */
             if (i + 16 < gn && d->gpu_values[i + 16] < n)
                 __builtin_prefetch((const unsigned char *)d->input + (size_t)d->gpu_values[i + 16] * ksz);
             uint32_t v = d->gpu_values[i];
-            uint64_t src = v < n ? rto_key_get(f, d->input, v) : sentinel;
+            uint64_t src = v < n ? rto__key_get(f, d->input, v) : sentinel;
             const char *why = NULL;
             if ((size_t)v >= np)
                 why = "is out of range";
@@ -517,28 +517,28 @@ values:
                 continue;
             if (claim(r, RTO_FAULT_VALUE, "values", 1)) {
                 if (!(stable = stable_reference(d))) {
-                    status = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking values");
+                    status = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking values");
                     goto done;
                 }
-                rto_report_at(r, "slot", (int64_t)i);
-                rto_report_summary(r, "value: slot %zu carries source index %" PRIu32 ", which %s (key 0x%0*" PRIx64
+                rto__report_at(r, "slot", (int64_t)i);
+                rto__report_summary(r, "value: slot %zu carries source index %" PRIu32 ", which %s (key 0x%0*" PRIx64
                                    ")", i, v, why, w, G(i));
                 add_diff(r, f, 1, i, stable[i].index, v);
             }
             break;
         }
         if (d->require_stable) {
-            rto_report_mark(r, "stable", RTO_CHECK_PASSED);
+            rto__report_mark(r, "stable", RTO_CHECK_PASSED);
             for (size_t i = 0; i + 1 < gn; i++) {
                 if (G(i) != G(i + 1) || d->gpu_values[i] < d->gpu_values[i + 1])
                     continue;
                 if (claim(r, RTO_FAULT_STABILITY, "stable", 1)) {
                     if (!stable && !(stable = stable_reference(d))) {
-                        status = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking values");
+                        status = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory checking values");
                         goto done;
                     }
-                    rto_report_at(r, "slot", (int64_t)i);
-                    rto_report_summary(r,
+                    rto__report_at(r, "slot", (int64_t)i);
+                    rto__report_summary(r,
                                        "stability: slots %zu and %zu hold equal keys 0x%0*" PRIx64
                                        " with source indices %" PRIu32 " then %" PRIu32 " (input order reversed)",
                                        i, i + 1, w, G(i), d->gpu_values[i], d->gpu_values[i + 1]);
@@ -558,7 +558,7 @@ values:
             goto done;
     }
     if (r->code == RTO_FAULT_NONE)
-        rto_report_summary(r, "ok: %zu keys sorted, a permutation of the input%s%s", n,
+        rto__report_summary(r, "ok: %zu keys sorted, a permutation of the input%s%s", n,
                            rto_report_check_state(r, "stable") == RTO_CHECK_PASSED ? ", stable" : "",
                            rto_report_check_state(r, "passes") == RTO_CHECK_PASSED ? ", every checkpoint pass equal"
                                                                                     : "");

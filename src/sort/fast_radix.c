@@ -90,13 +90,13 @@ DEFINE_SORT(uint64_t, u64, 32u)
 
 rto_status rto_fast_radix_sort(rto_key_format f, const void *keys, size_t n, void *sorted, rto_msg *msg)
 {
-    rto_status st = rto_sort_args_check(f, keys, n, sorted, msg);
+    rto_status st = rto__sort_args_check(f, keys, n, sorted, msg);
     if (st)
         return st;
     const size_t ksz = rto_key_size(f);
     const uintptr_t a = (uintptr_t)keys, b = (uintptr_t)sorted;
     if (n && a < b + n * ksz && b < a + n * ksz)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys and output overlap");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "keys and output overlap");
     plan p;
     memset(&p, 0, sizeof p);
     if (f == RTO_KEY_U32)
@@ -113,7 +113,7 @@ rto_status rto_fast_radix_sort(rto_key_format f, const void *keys, size_t n, voi
     if (!p.hist || (p.passes > 1 && !tmp)) {
         free(p.hist);
         free(tmp);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
     }
     if (f == RTO_KEY_U32)
         sort_u32(keys, n, sorted, tmp, &p);

@@ -19,27 +19,27 @@ size_t rto_radix_tile_count(size_t n, uint32_t tile) { return tile ? (n + tile -
 rto_status rto_radix_sort(rto_key_format f, const void *keys, size_t n, uint32_t bits, uint32_t tile, void *sorted,
                           uint32_t *perm, const rto_radix_trace *trace, rto_msg *msg)
 {
-    rto_status st = rto_sort_args_check(f, keys, n, sorted, msg);
+    rto_status st = rto__sort_args_check(f, keys, n, sorted, msg);
     if (st)
         return st;
     if (bits != 4 && bits != 8)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "radix digit width %u: must be 4 or 8", bits);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "radix digit width %u: must be 4 or 8", bits);
     if (tile == 0)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "tile size must be at least 1");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "tile size must be at least 1");
 
     const uint32_t radix = UINT32_C(1) << bits, passes = rto_radix_pass_count(f, bits);
     const size_t tiles = rto_radix_tile_count(n, tile), ksz = rto_key_size(f);
-    uint64_t *cur = rto_alloc(n, sizeof *cur), *nxt = rto_alloc(n, sizeof *nxt);
-    uint32_t *ci = rto_alloc(n, sizeof *ci), *ni = rto_alloc(n, sizeof *ni);
-    uint32_t *hist = rto_alloc((size_t)radix, sizeof *hist), *total = rto_alloc(radix, sizeof *total);
-    uint32_t *base = rto_alloc(tiles, (size_t)radix * sizeof *base);
+    uint64_t *cur = rto__alloc(n, sizeof *cur), *nxt = rto__alloc(n, sizeof *nxt);
+    uint32_t *ci = rto__alloc(n, sizeof *ci), *ni = rto__alloc(n, sizeof *ni);
+    uint32_t *hist = rto__alloc((size_t)radix, sizeof *hist), *total = rto__alloc(radix, sizeof *total);
+    uint32_t *base = rto__alloc(tiles, (size_t)radix * sizeof *base);
     rto_status s = RTO_OK;
     if (!cur || !nxt || !ci || !ni || !hist || !total || !base) {
-        s = rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
+        s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory sorting %zu keys", n);
         goto done;
     }
     for (size_t i = 0; i < n; i++) {
-        cur[i] = rto_key_get(f, keys, i);
+        cur[i] = rto__key_get(f, keys, i);
         ci[i] = (uint32_t)i;
     }
     for (uint32_t p = 0; p < passes; p++) {
@@ -89,13 +89,13 @@ rto_status rto_radix_sort(rto_key_format f, const void *keys, size_t n, uint32_t
         if (trace && trace->scatter) {
             unsigned char *dst = (unsigned char *)trace->scatter + (size_t)p * n * ksz;
             for (size_t i = 0; i < n; i++)
-                rto_key_put(f, dst, i, cur[i]);
+                rto__key_put(f, dst, i, cur[i]);
         }
         if (trace && trace->perm)
             memcpy(trace->perm + (size_t)p * n, ci, n * sizeof *ci);
     }
     for (size_t i = 0; i < n; i++)
-        rto_key_put(f, sorted, i, cur[i]);
+        rto__key_put(f, sorted, i, cur[i]);
     if (perm)
         memcpy(perm, ci, n * sizeof *ci);
 done:

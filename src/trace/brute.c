@@ -46,9 +46,9 @@ rto_status rto_trace_brute(const rto_scene *scene, const rto_wf_ray *rays, size_
                            rto_hit_record *hits, rto_msg *msg)
 {
     if (!scene)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL scene");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL scene");
     if (n && !hits)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hit output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hit output");
     rto_status s = rto__rays_check(rays, n, msg);
     if (s)
         return s;

@@ -107,18 +107,18 @@ static void fault(ray_result *rr, rto_hit_fault f, double bound, const char *fmt
 static void id_row(ray_result *rr, rto_hit_fault f, const char *field, uint32_t expected, uint32_t actual)
 {
     if (expected == UINT32_MAX || actual == UINT32_MAX)
-        add_row(rr, f, field, rto_val_hex32(expected), rto_val_hex32(actual), rto_val_hex32(expected ^ actual),
-                rto_val_none());
+        add_row(rr, f, field, rto__val_hex32(expected), rto__val_hex32(actual), rto__val_hex32(expected ^ actual),
+                rto__val_none());
     else
-        add_row(rr, f, field, rto_val_uint(expected), rto_val_uint(actual),
-                rto_val_int((int64_t)actual - (int64_t)expected), rto_val_none());
+        add_row(rr, f, field, rto__val_uint(expected), rto__val_uint(actual),
+                rto__val_int((int64_t)actual - (int64_t)expected), rto__val_none());
 }
 
 static void float_row(ray_result *rr, rto_hit_fault f, const char *field, float expected, float actual,
                       double tolerance, int has_tolerance)
 {
-    add_row(rr, f, field, rto_val_f32(expected), rto_val_f32(actual), rto_val_f64((double)actual - (double)expected),
-            has_tolerance ? rto_val_f64(tolerance) : rto_val_none());
+    add_row(rr, f, field, rto__val_f32(expected), rto__val_f32(actual), rto__val_f64((double)actual - (double)expected),
+            has_tolerance ? rto__val_f64(tolerance) : rto__val_none());
 }
 
 /* The objToWorld element at column c, row r (WGSL's objToWorld[c][r]); the padding [c][3] is never compared. */
@@ -522,20 +522,20 @@ static void compare_ray(hcheck *c, size_t i, ray_result *rr)
 static rto_status check_scene(const rto_hits_check_desc *d, rto_msg *msg)
 {
     if ((d->instance_count && !d->instances) || (d->mesh_count && !d->meshes))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL instances or meshes");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL instances or meshes");
     for (uint32_t m = 0; m < d->mesh_count; m++) {
         const rto_mesh *mesh = &d->meshes[m];
         if ((mesh->triangle_count && !mesh->indices) || (mesh->vertex_count && !mesh->positions))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %" PRIu32 " has NULL indices or positions", m);
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "mesh %" PRIu32 " has NULL indices or positions", m);
         for (size_t k = 0; k < 3 * (size_t)mesh->triangle_count; k++)
             if (mesh->indices[k] >= mesh->vertex_count)
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+                return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                                 "mesh %" PRIu32 ": index %zu is %" PRIu32 " (the mesh has %" PRIu32 " vertices)", m, k,
                                 mesh->indices[k], mesh->vertex_count);
     }
     for (uint32_t i = 0; i < d->instance_count; i++)
         if (d->instances[i].blas >= d->mesh_count)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance %" PRIu32 " names mesh %" PRIu32 " of %" PRIu32, i,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "instance %" PRIu32 " names mesh %" PRIu32 " of %" PRIu32, i,
                             d->instances[i].blas, d->mesh_count);
     return RTO_OK;
 }
@@ -566,12 +566,12 @@ static rto_status check_expected(const rto_hits_check_desc *d, rto_msg *msg)
         const rto_wf_ray *ray = &d->rays[i];
         const rto_hit_record *e = &d->expected[i];
         if (e->miss_flag > 1)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "expected record %zu: missFlag %" PRIu32
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "expected record %zu: missFlag %" PRIu32
                             " is neither 0 nor 1", i, e->miss_flag);
         if (e->miss_flag) {
             const rto_hit_record m = rto_hit_record_miss(ray->t_max);
             if (!(e->t == m.t) || !same_record(e, &m))
-                return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+                return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                                 "expected record %zu is a miss but not the miss record of ray %zu (t = tMax, IDs "
                                 "0xFFFFFFFF, bary and objToWorld 0)", i, i);
             continue;
@@ -579,7 +579,7 @@ static rto_status check_expected(const rto_hits_check_desc *d, rto_msg *msg)
         rto_tri_hit th = {0, 0, 0, 0};
         const claim_kind k = reintersect(d, ray, e->instance_id, e->prim_id, &th);
         if (k != CLAIM_HIT)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                             "expected record %zu names triangle %" PRIu32 " of instance %" PRIu32 ", %s", i,
                             e->prim_id, e->instance_id,
                             k == CLAIM_NO_INSTANCE ? "an instance the scene does not have"
@@ -588,7 +588,7 @@ static rto_status check_expected(const rto_hits_check_desc *d, rto_msg *msg)
                                                    : "which the ray does not hit");
         const rto_hit_record own = rto_hit_record_make(&d->instances[e->instance_id], e->instance_id, e->prim_id, &th);
         if (!same_record(e, &own))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                             "expected record %zu is not the hit record of triangle %" PRIu32 " of instance %" PRIu32
                             " (t, bary, customIndex, hitGroup or objToWorld differ)", i, e->prim_id, e->instance_id);
     }
@@ -602,7 +602,7 @@ static void report_rows(rto_report *r, size_t i, const ray_result *rr)
 {
     for (uint32_t k = 0; k < rr->nrows; k++) {
         const finding *x = &rr->rows[k];
-        rto_report_row *row = rto_report_row_add(r, i, x->field);
+        rto_report_row *row = rto__report_row_add(r, i, x->field);
         if (!row)
             return;
         row->expected = x->expected;
@@ -615,16 +615,16 @@ static void report_rows(rto_report *r, size_t i, const ray_result *rr)
 rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *msg)
 {
     if (!d || !r)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL descriptor or report");
-    rto_report_begin(r, "check-hits");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL descriptor or report");
+    rto__report_begin(r, "check-hits");
     for (size_t k = 0; k < sizeof check_names / sizeof check_names[0]; k++)
-        rto_report_add_check(r, check_names[k]);
-    rto_report_table(r, "hit records", "ray");
+        rto__report_add_check(r, check_names[k]);
+    rto__report_table(r, "hit records", "ray");
     snprintf(r->tolerance, sizeof r->tolerance,
              "§9's conformance model (binary32 correctly rounded, a*b+c fused or not, division 2.5 ulp): t, u, v in "
              "its intervals; IDs, customIndex, hitGroup, missFlag, objToWorld exact");
     if ((d->ray_count && (!d->rays || !d->expected)) || (d->gpu_count && !d->gpu))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL rays, expected records or GPU records");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL rays, expected records or GPU records");
     rto_status s = check_scene(d, msg);
     if (!s)
         s = check_expected(d, msg);
@@ -641,28 +641,28 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
              "%zu rays (the oracle: %zu hits, %zu misses), GPU dump of %zu records; %" PRIu32 " instance%s, %" PRIu32
              " mesh%s", n, hits, n - hits, gn, d->instance_count, d->instance_count == 1 ? "" : "s", d->mesh_count,
              d->mesh_count == 1 ? "" : "es");
-    rto_report_fact(r, "rays", (int64_t)n);
-    rto_report_fact(r, "gpu_records", (int64_t)gn);
-    rto_report_fact(r, "hits", (int64_t)hits);
-    rto_report_fact(r, "misses", (int64_t)(n - hits));
-    rto_report_fact(r, "first_hit_rays", (int64_t)first_hit);
+    rto__report_fact(r, "rays", (int64_t)n);
+    rto__report_fact(r, "gpu_records", (int64_t)gn);
+    rto__report_fact(r, "hits", (int64_t)hits);
+    rto__report_fact(r, "misses", (int64_t)(n - hits));
+    rto__report_fact(r, "first_hit_rays", (int64_t)first_hit);
 
     if (gn != n) {
         /* Reported at the first ray without a record (or the first record without a ray); the records both sides
          * have are still compared, so the other fault classes of a short dump are listed too. */
-        rto_report_mark(r, "size", RTO_CHECK_FAILED);
-        rto_report_claim(r, RTO_HIT_SIZE, rto_hit_fault_name(RTO_HIT_SIZE));
-        rto_report_at(r, "ray", (int64_t)m);
-        rto_report_summary(r, "size: the GPU dump holds %zu hit records for %zu rays (the first %s: ray %zu)", gn, n,
+        rto__report_mark(r, "size", RTO_CHECK_FAILED);
+        rto__report_claim(r, RTO_HIT_SIZE, rto_hit_fault_name(RTO_HIT_SIZE));
+        rto__report_at(r, "ray", (int64_t)m);
+        rto__report_summary(r, "size: the GPU dump holds %zu hit records for %zu rays (the first %s: ray %zu)", gn, n,
                            gn < n ? "ray without a record" : "record without a ray", m);
-        rto_report_row *row = rto_report_row_add(r, m, "records");
+        rto_report_row *row = rto__report_row_add(r, m, "records");
         if (row) {
-            row->expected = rto_val_uint(n);
-            row->actual = rto_val_uint(gn);
-            row->diff = rto_val_int((int64_t)gn - (int64_t)n);
+            row->expected = rto__val_uint(n);
+            row->actual = rto__val_uint(gn);
+            row->diff = rto__val_int((int64_t)gn - (int64_t)n);
         }
     } else {
-        rto_report_mark(r, "size", RTO_CHECK_PASSED);
+        rto__report_mark(r, "size", RTO_CHECK_PASSED);
     }
 
     hcheck c = {.d = d};
@@ -690,30 +690,30 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
         for (int f = RTO_HIT_SIZE; f <= HIT_FAULT_LAST; f++) {
             if (!(rr.faults & (1u << f)))
                 continue;
-            rto_report_mark(r, check_of((rto_hit_fault)f), RTO_CHECK_FAILED);
-            if (rto_report_claim(r, f, rto_hit_fault_name((rto_hit_fault)f))) {
+            rto__report_mark(r, check_of((rto_hit_fault)f), RTO_CHECK_FAILED);
+            if (rto__report_claim(r, f, rto_hit_fault_name((rto_hit_fault)f))) {
                 primary = 1;
                 first = (rto_hit_fault)f;
             }
         }
         if (primary) {
-            rto_report_at(r, "ray", (int64_t)i);
-            rto_report_summary(r, "%s: %s", rto_hit_fault_name(first), rr.text[first]);
+            rto__report_at(r, "ray", (int64_t)i);
+            rto__report_summary(r, "%s: %s", rto_hit_fault_name(first), rr.text[first]);
             r->tolerance_bound = rr.bound[first];
         }
         report_rows(r, i, &rr); /* the primary ray's rows, then those of later wrong rays while there is room */
     }
     cf_scene_free(&c.cs);
     for (size_t k = 0; k < sizeof check_names / sizeof check_names[0]; k++)
-        rto_report_mark(r, check_names[k], RTO_CHECK_PASSED); /* FAILED is sticky */
+        rto__report_mark(r, check_names[k], RTO_CHECK_PASSED); /* FAILED is sticky */
     size_t differ = 0;
     for (int f = FR_ARITH; f < FREEDOM_COUNT; f++) {
-        rto_report_fact(r, freedom_facts[f], (int64_t)accepted[f]);
+        rto__report_fact(r, freedom_facts[f], (int64_t)accepted[f]);
         differ += accepted[f];
     }
-    rto_report_fact(r, "accepted_differences", (int64_t)differ);
-    rto_report_fact(r, "unverified", (int64_t)c.unverified);
-    rto_report_fact(r, "wrong_rays", (int64_t)wrong);
+    rto__report_fact(r, "accepted_differences", (int64_t)differ);
+    rto__report_fact(r, "unverified", (int64_t)c.unverified);
+    rto__report_fact(r, "wrong_rays", (int64_t)wrong);
     char freedoms[320] = "";
     size_t len = 0;
     for (int f = FR_ARITH; f < FREEDOM_COUNT && len < sizeof freedoms; f++)
@@ -722,19 +722,19 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
                                     len ? ", " : "", accepted[f], freedom_names[f], first_at[f]);
     if (r->code != RTO_HIT_OK) {
         if (wrong)
-            rto_report_append(r, "; %zu of %zu compared rays wrong", wrong, m);
+            rto__report_append(r, "; %zu of %zu compared rays wrong", wrong, m);
         if (differ)
-            rto_report_append(r, "; accepted as §9's model allows: %s", freedoms);
+            rto__report_append(r, "; accepted as §9's model allows: %s", freedoms);
         if (c.unverified)
-            rto_report_append(r, "; %zu ray(s) accepted unverified (the search for certain hits stopped after %" PRIu64
+            rto__report_append(r, "; %zu ray(s) accepted unverified (the search for certain hits stopped after %" PRIu64
                               " triangle tests)", c.unverified, c.scan_tests);
         return RTO_ERR_MISMATCH;
     }
-    rto_report_summary(r, "ok: %zu rays: %zu equal to the oracle's records", n, n - differ);
+    rto__report_summary(r, "ok: %zu rays: %zu equal to the oracle's records", n, n - differ);
     if (differ)
-        rto_report_append(r, ", the others as §9's model allows: %s", freedoms);
+        rto__report_append(r, ", the others as §9's model allows: %s", freedoms);
     if (c.unverified)
-        rto_report_append(r, "; %zu ray(s) accepted unverified (the search for certain hits stopped after %" PRIu64
+        rto__report_append(r, "; %zu ray(s) accepted unverified (the search for certain hits stopped after %" PRIu64
                           " triangle tests)", c.unverified, c.scan_tests);
     return RTO_OK;
 }

@@ -221,14 +221,14 @@ cf_outcome cf_slab(const rto_aabb *box, const cf_ray *r, float t_min, float boun
 rto_status cf_scene_init(cf_scene *cs, const rto_scene *scene, rto_msg *msg)
 {
     cs->scene = scene;
-    cs->instance_boxes = rto_alloc(scene->instance_count, sizeof *cs->instance_boxes);
+    cs->instance_boxes = rto__alloc(scene->instance_count, sizeof *cs->instance_boxes);
     if (!cs->instance_boxes)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u instance boxes", scene->instance_count);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u instance boxes", scene->instance_count);
     /* rto_instance_aabb's bytes: its mesh's box through objToWorld, each mesh's box computed once */
-    rto_aabb *mesh_boxes = rto_alloc(scene->mesh_count, sizeof *mesh_boxes);
+    rto_aabb *mesh_boxes = rto__alloc(scene->mesh_count, sizeof *mesh_boxes);
     if (!mesh_boxes) {
         cf_scene_free(cs);
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u mesh boxes", scene->mesh_count);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u mesh boxes", scene->mesh_count);
     }
     for (uint32_t m = 0; m < scene->mesh_count; m++)
         mesh_boxes[m] = rto_mesh_aabb(&scene->meshes[m]);

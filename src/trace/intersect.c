@@ -44,11 +44,11 @@ int rto_slab_test(const float bmin[3], const float bmax[3], const float origin[3
     for (int a = 0; a < 3; a++) {
         const float t0 = (bmin[a] - origin[a]) * inv_dir[a];
         const float t1 = (bmax[a] - origin[a]) * inv_dir[a];
-        lo[a] = rto_minf(t0, t1);
-        hi[a] = rto_maxf(t0, t1);
+        lo[a] = rto__minf(t0, t1);
+        hi[a] = rto__maxf(t0, t1);
     }
-    const float t_near = rto_maxf(rto_maxf(rto_maxf(lo[0], lo[1]), lo[2]), t_min);
-    const float t_far = rto_minf(rto_minf(rto_minf(hi[0], hi[1]), hi[2]), best_t);
+    const float t_near = rto__maxf(rto__maxf(rto__maxf(lo[0], lo[1]), lo[2]), t_min);
+    const float t_far = rto__minf(rto__minf(rto__minf(hi[0], hi[1]), hi[2]), best_t);
     if (!(t_near <= t_far))
         return 0;
     if (t_entry)
@@ -170,17 +170,17 @@ rto_instance rto_instance_from_record(const rto_instance_record *record)
 rto_status rto__rays_check(const rto_wf_ray *rays, size_t n, rto_msg *msg)
 {
     if (n && !rays)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL rays");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL rays");
     for (size_t i = 0; i < n; i++) {
         const rto_wf_ray *r = &rays[i];
         int finite = isfinite(r->t_min) && isfinite(r->t_max);
         for (int a = 0; a < 3; a++)
             finite = finite && isfinite(r->origin[a]) && isfinite(r->dir[a]);
         if (!finite)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has a non-finite origin, direction, tMin or tMax",
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has a non-finite origin, direction, tMin or tMax",
                             i);
         if (r->t_min > r->t_max)
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has tMin %.9g > tMax %.9g", i, (double)r->t_min,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has tMin %.9g > tMax %.9g", i, (double)r->t_min,
                             (double)r->t_max);
     }
     return RTO_OK;

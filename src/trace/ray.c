@@ -109,9 +109,9 @@ rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, ui
                                     rto_camera_uniforms *out, rto_msg *msg)
 {
     if (!camera || !out)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL camera or output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL camera or output");
     if (width == 0 || height == 0)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera image size %ux%u: both must be at least 1", width,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera image size %ux%u: both must be at least 1", width,
                         height);
     const float all[13] = {camera->position.x, camera->position.y, camera->position.z, camera->target.x,
                            camera->target.y,   camera->target.z,   camera->up.x,       camera->up.y,
@@ -119,17 +119,17 @@ rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, ui
                            camera->zfar};
     for (int k = 0; k < 13; k++)
         if (!isfinite(all[k]))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': a parameter is not finite (%g)",
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': a parameter is not finite (%g)",
                             camera->name, (double)all[k]);
     const double fov = camera->fov_y, zn = camera->znear, zf = camera->zfar;
     if (!(fov > 0.0) || !(fov < 3.14159265358979323846))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': fovY %g is outside (0, pi) radians",
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': fovY %g is outside (0, pi) radians",
                         camera->name, fov);
     if (!(zn > 0.0) || !(zf > zn))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': near %g and far %g need 0 < near < far",
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': near %g and far %g need 0 < near < far",
                         camera->name, zn, zf);
     if (camera->aspect < 0.0f)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': aspect %g is negative", camera->name,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': aspect %g is negative", camera->name,
                         (double)camera->aspect);
     const double aspect = camera->aspect > 0.0f ? (double)camera->aspect : (double)width / (double)height;
     const double eye[3] = {camera->position.x, camera->position.y, camera->position.z};
@@ -138,10 +138,10 @@ rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, ui
     double view[16], proj[16], iview[16], iproj[16];
     const char *why = "";
     if (!look_at(eye, target, up, view, &why))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': %s", camera->name, why);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': %s", camera->name, why);
     perspective(fov, aspect, zn, zf, proj);
     if (!invert4(view, iview) || !invert4(proj, iproj))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': its view or projection matrix is singular",
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': its view or projection matrix is singular",
                         camera->name);
     rto_camera_uniforms u;
     memset(&u, 0, sizeof u);
@@ -149,7 +149,7 @@ rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, ui
         u.inverse_projection[k] = (float)iproj[k];
         u.inverse_view[k] = (float)iview[k];
         if (!isfinite(u.inverse_projection[k]) || !isfinite(u.inverse_view[k]))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                             "camera '%.64s': an inverse matrix element overflows binary32 (near %g, far %g)",
                             camera->name, zn, zf);
     }
@@ -342,9 +342,9 @@ typedef struct targets {
 static rto_status targets_find(const rto_scene *s, targets *t, rto_msg *msg)
 {
     t->count = 0;
-    t->inst = rto_alloc(s->instance_count, sizeof *t->inst);
+    t->inst = rto__alloc(s->instance_count, sizeof *t->inst);
     if (!t->inst)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u instances", s->instance_count);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u instances", s->instance_count);
     for (uint32_t i = 0; i < s->instance_count; i++)
         if (s->meshes[s->instances[i].blas].triangle_count > 0)
             t->inst[t->count++] = i;
@@ -387,7 +387,7 @@ static rto_status aimed_ray(rto_wf_ray *r, const double aim[3], const double dir
         r->origin[a] = (float)(aim[a] - dir[a] * dist);
         r->dir[a] = (float)dir[a];
         if (!isfinite(r->origin[a]))
-            return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT,
+            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                             "ray %zu: its origin, %g behind its aim point, overflows binary32 (scene bounds too large)",
                             i, dist);
     }
@@ -408,7 +408,7 @@ static rto_status gen_random(const rto_scene *s, const targets *t, uint32_t seed
         for (int a = 0; a < 3; a++) {
             /* lo + u (hi - lo) in binary64, rounded once, then clamped: rounding may not leave the box. */
             const float o = (float)(lo[a] + draw_unit(st, i, (uint32_t)a) * (hi[a] - lo[a]));
-            r.origin[a] = rto_minf(rto_maxf(o, flo[a]), fhi[a]);
+            r.origin[a] = rto__minf(rto__maxf(o, flo[a]), fhi[a]);
         }
         double d[3];
         sphere_dir(draw_unit(st, i, 3), draw_unit(st, i, 4), d);
@@ -544,7 +544,7 @@ static rto_status gen_shadow(const rto_accel *accel, const rto_rays_desc *d, con
     const rto_scene *s = rto_accel_scene(accel);
     float light[3] = {d->light_dir[0], d->light_dir[1], d->light_dir[2]};
     if (!isfinite(light[0]) || !isfinite(light[1]) || !isfinite(light[2]))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "light direction (%g, %g, %g) is not finite",
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "light direction (%g, %g, %g) is not finite",
                         (double)light[0], (double)light[1], (double)light[2]);
     if (light[0] == 0.0f && light[1] == 0.0f && light[2] == 0.0f) {
         light[0] = 0.3f;
@@ -554,7 +554,7 @@ static rto_status gen_shadow(const rto_accel *accel, const rto_rays_desc *d, con
     float l[3];
     normalize3f(light, l);
     if (!isfinite(l[0]) || !isfinite(l[1]) || !isfinite(l[2]))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "light direction (%g, %g, %g) cannot be normalised",
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "light direction (%g, %g, %g) cannot be normalised",
                         (double)light[0], (double)light[1], (double)light[2]);
     const rto_aabb bounds = rto_scene_aabb(s);
     const float eps = rto__ray_offset(&bounds, u);
@@ -562,9 +562,9 @@ static rto_status gen_shadow(const rto_accel *accel, const rto_rays_desc *d, con
     /* The primary rays go into the caller's array; shadow ray k is written over slot k <= the primary ray it comes
      * from, which has been read by then, so one array holds both. */
     gen_primary(u, d->width, d->height, rays);
-    rto_hit_record *hits = rto_alloc(total < SHADOW_CHUNK ? total : SHADOW_CHUNK, sizeof *hits);
+    rto_hit_record *hits = rto__alloc(total < SHADOW_CHUNK ? total : SHADOW_CHUNK, sizeof *hits);
     if (!hits)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for the primary hits");
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for the primary hits");
     const rto_trace_desc td = {d->threads};
     size_t out = 0;
     for (size_t a = 0; a < total; a += SHADOW_CHUNK) {
@@ -603,23 +603,23 @@ rto_status rto_rays_generate(const rto_accel *accel, const rto_rays_desc *desc, 
     if (camera_out)
         memset(camera_out, 0, sizeof *camera_out);
     if (!accel || !desc || !n)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel, description or count");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel, description or count");
     const char *name = rto_ray_set_name(desc->set);
     if (!name)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown ray set %d", (int)desc->set);
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "unknown ray set %d", (int)desc->set);
     const int camera = desc->set == RTO_RAYS_PRIMARY || desc->set == RTO_RAYS_SHADOW;
     const uint64_t need = rays_needed(desc);
     if (camera && (desc->width == 0 || desc->height == 0))
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s rays: image size %ux%u, both must be at least 1", name,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s rays: image size %ux%u, both must be at least 1", name,
                         desc->width, desc->height);
     if (need > RAYS_MAX)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s rays: %llu rays exceed the limit of %llu", name,
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "%s rays: %llu rays exceed the limit of %llu", name,
                         (unsigned long long)need, (unsigned long long)RAYS_MAX);
     if ((uint64_t)cap < need)
-        return rto_fail(msg, RTO_ERR_BUFFER_TOO_SMALL, "%s rays: room for %zu rays, %llu needed", name, cap,
+        return rto__fail(msg, RTO_ERR_BUFFER_TOO_SMALL, "%s rays: room for %zu rays, %llu needed", name, cap,
                         (unsigned long long)need);
     if (need && !rays)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL ray array");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL ray array");
     const rto_scene *s = rto_accel_scene(accel);
     if (camera) {
         rto_camera_uniforms u;

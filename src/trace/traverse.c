@@ -222,9 +222,9 @@ rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, c
                      rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg)
 {
     if (!accel)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel");
     if (n && !hits)
-        return rto_fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hit output");
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hit output");
     rto_status s = rto__rays_check(rays, n, msg);
     if (s)
         return s;
@@ -239,9 +239,9 @@ rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, c
     }
     tr.stack_cap = (size_t)depth + 2;
     const uint32_t threads = rto__thread_count(desc ? desc->threads : 0);
-    entry *stacks = rto_alloc((size_t)threads * 2 * tr.stack_cap, sizeof *stacks);
+    entry *stacks = rto__alloc((size_t)threads * 2 * tr.stack_cap, sizeof *stacks);
     if (!stacks)
-        return rto_fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u traversal stacks", threads);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u traversal stacks", threads);
     trace_job job = {&tr, rays, hits, counters, stacks};
     rto__parallel_ranges(n, threads, trace_range, &job);
     free(stacks);
