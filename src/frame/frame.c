@@ -694,12 +694,12 @@ uint8_t rto__unorm8(float x)
     return (uint8_t)floorf(x * 255.0f + 0.5f);
 }
 
-int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg)
-{
-    static const struct {
-        const char *name;
-        uint32_t bit;
-    } names[] = {{"rays", RTO_FRAME_KEEP_RAYS},
+/* The --stages names: one per kept buffer (the first KEEP_SINGLE, in bit order), then the sets. */
+#define KEEP_SINGLE 6
+static const struct {
+    const char *name;
+    uint32_t bit;
+} keep_names[] = {{"rays", RTO_FRAME_KEEP_RAYS},
                  {"hits", RTO_FRAME_KEEP_HITS},
                  {"trace-counters", RTO_FRAME_KEEP_TRACE_COUNTERS},
                  {"payloads", RTO_FRAME_KEEP_PAYLOADS},
@@ -708,6 +708,21 @@ int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg)
                  {"lean", RTO_FRAME_KEEP_LEAN},
                  {"all", RTO_FRAME_KEEP_ALL},
                  {"none", 0}};
+
+void rto__frame_keep_text(uint32_t keep, char *text, size_t cap)
+{
+    size_t len = 0;
+    text[0] = '\0';
+    for (int i = 0; i < KEEP_SINGLE; i++)
+        if (keep & keep_names[i].bit)
+            len += (size_t)snprintf(text + len, cap - len, "%s%s", len ? "," : "", keep_names[i].name);
+    if (!len)
+        snprintf(text, cap, "none");
+}
+
+int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg)
+{
+    const size_t count = sizeof keep_names / sizeof keep_names[0];
     if (!list || !keep) {
         rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL stage list");
         return 0;
@@ -718,15 +733,15 @@ int rto_frame_keep_parse(const char *list, uint32_t *keep, rto_msg *msg)
         const char *e = strchr(p, ',');
         const size_t len = e ? (size_t)(e - p) : strlen(p);
         size_t i = 0;
-        while (i < sizeof names / sizeof names[0] && (strlen(names[i].name) != len || strncmp(names[i].name, p, len)))
+        while (i < count && (strlen(keep_names[i].name) != len || strncmp(keep_names[i].name, p, len)))
             i++;
-        if (i == sizeof names / sizeof names[0]) {
+        if (i == count) {
             rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                      "unknown stage '%.*s' (rays, hits, trace-counters, payloads, accum, accum-exr, lean, all, none)",
                      (int)len, p);
             return 0;
         }
-        bits |= names[i].bit;
+        bits |= keep_names[i].bit;
         if (!e)
             break;
         p = e + 1;

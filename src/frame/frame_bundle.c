@@ -35,18 +35,6 @@ static void set_floats(rto_bundle *b, const char *section, const char *key, cons
     rto_bundle_set_str(b, section, key, text);
 }
 
-static void keep_text(uint32_t keep, char *text, size_t cap)
-{
-    static const char *const names[] = {"rays", "hits", "trace-counters", "payloads", "accum", "accum-exr"};
-    size_t len = 0;
-    text[0] = '\0';
-    for (int i = 0; i < 6; i++)
-        if (keep & (1u << i))
-            len += (size_t)snprintf(text + len, cap - len, "%s%s", len ? "," : "", names[i]);
-    if (!len)
-        snprintf(text, cap, "none");
-}
-
 rto_status rto_frame_write_bundle(const rto_frame *f, int with_timings, rto_bundle *b, rto_msg *msg)
 {
     if (!f || !b)
@@ -105,7 +93,7 @@ rto_status rto_frame_write_bundle(const rto_frame *f, int with_timings, rto_bund
         return s;
 
     char keep[96];
-    keep_text(f->keep, keep, sizeof keep);
+    rto__frame_keep_text(f->keep, keep, sizeof keep);
     rto_bundle_set_int(b, "frame", "width", f->width);
     rto_bundle_set_int(b, "frame", "height", f->height);
     rto_bundle_set_int(b, "frame", "max_depth", f->max_depth);

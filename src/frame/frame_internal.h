@@ -22,6 +22,8 @@ void rto__normalize3(const float v[3], float out[3]);
 extern size_t rto__frame_chunk;
 /** The 8-bit value of a resolved channel: clamp to [0, 1], round(x * 255) half up; NaN gives 0. */
 uint8_t rto__unorm8(float x);
+/** The kept stages as --stages spells them ("rays,hits,accum", "none"): the manifest's frame.stages. */
+void rto__frame_keep_text(uint32_t keep, char *text, size_t cap);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* The stage2 scene (stage2.c): seed 002's analytic primitives                                                       */
