@@ -174,7 +174,7 @@ static void write_golden(const loaded *l, const rto_frame *f, const char *outdir
     rto_bundle *b = NULL;
     rto_status s = rto_bundle_begin(outdir, "frame", &b, &msg);
     if (!s)
-        s = rto_accel_write_bundle(l->accel, b, &msg);
+        s = rto_bvh_bundle_write(l->accel, b, &msg);
     for (uint32_t m = 0; !s && m < l->scene->mesh_count; m++) {
         const rto_mesh *mesh = &l->scene->meshes[m];
         char name[RTO_BUNDLE_FILE_NAME_MAX];
@@ -191,7 +191,7 @@ static void write_golden(const loaded *l, const rto_frame *f, const char *outdir
                                    &msg);
     }
     if (!s)
-        s = rto_frame_write_bundle(f, 1, b, &msg);
+        s = rto_frame_bundle_write(f, 1, b, &msg);
     if (!s)
         s = rto_bundle_commit(b, &msg);
     else

@@ -55,57 +55,6 @@ void *cli_alloc(size_t count, size_t size)
     return malloc(bytes ? bytes : 1);
 }
 
-int cli_bundle_refuse(const cli_bundle *cb, const char *file, const char *fmt, ...)
-{
-    char text[400];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
-    va_end(ap);
-    return cli_fail(cb->cmd, "--expected %s: %s: %s", cb->dir, file, text);
-}
-
-const char *cli_bundle_file_name(rto_bundle_file f, uint32_t mesh, char name[RTO_BUNDLE_FILE_NAME_MAX])
-{
-    if (rto_bundle_file_name(f, mesh, name, RTO_BUNDLE_FILE_NAME_MAX))
-        snprintf(name, RTO_BUNDLE_FILE_NAME_MAX, "(bundle file %d)", (int)f); /* unreachable: every name fits */
-    return name;
-}
-
-int cli_bundle_count(const cli_bundle *cb, const char *section, const char *key, uint64_t max, size_t *out)
-{
-    int64_t v = -1;
-    if (!rto_bundle_get_int(cb->b, section, key, &v) || v < 0 || (uint64_t)v > max)
-        return cli_bundle_refuse(cb, "manifest.json", "%s.%s is missing or outside 0 .. %" PRIu64, section, key, max);
-    *out = (size_t)v;
-    return EXIT_PASS;
-}
-
-int cli_bundle_load(const cli_bundle *cb, const char *name, const rto_npy_desc *want, const char *layout, rto_npy *out)
-{
-    rto_msg msg = {{0}};
-    char have[160], need[160];
-    if (rto_bundle_read_name(cb->b, name, out, &msg))
-        return cli_fail(cb->cmd, "--expected %s: %s", cb->dir, msg.text);
-    rto_npy_desc w = *want;
-    const int any_rows = want->shape[0] == UINT64_MAX;
-    if (any_rows && out->desc.ndim >= 1)
-        w.shape[0] = out->desc.shape[0];
-    if (!cli_npy_same(&out->desc, &w)) {
-        /* the layout's name for what has its fields, whatever its shape */
-        rto_npy_desc same_fields = out->desc;
-        memcpy(same_fields.shape, w.shape, sizeof same_fields.shape);
-        same_fields.ndim = w.ndim;
-        const char *have_layout = cli_npy_same(&same_fields, &w) ? layout : NULL;
-        cli_npy_what(&w, layout, need, sizeof need);
-        if (any_rows) /* "shape (N, 3)", not the count of whatever was found */
-            snprintf(need, sizeof need, "dtype <f4, shape (N, 3)");
-        return cli_bundle_refuse(cb, name, "holds %s; expected %s",
-                                 cli_npy_what(&out->desc, have_layout, have, sizeof have), need);
-    }
-    return EXIT_PASS;
-}
-
 const opt_name cli_format_names[] = {{"u32", RTO_KEY_U32}, {"u64", RTO_KEY_U64}, {NULL, 0}};
 const opt_name cli_algo_names[] = {{"bitonic", RTO_SORT_BITONIC}, {"radix", RTO_SORT_RADIX}, {NULL, 0}};
 const opt_name cli_radix_bits_names[] = {{"4", 4}, {"8", 8}, {NULL, 0}};
@@ -254,43 +203,6 @@ json_t *cli_json_text(const char *text)
     return s;
 }
 
-bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want)
-{
-    if (have->dtype != want->dtype || have->ndim != want->ndim)
-        return false;
-    for (uint32_t i = 0; i < want->ndim && i < RTO_NPY_MAX_DIMS; i++)
-        if (have->shape[i] != want->shape[i])
-            return false;
-    if (want->dtype != RTO_DTYPE_STRUCT)
-        return true;
-    if (have->nfields != want->nfields)
-        return false;
-    for (uint32_t i = 0; i < want->nfields && i < RTO_NPY_MAX_FIELDS; i++) {
-        const rto_npy_field *a = &have->fields[i], *b = &want->fields[i];
-        if (a->type != b->type || a->count != b->count || a->offset != b->offset || strcmp(a->name, b->name))
-            return false;
-    }
-    return true;
-}
-
-const char *cli_npy_what(const rto_npy_desc *d, const char *layout, char *buf, size_t cap)
-{
-    char descr[256];
-    int used;
-    if (d->dtype == RTO_DTYPE_STRUCT && layout) /* a struct's full descr would fill the line */
-        used = snprintf(buf, cap, "%s records, shape (", layout);
-    else if (d->dtype == RTO_DTYPE_STRUCT)
-        used = snprintf(buf, cap, "%zu-byte records, shape (", rto_npy_itemsize(d));
-    else
-        used = snprintf(buf, cap, "dtype %s, shape (", rto_npy_descr(d, descr, sizeof descr) ? "?" : descr);
-    for (uint32_t i = 0; used >= 0 && (size_t)used < cap && i < d->ndim && i < RTO_NPY_MAX_DIMS; i++)
-        used += snprintf(buf + used, cap - (size_t)used, "%s%llu%s", i ? " " : "", (unsigned long long)d->shape[i],
-                         d->ndim == 1 || i + 1 < d->ndim ? "," : "");
-    if (used >= 0 && (size_t)used < cap)
-        snprintf(buf + used, cap - (size_t)used, ")");
-    return buf;
-}
-
 const char *cli_dir_summary(const char *dir, char *buf, size_t cap)
 {
     DIR *d = opendir(dir);
@@ -340,4 +252,27 @@ rto_status cli_set_request(rto_bundle *b, const char *request, const rto_scene *
     rto_status s = rto_bundle_set_request(b, request, src, k, msg);
     free(src);
     return s;
+}
+
+rto_status sort_bundle_write(const char *outdir, rto_key_format f, const void *keys, size_t n, const sort_params *p,
+                             const key_origin *origin, rto_bundle_share *share, rto_msg *msg)
+{
+    const rto_sort_bundle_desc d = {f, keys, n, p->algo, p->radix_bits, p->tile, p->checkpoints,
+                                    origin->case_id, origin->dist, origin->seed, origin->file};
+    rto_bundle *b = NULL;
+    rto_status s = rto_bundle_begin(outdir, "sort", &b, msg);
+    if (s)
+        return s;
+    rto_bundle_set_share(b, share);
+    if (origin->request) {
+        const char *src[1] = {origin->file};
+        s = rto_bundle_set_request(b, origin->request, src, origin->file ? 1 : 0, msg);
+    }
+    if (!s)
+        s = rto_sort_bundle_write(&d, b, msg);
+    if (s) {
+        rto_bundle_abort(b);
+        return s;
+    }
+    return rto_bundle_commit(b, msg);
 }

@@ -43,33 +43,6 @@ int cli_report_at(const char *cmd, const rto_report *r, bool json, const char *r
 /** A JSON string of text that may not be UTF-8 (a path): repaired first (rto_utf8_repair), as jansson requires.
  * NULL when out of memory. */
 struct json_t *cli_json_text(const char *text);
-/** Whether a loaded array has exactly the dtype (struct fields included) and shape of want. */
-bool cli_npy_same(const rto_npy_desc *have, const rto_npy_desc *want);
-/** "dtype <u4, shape (1,)": what an array holds, for messages; a structured dtype is named by layout ("Aabb
- * records, shape (3,)") or, with layout NULL, by its record size. Returns buf. */
-const char *cli_npy_what(const rto_npy_desc *d, const char *layout, char *buf, size_t cap);
-/** A bundle a validator reads (check-bvh, check-hits): the command and the --expected directory, for messages. */
-typedef struct cli_bundle {
-    const char *cmd;
-    rto_bundle_reader *b;
-    const char *dir;
-} cli_bundle;
-/** One line naming the bundle, the file and what is wrong with it ("--expected DIR: FILE: text"); returns
- * EXIT_BAD_INPUT. */
-int cli_bundle_refuse(const cli_bundle *cb, const char *file, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-/** The name of a bundle file, as the library names it for the writer (per-BLAS files take the mesh index). Returns
- * name. */
-const char *cli_bundle_file_name(rto_bundle_file f, uint32_t mesh, char name[RTO_BUNDLE_FILE_NAME_MAX]);
-/** A count the manifest must state, within 0 .. max; refused otherwise. */
-int cli_bundle_count(const cli_bundle *cb, const char *section, const char *key, uint64_t max, size_t *out);
-/** Loads a bundle file (sha256 checked) and requires exactly the dtype and shape of want (records of layout, NULL
- * for a plain array). A want->shape[0] of UINT64_MAX accepts any first dimension (vertex positions; the message then
- * asks for "dtype <f4, shape (N, 3)"). */
-int cli_bundle_load(const cli_bundle *cb, const char *name, const rto_npy_desc *want, const char *layout, rto_npy *out);
 /**
  * Whether the bundle at out is already what this request would write (rto_bundle_check): then prints one line,
  * "CMD: OUT is up to date (...); not rewritten", and returns 1, and the command does nothing more. A bundle whose files
@@ -95,8 +68,6 @@ bool cli_camera_numbers(const char *spec, rto_camera *cam);
 /** The camera --camera names (scene, auto, an index, or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY; NULL = scene) into *cam,
  * the automatic framing resolved for an image of the given aspect. false after one line on a bad value. */
 bool cli_pick_camera(const char *cmd, const char *spec, const rto_scene *sc, float aspect, rto_camera *cam);
-/** Adds mesh_M_positions.npy and mesh_M_indices.npy of every mesh to a bundle. */
-rto_status cli_write_geometry(rto_bundle *b, const rto_scene *sc, rto_msg *msg);
 
 /* Names of the key formats and sort algorithms, for option tables and manifests. */
 extern const opt_name cli_format_names[];

@@ -1,6 +1,6 @@
 /* rtoracle build: a scene's acceleration structures in their GPU layouts (DESIGN.md §5). The library builds them
  * (rto_accel_build), checks every tree with the structural validators (rto_accel_check) and writes the bundle
- * (rto_accel_write_bundle); the command only loads the scene and commits the bundle, and only if the self-check
+ * (rto_bvh_bundle_write); the command only loads the scene and commits the bundle, and only if the self-check
  * passed. */
 #include "cli.h"
 
@@ -81,7 +81,7 @@ int cmd_build(int argc, char **argv)
     if (!s)
         s = cli_set_request(b, request, sc, NULL, &msg);
     if (!s)
-        s = rto_accel_write_bundle(acc, b, &msg);
+        s = rto_bvh_bundle_write(acc, b, &msg);
     if (!s)
         s = rto_bundle_commit(b, &msg);
     else

@@ -28,12 +28,13 @@ static const char check_epilog[] =
     "(--no-artifacts skips it).\n";
 
 typedef struct loaded {
-    rto_npy input, gpu, values, passes, sorted;
+    rto_npy input, gpu, values, passes;
+    rto_sort_bundle bundle;
 } loaded;
 
 static void loaded_free(loaded *l)
 {
-    rto_npy_free(&l->sorted);
+    rto_sort_bundle_free(&l->bundle);
     rto_npy_free(&l->input);
     rto_npy_free(&l->gpu);
     rto_npy_free(&l->values);
@@ -73,45 +74,6 @@ static int split_pairs(rto_npy *gpu, rto_npy *values, const char *path)
     values->data = vals;
     values->nbytes = n * 4;
     values->desc = rto_npy_desc_array(RTO_DTYPE_U32, 1, n, 0, 0);
-    return EXIT_PASS;
-}
-
-/* A sort bundle's input is read like a GPU dump: its dtype and shape must be what the manifest states (input.format,
- * input.n), and the padded size must follow from them, so nothing later indexes past what was read. */
-static int check_bundle_keys(rto_bundle_reader *b, const char *dir, const rto_npy *keys)
-{
-    const char *fmt = rto_bundle_get_str(b, "input", "format");
-    const char *file = rto_bundle_get_str(b, "input", "file");
-    int64_t n = -1, np = -1;
-    rto_key_format f;
-    char got[96];
-    file = file ? file : "keys.npy";
-    if (!fmt || !cli_parse_format(fmt, &f))
-        return cli_fail("check-sort", "--expected %s: manifest input.format is %s%s%s, not u32 or u64", dir,
-                        fmt ? "'" : "", fmt ? fmt : "missing", fmt ? "'" : "");
-    if (!rto_bundle_get_int(b, "input", "n", &n) || n < 0 || (uint64_t)n > RTO_MAX_KEYS)
-        return cli_fail("check-sort", "--expected %s: manifest input.n is missing or outside 0 .. %llu", dir,
-                        (unsigned long long)RTO_MAX_KEYS);
-    rto_npy_desc want = rto_npy_desc_keys(f, (uint64_t)n);
-    if (!cli_npy_same(&keys->desc, &want))
-        return cli_fail("check-sort", "--expected %s: %s: holds %s; the manifest says %lld %s keys", dir, file,
-                        cli_npy_what(&keys->desc, NULL, got, sizeof got), (long long)n, fmt);
-    if (!rto_bundle_get_int(b, "params", "n_padded", &np) || (uint64_t)np != rto_next_pow2((size_t)n))
-        return cli_fail("check-sort", "--expected %s: manifest params.n_padded is %lld, not the next power of two "
-                        "of input.n %lld", dir, (long long)np, (long long)n);
-    return EXIT_PASS;
-}
-
-/* The pass count a bundle states must be the schedule's for its size, algorithm and digit width. */
-static int check_bundle_params(rto_bundle_reader *b, const char *dir, const rto_sort_check_desc *d)
-{
-    int64_t passes = -1;
-    const uint32_t want = d->algo == RTO_SORT_BITONIC ? rto_bitonic_pass_count(rto_next_pow2(d->n))
-                                                      : rto_radix_pass_count(d->format, d->radix_bits);
-    if (!rto_bundle_get_int(b, "params", "passes", &passes) || passes != (int64_t)want)
-        return cli_fail("check-sort", "--expected %s: manifest params.passes is %lld; %s over %zu keys has %u", dir,
-                        (long long)passes, d->algo == RTO_SORT_BITONIC ? "the bitonic network" : "the radix sort",
-                        d->n, want);
     return EXIT_PASS;
 }
 
@@ -164,72 +126,30 @@ int cmd_check_sort(int argc, char **argv)
     rto_msg msg = {{0}};
     int rc = EXIT_PASS;
     const char *case_id = NULL;
-    rto_bundle_reader *bundle = NULL;
     if (expected) {
-        rto_npy bin = {0};
-        rto_status s = rto_bundle_open(expected, &bundle, &msg);
-        if (!s)
-            s = rto_bundle_read_role(bundle, "input-keys", &bin, &msg);
-        if (s) {
-            rc = cli_fail("check-sort", "--expected: %s", msg.text);
-            goto out;
-        }
-        if ((rc = check_bundle_keys(bundle, expected, &bin))) {
-            rto_npy_free(&bin);
+        rto_sort_bundle *sb = &l.bundle;
+        if (rto_sort_bundle_read(expected, sb, &msg)) {
+            rc = cli_fail("check-sort", "--expected %s", msg.text);
             goto out;
         }
         if (input) {
-            if ((rc = load(input, &l.input, "--input"))) {
-                rto_npy_free(&bin);
+            if ((rc = load(input, &l.input, "--input")))
                 goto out;
-            }
-            int same = l.input.nbytes == bin.nbytes && l.input.desc.dtype == bin.desc.dtype &&
-                       (bin.nbytes == 0 || memcmp(l.input.data, bin.data, bin.nbytes) == 0);
-            rto_npy_free(&bin);
-            if (!same) {
+            if (l.input.nbytes != sb->keys.nbytes || l.input.desc.dtype != sb->keys.desc.dtype ||
+                (sb->keys.nbytes && memcmp(l.input.data, sb->keys.data, sb->keys.nbytes))) {
                 rc = cli_fail("check-sort", "--input %s is not the input of bundle %s", input, expected);
                 goto out;
             }
-        } else {
-            l.input = bin;
         }
-        /* The bundle's sorted keys let the check compare the dump with them directly. A bundle without them is
-         * checked from its input alone; one whose sorted.npy is listed but changed or malformed is refused. */
-        rto_status ss = rto_bundle_read_role(bundle, "sorted-keys", &l.sorted, &msg);
-        if (ss == RTO_OK) {
-            rto_npy_desc want = rto_npy_desc_keys(l.input.desc.dtype == RTO_DTYPE_U32 ? RTO_KEY_U32 : RTO_KEY_U64,
-                                                  l.input.desc.ndim == 1 ? l.input.desc.shape[0] : 0);
-            char got[96];
-            if (!cli_npy_same(&l.sorted.desc, &want)) {
-                rc = cli_fail("check-sort", "--expected %s: sorted.npy holds %s; the input holds %s", expected,
-                              cli_npy_what(&l.sorted.desc, NULL, got, sizeof got), rto_bundle_get_str(bundle, "input",
-                                                                                                       "format"));
-                goto out;
-            }
-        } else if (ss != RTO_ERR_IO) {
-            rc = cli_fail("check-sort", "--expected: %s", msg.text);
-            goto out;
-        }
-        case_id = rto_bundle_get_str(bundle, "", "case");
-        const char *algo = rto_bundle_get_str(bundle, "params", "algo");
-        int64_t bits = 0, tile = 0;
-        if (!algo || !cli_parse_algo(algo, &d.algo)) {
-            rc = cli_fail("check-sort", "--expected %s: not a sort bundle (params.algo missing)", expected);
-            goto out;
-        }
+        case_id = sb->case_id;
         if (algo_given)
-            fprintf(stderr, "rtoracle check-sort: --algo ignored, the bundle says %s\n", algo);
-        if (d.algo == RTO_SORT_RADIX) {
-            if (!rto_bundle_get_int(bundle, "params", "radix_bits", &bits) ||
-                !rto_bundle_get_int(bundle, "params", "tile", &tile) || (bits != 4 && bits != 8) || tile < 1 ||
-                tile > (1 << 24)) {
-                rc = cli_fail("check-sort", "--expected %s: radix bundle without valid radix_bits / tile", expected);
-                goto out;
-            }
-            d.radix_bits = (uint32_t)bits;
-            d.radix_tile = (uint32_t)tile;
-            radix_bundle = true;
-        }
+            fprintf(stderr, "rtoracle check-sort: --algo ignored, the bundle says %s\n",
+                    sb->algo == RTO_SORT_BITONIC ? "bitonic" : "radix");
+        d.algo = sb->algo;
+        d.radix_bits = sb->radix_bits;
+        d.radix_tile = sb->radix_tile;
+        radix_bundle = sb->algo == RTO_SORT_RADIX;
+        d.expected_keys = sb->sorted.data;
     } else if ((rc = load(input, &l.input, "--input"))) {
         goto out;
     }
@@ -247,12 +167,11 @@ int cmd_check_sort(int argc, char **argv)
     }
     rto_key_format gf;
     size_t gn;
-    if (rto_npy_as_keys(&l.input, &d.format, &d.n, &msg)) {
+    const rto_npy *in = l.input.data || !expected ? &l.input : &l.bundle.keys;
+    if (rto_npy_as_keys(in, &d.format, &d.n, &msg)) {
         rc = cli_fail("check-sort", "input: %s", msg.text);
         goto out;
     }
-    if (bundle && (rc = check_bundle_params(bundle, expected, &d)))
-        goto out;
     if (rto_npy_as_keys(&l.gpu, &gf, &gn, &msg)) {
         rc = cli_fail("check-sort", "--gpu %s: %s", gpu, msg.text);
         goto out;
@@ -262,8 +181,7 @@ int cmd_check_sort(int argc, char **argv)
                       gf == RTO_KEY_U32 ? "uint32" : "uint64", d.format == RTO_KEY_U32 ? "uint32" : "uint64");
         goto out;
     }
-    d.input = l.input.data;
-    d.expected_keys = l.sorted.data;
+    d.input = in->data;
     d.gpu_keys = l.gpu.data;
     d.gpu_n = gn;
     if (l.values.data) {
@@ -309,10 +227,9 @@ int cmd_check_sort(int argc, char **argv)
         rc = cli_status("check-sort", s, &msg);
         goto out;
     }
-    snprintf(r.what, sizeof r.what, "%s", case_id ? case_id : "");
+    snprintf(r.what, sizeof r.what, "%.*s", (int)sizeof r.what - 1, case_id ? case_id : "");
     rc = cli_report("check-sort", &r, json, artifacts, gpu);
 out:
     loaded_free(&l);
-    rto_bundle_close(bundle);
     return rc;
 }

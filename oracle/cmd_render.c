@@ -299,11 +299,11 @@ int cmd_render(int argc, char **argv)
     if (!s)
         s = cli_set_request(b, request, sc, is_plugin ? program_arg : NULL, &msg);
     if (!s && !stage2)
-        s = rto_accel_write_bundle(acc, b, &msg);
+        s = rto_bvh_bundle_write(acc, b, &msg);
     if (!s && !stage2)
-        s = cli_write_geometry(b, sc, &msg);
+        s = rto_scene_bundle_write(sc, b, &msg);
     if (!s)
-        s = rto_frame_write_bundle(frame, timings && !no_timings, b, &msg);
+        s = rto_frame_bundle_write(frame, timings && !no_timings, b, &msg);
     if (!s) {
         rto_bundle_set_str(b, "frame", "scene_kind", stage2 ? "stage2" : "mesh");
         if (stage2)

@@ -59,67 +59,6 @@ static rto_status read_rays(const char *path, rto_wf_ray **rays, size_t *n, rto_
     return s;
 }
 
-/* Counter statistics: min, max, mean and a histogram over power-of-two buckets (0, 1, 2-3, 4-7, ...). */
-static rto_status write_counter_stats(rto_bundle *b, const rto_trace_counters *c, size_t n)
-{
-    static const char *const names[4] = {"nodes_visited", "box_tests", "triangle_tests", "instance_entries"};
-    int bad = 0;
-    for (int k = 0; k < 4; k++) {
-        uint64_t total = 0, hist[33] = {0};
-        uint32_t lo = UINT32_MAX, hi = 0;
-        for (size_t i = 0; i < n; i++) {
-            const uint32_t v = k == 0 ? c[i].nodes_visited
-                               : k == 1 ? c[i].box_tests
-                               : k == 2 ? c[i].triangle_tests
-                                        : c[i].instance_entries;
-            total += v;
-            lo = v < lo ? v : lo;
-            hi = v > hi ? v : hi;
-            unsigned bucket = 0;
-            while (bucket < 32 && (UINT64_C(1) << bucket) <= v)
-                bucket++;
-            hist[bucket]++;
-        }
-        char key[64], section[64];
-        snprintf(key, sizeof key, "%s_total", names[k]);
-        bad |= rto_bundle_set_int(b, "counters", key, (int64_t)total);
-        snprintf(key, sizeof key, "%s_min", names[k]);
-        bad |= rto_bundle_set_int(b, "counters", key, n ? lo : 0);
-        snprintf(key, sizeof key, "%s_max", names[k]);
-        bad |= rto_bundle_set_int(b, "counters", key, hi);
-        snprintf(key, sizeof key, "%s_mean", names[k]);
-        bad |= rto_bundle_set_real(b, "counters", key, n ? (double)total / (double)n : 0.0);
-        snprintf(section, sizeof section, "histogram_%s", names[k]);
-        for (unsigned j = 0; j <= 32; j++) {
-            if (!hist[j])
-                continue;
-            if (j <= 1)
-                snprintf(key, sizeof key, "%u", j);
-            else
-                snprintf(key, sizeof key, "%llu-%llu", 1ULL << (j - 1), (1ULL << j) - 1);
-            bad |= rto_bundle_set_int(b, section, key, (int64_t)hist[j]);
-        }
-    }
-    /* The setters keep their first failure for rto_bundle_commit too; this only stops early, with one status. */
-    return bad ? RTO_ERR_OUT_OF_MEMORY : RTO_OK;
-}
-
-static rto_status add_file(rto_bundle *b, rto_bundle_file f, rto_layout layout, const void *data, size_t n,
-                           rto_msg *msg)
-{
-    char name[RTO_BUNDLE_FILE_NAME_MAX];
-    rto_status s = rto_bundle_file_name(f, 0, name, sizeof name);
-    const rto_npy_desc d = rto_layout_desc(layout, n);
-    return s ? s : rto_bundle_add_npy(b, name, rto_bundle_file_role(f), rto_layout_name(layout), &d, data, msg);
-}
-
-static void set_vec(rto_bundle *b, const char *key, rto_vec3 v)
-{
-    char text[96];
-    snprintf(text, sizeof text, "%.9g,%.9g,%.9g", (double)v.x, (double)v.y, (double)v.z);
-    rto_bundle_set_str(b, "camera", key, text);
-}
-
 int cmd_trace(int argc, char **argv)
 {
     const char *out = NULL, *rays_arg = "primary", *camera_arg = NULL, *light_arg = NULL;
@@ -239,50 +178,15 @@ int cmd_trace(int argc, char **argv)
         s = rto_bundle_begin(out, "trace", &b, &msg);
     if (!s)
         s = cli_set_request(b, request, sc, from_file ? rays_arg : NULL, &msg);
-    if (!s)
-        s = rto_accel_write_bundle(acc, b, &msg);
-    if (!s)
-        s = cli_write_geometry(b, sc, &msg);
-    if (!s)
-        s = add_file(b, RTO_FILE_RAYS, RTO_LAYOUT_WF_RAY, rays, n, &msg);
-    if (!s)
-        s = add_file(b, RTO_FILE_HITS, RTO_LAYOUT_HIT_RECORD, hits, n, &msg);
-    if (!s)
-        s = add_file(b, RTO_FILE_COUNTERS, RTO_LAYOUT_TRACE_COUNTERS, counters, n, &msg);
     const bool camera_rays = !from_file && (set == RTO_RAYS_PRIMARY || set == RTO_RAYS_SHADOW);
-    if (!s && camera_rays)
-        s = add_file(b, RTO_FILE_CAMERA, RTO_LAYOUT_CAMERA, &cu, 1, &msg);
-    if (!s) {
-        size_t hit_count = 0;
-        for (size_t i = 0; i < n; i++)
-            hit_count += hits[i].miss_flag == 0;
-        rto_bundle_set_str(b, "trace", "rays", from_file ? rays_arg : rto_ray_set_name(set));
-        rto_bundle_set_int(b, "trace", "count", (int64_t)n);
-        rto_bundle_set_int(b, "trace", "hits", (int64_t)hit_count);
-        rto_bundle_set_int(b, "trace", "misses", (int64_t)(n - hit_count));
-        if (!from_file) {
-            rto_bundle_set_int(b, "trace", "seed", (int64_t)seed);
-            if (camera_rays) {
-                rto_bundle_set_int(b, "trace", "width", (int64_t)width);
-                rto_bundle_set_int(b, "trace", "height", (int64_t)height);
-                rto_bundle_set_str(b, "camera", "name", cam.name);
-                set_vec(b, "position", cam.position);
-                set_vec(b, "target", cam.target);
-                set_vec(b, "up", cam.up);
-                rto_bundle_set_real(b, "camera", "fov_y_degrees", (double)cam.fov_y * 180.0 / 3.14159265358979323846);
-                rto_bundle_set_real(b, "camera", "znear", (double)cam.znear);
-                rto_bundle_set_real(b, "camera", "zfar", (double)cam.zfar);
-            }
-            if (set == RTO_RAYS_SHADOW) {
-                char text[96];
-                snprintf(text, sizeof text, "%.9g,%.9g,%.9g", (double)light[0], (double)light[1], (double)light[2]);
-                rto_bundle_set_str(b, "trace", "light", light_arg ? text : "default");
-            }
-        }
-        s = write_counter_stats(b, counters, n);
-        if (s)
-            rto_msg_set(&msg, s, "writing the manifest's counter statistics");
-    }
+    char light_text[96];
+    snprintf(light_text, sizeof light_text, "%.9g,%.9g,%.9g", (double)light[0], (double)light[1], (double)light[2]);
+    const rto_trace_bundle_desc tbd = {acc, rays, n, hits, counters, from_file ? rays_arg : rto_ray_set_name(set),
+                                       !from_file, (uint32_t)seed, camera_rays ? &cam : NULL, &cu,
+                                       (uint32_t)width, (uint32_t)height,
+                                       !from_file && set == RTO_RAYS_SHADOW ? (light_arg ? light_text : "default") : NULL};
+    if (!s)
+        s = rto_trace_bundle_write(&tbd, b, &msg);
     if (!s)
         s = rto_bundle_commit(b, &msg);
     else

@@ -66,24 +66,3 @@ bool cli_pick_camera(const char *cmd, const char *spec, const rto_scene *sc, flo
     }
     return true;
 }
-
-rto_status cli_write_geometry(rto_bundle *b, const rto_scene *sc, rto_msg *msg)
-{
-    rto_status s = RTO_OK;
-    for (uint32_t m = 0; m < sc->mesh_count && !s; m++) {
-        const rto_mesh *mesh = &sc->meshes[m];
-        char name[RTO_BUNDLE_FILE_NAME_MAX];
-        rto_npy_desc d = rto_npy_desc_array(RTO_DTYPE_F32, 2, mesh->vertex_count, 3, 0);
-        s = rto_bundle_file_name(RTO_FILE_MESH_POSITIONS, m, name, sizeof name);
-        if (!s)
-            s = rto_bundle_add_npy(b, name, rto_bundle_file_role(RTO_FILE_MESH_POSITIONS), NULL, &d, mesh->positions,
-                                   msg);
-        d = rto_npy_desc_array(RTO_DTYPE_U32, 2, mesh->triangle_count, 3, 0);
-        if (!s)
-            s = rto_bundle_file_name(RTO_FILE_MESH_INDICES, m, name, sizeof name);
-        if (!s)
-            s = rto_bundle_add_npy(b, name, rto_bundle_file_role(RTO_FILE_MESH_INDICES), NULL, &d, mesh->indices, msg);
-    }
-    return s;
-}
-

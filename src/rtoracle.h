@@ -18,7 +18,8 @@
  *     report    rto_report, rto_report_text / rto_report_json              one report shape for every validator
  *     layouts   rto_layout_desc / rto_layout_accept                        GPU structs as .npy dtypes (§5-§7)
  *     files     rto_npy_read / rto_npy_write, rto_bundle_*                 .npy arrays and manifest.json (§8)
- *               rto_accel_write_bundle                                     a build bundle (rto_bundle_file names)
+ *     bundles   rto_<stage>_bundle_write / _read / _free                   each stage's golden files (sort, scene,
+ *                                                                          bvh, trace, frame)
  *               rto_file_write, rto_temporaries_remove                     atomic output, cleanup on SIGINT / SIGTERM
  *
  * A build, start to end:
@@ -792,6 +793,11 @@ rto_npy_desc rto_npy_desc_keys(rto_key_format f, uint64_t n);
 rto_npy_desc rto_npy_desc_array(rto_dtype t, uint32_t ndim, uint64_t d0, uint64_t d1, uint64_t d2);
 /** Interprets a loaded array as 1-D keys: u32 or u64, shape (n,). */
 rto_status rto_npy_as_keys(const rto_npy *npy, rto_key_format *f, size_t *n, rto_msg *msg);
+/** Whether have has exactly want's dtype (struct fields included: names, types, counts, offsets) and shape. */
+int rto_npy_desc_equal(const rto_npy_desc *have, const rto_npy_desc *want);
+/** What an array holds, for messages: "dtype <u4, shape (1,)"; a structured dtype named by layout ("Aabb records,
+ * shape (3,)") or, with layout NULL, by its record size. Returns buf. */
+const char *rto_npy_desc_text(const rto_npy_desc *desc, const char *layout, char *buf, size_t cap);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* GPU layouts (DESIGN.md §5-§7): the structs a GPU reads and writes, and their .npy structured dtypes               */
@@ -1133,11 +1139,6 @@ const rto_accel_blas *rto_accel_get_blas(const rto_accel *accel, uint32_t mesh);
  * names the tree: "TLAS (sweep)", "BLAS 3") and msg naming it too ("the BLAS of mesh 3: ...").
  */
 rto_status rto_accel_check(const rto_accel *accel, rto_report *report, rto_msg *msg);
-/**
- * Adds the build bundle's files (rto_bundle_file) and manifest fields (scene, counts, params.tlas, tlas, blas_M) of an
- * accel to a bundle begun by the caller, who commits or aborts it.
- */
-rto_status rto_accel_write_bundle(const rto_accel *accel, rto_bundle *bundle, rto_msg *msg);
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Tracing (DESIGN.md §6): the slab test, Möller–Trumbore, ordered TLAS -> BLAS traversal, rays, hit validation     */
@@ -1660,7 +1661,7 @@ uint64_t rto_memory_budget_default(void);
  * "counters", and "timings" when with_timings) to a bundle begun with kind "frame". The caller adds the scene's
  * build and geometry files (mesh scenes) and commits.
  */
-rto_status rto_frame_write_bundle(const rto_frame *frame, int with_timings, rto_bundle *bundle, rto_msg *msg);
+rto_status rto_frame_bundle_write(const rto_frame *frame, int with_timings, rto_bundle *bundle, rto_msg *msg);
 
 /**
  * Traces rays through the stage2 scene exactly as seed 002's traceScene: sphere (0,0,0) r 1, sphere (2.5,0,-1) r 1,
@@ -1767,6 +1768,135 @@ void rto_stop_settle(void);
  * length of the whole repaired string without its NUL (out was cut if the result >= cap); cap 0 only measures.
  */
 size_t rto_utf8_repair(const char *in, char *out, size_t cap);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Stage bundles (DESIGN.md §8): each stage's golden files, written into a bundle and read back                     */
+/*
+ * Every stage has one trio, in the stage's own folder of the sources: rto_<stage>_bundle_write adds the stage's files
+ * and manifest fields to a bundle the caller began (rto_bundle_begin) and commits; rto_<stage>_bundle_read opens a
+ * committed bundle and reads what a check of that stage needs, every array validated like a GPU dump first (dtype and
+ * shape as the manifest implies, counts and indices in range, finite floats, sha256 as listed), so a hand-edited bundle
+ * is refused with one line naming the directory and file ("DIR: FILE: what", RTO_ERR_PARSE) and never trusted;
+ * rto_<stage>_bundle_free releases what a read filled (and accepts a zeroed or already freed struct). The arrays a
+ * read gives are the ones the stage's validator takes (rto_sort_check, rto_tlas_check / rto_karras_check,
+ * rto_hits_check).
+ */
+
+/** What a sort bundle records (src/sort/sort_bundle.c). Zero-initialise; NULL strings are not recorded. */
+typedef struct rto_sort_bundle_desc {
+    rto_key_format format;
+    const void *keys; /* the n input keys */
+    size_t n;
+    rto_sort_algo algo;
+    uint32_t radix_bits; /* radix: 4 or 8 */
+    uint32_t radix_tile; /* radix: keys per tile */
+    int checkpoints;     /* also every bitonic pass (passes.npy, pass_table.npy) or radix intermediate (radix_*.npy) */
+    const char *case_id; /* the suite's case id */
+    const char *dist;    /* the distribution the keys were drawn from, with seed */
+    uint32_t seed;
+    const char *source; /* the file the keys were read from (its base name is recorded) */
+} rto_sort_bundle_desc;
+
+/** Sorts desc's keys with its algorithm and adds keys.npy, sorted.npy, perm.npy (and the checkpoints) with the input
+ * and params sections. Checkpoints over 4 GiB are refused (RTO_ERR_INVALID_ARGUMENT). */
+rto_status rto_sort_bundle_write(const rto_sort_bundle_desc *desc, rto_bundle *bundle, rto_msg *msg);
+
+/** A sort bundle read back: its input, the oracle's sorted keys and the schedule its checkpoints follow. */
+typedef struct rto_sort_bundle {
+    rto_key_format format;
+    size_t n, n_padded;
+    rto_sort_algo algo;
+    uint32_t radix_bits, radix_tile; /* radix bundles; 8 and 256 for bitonic ones */
+    uint32_t passes;                 /* the schedule's pass count (checked against algo, n and radix_bits) */
+    char case_id[160];               /* the suite case id, or "" */
+    rto_npy keys;                    /* input-keys: n keys of format */
+    rto_npy sorted;                  /* sorted-keys: n keys, or data NULL for a bundle that lists none */
+} rto_sort_bundle;
+
+/** Reads a sort bundle (kind "sort"): input.format / input.n against keys.npy, params against the schedule, sorted.npy
+ * against the input's dtype and size (that it is the input sorted is rto_sort_check's to verify: expected_keys). */
+rto_status rto_sort_bundle_read(const char *dir, rto_sort_bundle *out, rto_msg *msg);
+void rto_sort_bundle_free(rto_sort_bundle *bundle);
+
+/** Adds a scene's geometry as a GPU uploads it (src/scene/scene_bundle.c): mesh_M_positions.npy (f32 (V, 3)) and
+ * mesh_M_indices.npy (u32 (T, 3)) per mesh. The instances are the build bundle's instances.npy. */
+rto_status rto_scene_bundle_write(const rto_scene *scene, rto_bundle *bundle, rto_msg *msg);
+
+/** A scene read back from a trace or frame bundle: what the tracer and the hit checks intersect with. */
+typedef struct rto_scene_bundle {
+    const rto_mesh *meshes; /* counts.meshes meshes, named "mesh M", no materials */
+    uint32_t mesh_count;
+    const rto_instance *instances; /* counts.instances instances */
+    uint32_t instance_count;
+    struct rto_scene_bundle_data *data; /* the arrays the views point into */
+} rto_scene_bundle;
+
+/** Reads the scene of a bundle of any kind that holds one (trace, frame): counts in range, vertex positions finite,
+ * every index below its mesh's vertex count, triangles as blas_M.triangles says, every instance's BLAS present, both
+ * transforms finite, customIndex and mask within their 24 and 8 bits. */
+rto_status rto_scene_bundle_read(const char *dir, rto_scene_bundle *out, rto_msg *msg);
+void rto_scene_bundle_free(rto_scene_bundle *bundle);
+
+/** Adds a build bundle's files (rto_bundle_file) and manifest fields (scene, counts, params.tlas, tlas, blas_M) of an
+ * accel (src/bvh/bvh_bundle.c). */
+rto_status rto_bvh_bundle_write(const rto_accel *accel, rto_bundle *bundle, rto_msg *msg);
+
+/** One tree of a build bundle read back, as rto_tlas_check / rto_karras_check take it (rto_bvh_check_desc). */
+typedef struct rto_bvh_bundle {
+    int64_t blas;        /* the tree read: -1 the TLAS, else the BLAS of that mesh */
+    int sweep;           /* a sweep TLAS (rto_tlas_check, rto_tlas_node records); else a Karras tree (rto_bvh_node) */
+    char tlas_mode[8];   /* params.tlas: "sweep" or "karras" */
+    uint32_t mesh_count; /* counts.meshes */
+    const void *nodes;   /* the oracle's tree, which has passed the validator itself */
+    size_t node_count;
+    const rto_aabb *prim_boxes; /* instance world boxes (TLAS) or triangle boxes (BLAS) */
+    size_t prim_count;
+    const double *leaf_tolerance; /* TLAS: 3 per instance (rto_transform_box_tolerance); NULL for a BLAS */
+    const uint32_t *leaf_prims;   /* Karras trees: the primitive of each sorted leaf; NULL for a sweep TLAS */
+    size_t leaf_count;
+    struct rto_bvh_bundle_data *data; /* the arrays the views point into */
+} rto_bvh_bundle;
+
+/** Reads the TLAS (blas < 0) or the BLAS of mesh blas from a build bundle (kind "build"): instance
+ * world boxes equal to their BLAS's object box through objToWorld, leaf orders permutations, a Karras TLAS's keys
+ * ascending and naming each instance with a leaf once, node counts as the layout implies, and the tree valid over its
+ * primitives. A blas the bundle does not have is RTO_ERR_INVALID_ARGUMENT. */
+rto_status rto_bvh_bundle_read(const char *dir, int64_t blas, rto_bvh_bundle *out, rto_msg *msg);
+void rto_bvh_bundle_free(rto_bvh_bundle *bundle);
+
+/** What a trace bundle records (src/trace/trace_bundle.c). Zero-initialise. */
+typedef struct rto_trace_bundle_desc {
+    const rto_accel *accel; /* the trees (the build bundle's files) and, through rto_accel_scene, the geometry */
+    const rto_wf_ray *rays;
+    size_t count;
+    const rto_hit_record *hits;         /* count records */
+    const rto_trace_counters *counters; /* count records (their statistics go into the manifest) */
+    const char *ray_set;                /* trace.rays: the set's name or the ray file */
+    int generated;                      /* the rays come from a named set: trace.seed is recorded */
+    uint32_t seed;
+    const rto_camera *camera; /* camera rays: the camera, with width, height and camera_block; else NULL */
+    const rto_camera_uniforms *camera_block;
+    uint32_t width, height;
+    const char *light; /* shadow rays: trace.light as recorded ("x,y,z" or "default"); else NULL */
+} rto_trace_bundle_desc;
+
+/** Adds a trace bundle's files: the build bundle's, the scene's geometry (rto_scene_bundle_write), rays.npy, hits.npy,
+ * counters.npy, camera.npy for camera rays, and the trace, camera and counter-statistics sections. */
+rto_status rto_trace_bundle_write(const rto_trace_bundle_desc *desc, rto_bundle *bundle, rto_msg *msg);
+
+/** A trace bundle read back: its scene, rays and the oracle's hit records, as rto_hits_check takes them. */
+typedef struct rto_trace_bundle {
+    rto_scene_bundle scene;
+    const rto_wf_ray *rays; /* count rays, each with finite origin, direction, tMin <= tMax */
+    const rto_hit_record *hits; /* count records, as many misses as trace.misses */
+    size_t count;
+    char ray_set[96];       /* trace.rays */
+    uint32_t width, height; /* camera rays: the image; else 0 */
+    struct rto_trace_bundle_data *data;
+} rto_trace_bundle;
+
+rto_status rto_trace_bundle_read(const char *dir, rto_trace_bundle *out, rto_msg *msg);
+void rto_trace_bundle_free(rto_trace_bundle *bundle);
 
 #ifdef __cplusplus
 }

@@ -95,8 +95,8 @@ static void accum_boundary(const char *program, double abs)
     assert_int_equal(rto_frame_render(&fd, &frame, &msg), RTO_OK);
     rto_bundle *b = NULL;
     assert_int_equal(rto_bundle_begin(bundle, "frame", &b, &msg), RTO_OK);
-    assert_int_equal(rto_accel_write_bundle(accel, b, &msg), RTO_OK);
-    assert_int_equal(rto_frame_write_bundle(frame, 0, b, &msg), RTO_OK);
+    assert_int_equal(rto_bvh_bundle_write(accel, b, &msg), RTO_OK);
+    assert_int_equal(rto_frame_bundle_write(frame, 0, b, &msg), RTO_OK);
     assert_int_equal(rto_bundle_set_str(b, "frame", "scene_kind", "mesh"), RTO_OK);
     assert_int_equal(rto_bundle_commit(b, &msg), RTO_OK);
 

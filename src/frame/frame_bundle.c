@@ -35,7 +35,7 @@ static void set_floats(rto_bundle *b, const char *section, const char *key, cons
     rto_bundle_set_str(b, section, key, text);
 }
 
-rto_status rto_frame_write_bundle(const rto_frame *f, int with_timings, rto_bundle *b, rto_msg *msg)
+rto_status rto_frame_bundle_write(const rto_frame *f, int with_timings, rto_bundle *b, rto_msg *msg)
 {
     if (!f || !b)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL frame or bundle");
