@@ -5,6 +5,9 @@
                                                                    commit, date and machine
   bench/frame_table.py table OUT.json DOC.md                       rewrite the part of DOC.md between
                                                                    "<!-- bench-frame begin -->" and "... end -->"
+
+OUT.json is docs/results/bench-frame.json; `python3 scripts/results_tables.py` draws its table into
+docs/results/frame.md with this script's table().
 """
 import datetime
 import json
