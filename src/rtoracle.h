@@ -1898,6 +1898,28 @@ typedef struct rto_trace_bundle {
 rto_status rto_trace_bundle_read(const char *dir, rto_trace_bundle *out, rto_msg *msg);
 void rto_trace_bundle_free(rto_trace_bundle *bundle);
 
+/* Frame bundles are written by rto_frame_bundle_write (with the frame, above; src/frame/frame_bundle.c). */
+
+/** A frame bundle read back (src/frame/frame_dump.c): what check-frame reads before any GPU file — the frame's size
+ * and depth, its frame-wide arrays, each consistent with the others (emitted counts equal in both files, queued,
+ * dropped, traced, hits and misses following from emitted and the capacity 2 W H, indirect args ceil(queued / 64),
+ * mask bits defined), and, for a mesh scene, the scene (rto_scene_bundle_read). Per-bounce files stay in the bundle
+ * (rto_bundle_read_name). */
+typedef struct rto_frame_bundle {
+    uint32_t width, height, max_depth;
+    uint32_t payload_words;
+    int stage2;                               /* frame.scene_kind: the Stage-2 analytic scene (no scene arrays) */
+    const uint32_t *emit_counts;              /* max_depth + 1 */
+    const uint32_t *indirect_args;            /* 3 (max_depth + 1) */
+    const rto_frame_counters *frame_counters; /* max_depth + 1 */
+    const uint8_t *not_comparable;            /* width * height RTO_PIXEL_* bits */
+    rto_scene_bundle scene;                   /* mesh scenes */
+    struct rto_frame_bundle_data *data;
+} rto_frame_bundle;
+
+rto_status rto_frame_bundle_read(const char *dir, rto_frame_bundle *out, rto_msg *msg);
+void rto_frame_bundle_free(rto_frame_bundle *bundle);
+
 #ifdef __cplusplus
 }
 #endif

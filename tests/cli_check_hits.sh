@@ -83,18 +83,8 @@ edited hits.npy truncate 3072 # control: an unedited copy passes
 run 0 "$RTO" check-hits --expected "$T/e" --gpu "$T/rs/hits.npy"
 rm -f "$T/e/mesh_0_indices.npy"
 refused "mesh_0_indices.npy"
-edited mesh_0_indices.npy as-u32
-refused "mesh_0_indices.npy: holds dtype <u4, shape (36,); expected dtype <u4, shape (12, 3)"
-edited mesh_0_positions.npy as-u32
-refused "mesh_0_positions.npy: holds dtype <u4"
-edited mesh_0_indices.npy set-u32 5 8
-refused "mesh_0_indices.npy: triangle 1 names vertex 8; the mesh has 8 vertices"
-edited mesh_0_positions.npy set-f32 4 nan
-refused "mesh_0_positions.npy: a vertex position is not finite"
-edited instances.npy set-u32 24 1 # instance 0's blas (word 24 of its 32)
-refused "instances.npy: instance 0 names BLAS 1; the bundle has 1 meshes"
-edited instances.npy set-f32 3 inf
-refused "instances.npy: a transform of instance 0 is not finite"
+. "$(dirname "$0")/scene_bundle_cases.sh"
+scene_bundle_cases # the scene's cases, shared with check-frame (one reader)
 edited rays.npy truncate 100
 refused "rays.npy: holds WfRay records, shape (100,); expected WfRay records, shape (3072,)"
 edited rays.npy set-f32 4 nan # ray 0's direction x

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # `meson install` of a build into a scratch prefix, then a user's program (tests/install_consumer.c) built against the
-# installed copy through pkg-config — as C, as C++, and statically — and run.
+# installed copy through pkg-config — as C, as C++, and statically — and run; and one that writes and reads back every
+# bundle kind (tests/install_bundles.c).
 #   bash tests/install.sh BUILDDIR
 set -u
 B=$1
@@ -23,6 +24,13 @@ run 0 c++ -x c++ -std=c++17 -Wall -Werror $(pcf --cflags) "$SRC/install_consumer
     LD_LIBRARY_PATH=$libdir run 0 "$T/cxx"
 run 0 cc -std=c11 $(pcf --cflags) "$SRC/install_consumer.c" -o "$T/static" \
     "$libdir/librtoracle.a" $(pcf --static --libs-only-l | sed 's/-lrtoracle//') && run 0 "$T/static"
+# Every bundle kind written and read back through the installed library, as C and as C++ (tests/install_bundles.c).
+run 0 cc -std=c11 -Wall -Werror $(pcf --cflags) "$SRC/install_bundles.c" -o "$T/bundles" $(pcf --libs) &&
+    mkdir -p "$T/b1" && LD_LIBRARY_PATH=$libdir run 0 "$T/bundles" "$T/b1" &&
+    has "^sort bitonic: written, read back" out && has "^sort radix: written, read back" out &&
+    has "^build: TLAS and BLAS 0" out && has "^trace: 192 rays written and read back" out && has "^frame: " out
+run 0 c++ -x c++ -std=c++17 -Wall -Werror $(pcf --cflags) "$SRC/install_bundles.c" -o "$T/bundles_cxx" $(pcf --libs) &&
+    mkdir -p "$T/b2" && LD_LIBRARY_PATH=$libdir run 0 "$T/bundles_cxx" "$T/b2"
 # The shared library exports the public API only: every exported symbol is declared in the installed header.
 nm -D --defined-only "$libdir/librtoracle.so" | awk '{print $3}' | while read -r sym; do
     grep -qw -- "$sym" "$root/include/rtoracle.h" || echo "$sym"

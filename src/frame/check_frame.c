@@ -190,7 +190,7 @@ static void finish_report(fcheck *c)
         rto__report_append(r, "; not dumped: %s", c->not_dumped);
 }
 
-static void fcheck_free(fcheck *c)
+void rto__fc_free(fcheck *c)
 {
     rto_npy_free(&c->e_emit);
     rto_npy_free(&c->e_ind);
@@ -241,13 +241,8 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
     snprintf(report->tolerance, sizeof report->tolerance,
              "counts, args, IDs exact; rays: origin 1e-5*max(4M,|o|), dir/tMin/tMax 1e-5*max(1,|v|); payload, accum "
              "1e-4 rel + 1e-6 (triangle: + 2e-4); hits as check-hits; image +-1, <= %g %% pixels (§9)", pct);
-    rto_msg m = {{0}};
-    rto_status s = rto_bundle_open(desc->expected_dir, &c.b, &m);
-    if (s) {
-        rto__fail(msg, s, "expected bundle: %s", m.text);
-        goto out;
-    }
-    if ((s = rto__fc_read_manifest(&c)) || (s = rto__fc_read_frame_arrays(&c)) || (s = rto__fc_read_scale(&c)) ||
+    rto_status s;
+    if ((s = rto__fc_read_expected(&c)) || (s = rto__fc_read_scale(&c)) ||
         (s = rto__fc_mark_drop_pixels(&c)) || (s = rto__fc_read_gpu_arrays(&c)))
         goto out;
     c.files_compared += (uint64_t)c.have_g_emit + (uint64_t)c.have_g_ind + (uint64_t)c.have_g_cnt;
@@ -296,6 +291,6 @@ rto_status rto_frame_check(const rto_frame_check_desc *desc, rto_report *report,
         *artifacts = c.artifacts;
     s = report->code ? RTO_ERR_MISMATCH : RTO_OK;
 out:
-    fcheck_free(&c);
+    rto__fc_free(&c);
     return s;
 }

@@ -177,6 +177,11 @@ rto_status rto__fc_mark_drop_pixels(fcheck *c);
 rto_status rto__fc_read_gpu_arrays(fcheck *c);
 /** The scene a hit is re-intersected with: instances and mesh geometry, read once. */
 rto_status rto__fc_load_scene(fcheck *c);
+/** Opens the expected frame bundle and reads its manifest and frame-wide arrays, each checked against the others: the
+ * frame bundle's reader (rto_frame_bundle_read) and the first step of rto_frame_check. */
+rto_status rto__fc_read_expected(fcheck *c);
+/** Frees everything a check (or a frame bundle read) holds. */
+void rto__fc_free(fcheck *c);
 /** Reads the dump's file of a bounce that pairs with its rays (payloads, hits) into g: 1 when there is something to
  * compare; otherwise notes why not and returns 0, with *s set on an error. */
 int rto__fc_gpu_bounce_file(fcheck *c, const char *name, const rto_wf_ray *rg, rto_npy *g, rto_status *s);

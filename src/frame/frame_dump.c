@@ -492,3 +492,78 @@ rto_status rto__fc_mark_drop_pixels(fcheck *c)
     rto_npy_free(&e);
     return RTO_OK;
 }
+
+rto_status rto__fc_read_expected(fcheck *c)
+{
+    rto_msg m = {{0}};
+    rto_status s = rto_bundle_open(c->desc->expected_dir, &c->b, &m);
+    if (s)
+        return rto__fail(c->msg, s, "expected bundle: %s", m.text);
+    if ((s = rto__fc_read_manifest(c)) || (s = rto__fc_read_frame_arrays(c)))
+        return s;
+    return RTO_OK;
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* The frame bundle read back (rto_frame_bundle_read): what check-frame reads first                                 */
+
+struct rto_frame_bundle_data {
+    fcheck c;
+    rto_frame_check_desc desc;
+};
+
+void rto_frame_bundle_free(rto_frame_bundle *fb)
+{
+    if (!fb)
+        return;
+    if (fb->data) {
+        rto__fc_free(&fb->data->c);
+        free((char *)fb->data->desc.expected_dir);
+        free(fb->data);
+    }
+    rto_scene_bundle_free(&fb->scene);
+    memset(fb, 0, sizeof *fb);
+}
+
+rto_status rto_frame_bundle_read(const char *dir, rto_frame_bundle *fb, rto_msg *msg)
+{
+    if (!fb)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL frame bundle");
+    memset(fb, 0, sizeof *fb);
+    if (!dir || !dir[0])
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "no frame bundle given");
+    struct rto_frame_bundle_data *a = calloc(1, sizeof *a);
+    char *copy = strdup(dir);
+    if (!a || !copy) {
+        free(a);
+        free(copy);
+        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    fb->data = a;
+    a->desc.expected_dir = copy;
+    a->c.desc = &a->desc;
+    a->c.msg = msg;
+    a->c.drop_queue = NONE32;
+    rto_status s = rto__fc_read_expected(&a->c);
+    if (!s && !a->c.stage2)
+        s = rto__fc_load_scene(&a->c);
+    if (s) {
+        rto_frame_bundle_free(fb);
+        return s;
+    }
+    fcheck *c = &a->c;
+    rto_bundle_close(c->b);
+    c->b = NULL;
+    fb->scene = c->scene; /* the bundle owns it from here */
+    memset(&c->scene, 0, sizeof c->scene);
+    fb->width = c->w;
+    fb->height = c->h;
+    fb->max_depth = c->depth;
+    fb->payload_words = c->words;
+    fb->stage2 = c->stage2;
+    fb->emit_counts = c->emit;
+    fb->indirect_args = c->ind;
+    fb->frame_counters = c->cnt;
+    fb->not_comparable = c->e_nc.data;
+    return RTO_OK;
+}
