@@ -1,6 +1,7 @@
 /* One bounce of check-frame (check_frame_internal.h): its emit counter and FrameCounters, its indirect args, its
  * queue, and the payloads and hit records that travel with the queue's rays. */
 #include "check_frame_internal.h"
+#include "../trace/trace_internal.h"
 
 #include <inttypes.h>
 #include <math.h>
@@ -199,7 +200,7 @@ static void step_payloads(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n,
     if ((gd->dtype != RTO_DTYPE_U32 && gd->dtype != RTO_DTYPE_F32) ||
         !((gd->ndim == 2 && gd->shape[1] == c->words) || (gd->ndim == 1 && gd->shape[0] % c->words == 0))) {
         *st = rto__fc_bad_gpu(c, name, "holds %s; expected dtype <u4 or <f4, shape (rays, %" PRIu32 ") or flat",
-                      rto__fc_describe(gd, have, sizeof have), c->words);
+                      rto_npy_desc_text(gd, NULL, have, sizeof have), c->words);
         goto out;
     }
     c->files_compared++;
@@ -259,103 +260,6 @@ out:
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Hits                                                                                                             */
 
-/* The stage2 scene has no triangles to re-intersect: its hits compare as IDs and missFlag exactly, t and bary within
- * §9, objToWorld exactly (the translation to a primitive's centre), with check-hits's fault names. Returns the fault
- * (RTO_HIT_OK when the records agree) and the first differing field as a row. */
-typedef struct hit_diff {
-    const char *field;
-    rto_value e, a, d, tol;
-} hit_diff;
-
-static rto_hit_fault stage2_hit_diff(const rto_hit_record *e, const rto_hit_record *a, hit_diff *x)
-{
-    const struct {
-        rto_hit_fault f;
-        const char *field;
-        uint32_t e, a;
-    } ids[] = {
-        {RTO_HIT_MISS_FLAG, "missFlag", e->miss_flag, a->miss_flag},
-        {RTO_HIT_INSTANCE, "instanceId", e->instance_id, a->instance_id},
-        {RTO_HIT_PRIM, "primId", e->prim_id, a->prim_id},
-    };
-    for (size_t k = 0; k < sizeof ids / sizeof ids[0]; k++)
-        if (ids[k].e != ids[k].a) {
-            *x = (hit_diff){ids[k].field, rto__val_hex32(ids[k].e), rto__val_hex32(ids[k].a),
-                            rto__val_hex32(ids[k].e ^ ids[k].a), rto__val_none()};
-            return ids[k].f;
-        }
-    const double tt = 1e-5 * (fabs((double)e->t) > 1.0 ? fabs((double)e->t) : 1.0);
-    const struct {
-        rto_hit_fault f;
-        const char *field;
-        float e, a;
-        double tol;
-    } floats[] = {
-        {RTO_HIT_T, "t", e->t, a->t, tt},
-        {RTO_HIT_BARY, "bary.u", e->bary[0], a->bary[0], 1e-4},
-        {RTO_HIT_BARY, "bary.v", e->bary[1], a->bary[1], 1e-4},
-    };
-    for (size_t k = 0; k < sizeof floats / sizeof floats[0]; k++)
-        if (!(fabs((double)floats[k].a - (double)floats[k].e) <= floats[k].tol)) {
-            *x = (hit_diff){floats[k].field, rto__val_f32(floats[k].e), rto__val_f32(floats[k].a),
-                            rto__val_f64((double)floats[k].a - (double)floats[k].e), rto__val_f64(floats[k].tol)};
-            return floats[k].f;
-        }
-    const struct {
-        rto_hit_fault f;
-        const char *field;
-        uint32_t e, a;
-    } more[] = {
-        {RTO_HIT_CUSTOM_INDEX, "customIndex", e->custom_index, a->custom_index},
-        {RTO_HIT_HIT_GROUP, "hitGroup", e->hit_group, a->hit_group},
-    };
-    for (size_t k = 0; k < sizeof more / sizeof more[0]; k++)
-        if (more[k].e != more[k].a) {
-            *x = (hit_diff){more[k].field, rto__val_hex32(more[k].e), rto__val_hex32(more[k].a),
-                            rto__val_hex32(more[k].e ^ more[k].a), rto__val_none()};
-            return more[k].f;
-        }
-    static const char *const cells[4][3] = {{"objToWorld[0][0]", "objToWorld[0][1]", "objToWorld[0][2]"},
-                                            {"objToWorld[1][0]", "objToWorld[1][1]", "objToWorld[1][2]"},
-                                            {"objToWorld[2][0]", "objToWorld[2][1]", "objToWorld[2][2]"},
-                                            {"objToWorld[3][0]", "objToWorld[3][1]", "objToWorld[3][2]"}};
-    for (int col = 0; col < 4; col++)
-        for (int row = 0; row < 3; row++)
-            if (e->obj_to_world[col][row] != a->obj_to_world[col][row]) {
-                *x = (hit_diff){cells[col][row], rto__val_f32(e->obj_to_world[col][row]),
-                                rto__val_f32(a->obj_to_world[col][row]),
-                                rto__val_f64((double)a->obj_to_world[col][row] - (double)e->obj_to_world[col][row]),
-                                rto__val_none()};
-                return RTO_HIT_TRANSFORM;
-            }
-    return RTO_HIT_OK;
-}
-
-static rto_status stage2_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, const rto_hit_record *eh,
-                              const rto_hit_record *gh, const qresult *q)
-{
-    size_t wrong = 0, first = SIZE_MAX;
-    hit_diff x;
-    for (size_t i = 0; i < n; i++) {
-        if (q->gpu_of[i] == NONE32 || stage2_hit_diff(&eh[i], &gh[i], &x) == RTO_HIT_OK)
-            continue;
-        if (!wrong++)
-            first = i;
-    }
-    if (!wrong || !rto__fc_claim(c, RTO_FRAME_HITS, d))
-        return RTO_OK;
-    const rto_hit_fault f = stage2_hit_diff(&eh[first], &gh[first], &x);
-    rto__fc_at_ray(c, ro, q->gpu_of, first);
-    c->r->tolerance_bound = x.tol.type == RTO_VALUE_NONE ? 0 : x.tol.v.f;
-    rto__report_summary(c->r, "hits: bounce %" PRIu32 " (stage2 scene: IDs, missFlag, objToWorld exact, t and bary "
-                       "within §9): %s: ray %zu: %s differs; %zu of %zu paired rays wrong", d, rto_hit_fault_name(f),
-                       first, x.field, wrong, q->paired);
-    for (size_t i = first; i < n && c->r->nrows < RTO_REPORT_MAX_ROWS; i++)
-        if (q->gpu_of[i] != NONE32 && stage2_hit_diff(&eh[i], &gh[i], &x) != RTO_HIT_OK)
-            rto__fc_add_row(c, i, x.field, x.e, x.a, x.d, x.tol);
-    return RTO_OK;
-}
-
 /* The FrameCounters fields a pass of bounce d fills (at most 4), as fault f. */
 static void pass_counters(fcheck *c, uint32_t d, rto_frame_fault f, const char *pass, const cnt_field *fields,
                           size_t nf)
@@ -379,6 +283,59 @@ void rto__fc_step_shade_counters(fcheck *c, uint32_t d)
     pass_counters(c, d, RTO_FRAME_COUNTS, "SHADE", fields, 2);
 }
 
+/* Each GPU record is judged with the ray the GPU traced (§9's model holds a record to its own ray; how far the GPU's
+ * ray may be from the oracle's is the queue step's rule): where the paired GPU ray differs from the oracle's, the
+ * expected record is the oracle's arithmetic on the GPU's ray, brute force (a conforming implementation of §6 too).
+ * Fills hrays and hexp (n each) from the oracle's rays ro and records eh. */
+static rto_status gpu_ray_records(fcheck *c, const rto_wf_ray *ro, size_t n, const rto_wf_ray *rg, const qresult *q,
+                                  const rto_hit_record *eh, rto_wf_ray *hrays, rto_hit_record *hexp)
+{
+    size_t *redo = rto__alloc(n, sizeof *redo);
+    if (!redo)
+        return rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    rto_msg mm = {{0}};
+    rto_status s = RTO_OK;
+    size_t nredo = 0;
+    for (size_t i = 0; i < n; i++) {
+        hrays[i] = ro[i];
+        hexp[i] = eh[i];
+        if (q->gpu_of[i] != NONE32 && memcmp(&rg[q->gpu_of[i]], &ro[i], sizeof ro[i])) {
+            hrays[i] = rg[q->gpu_of[i]];
+            redo[nredo++] = i;
+        }
+    }
+    if (nredo) {
+        rto_wf_ray *rr = rto__alloc(nredo, sizeof *rr);
+        rto_hit_record *rh = rto__alloc(nredo, sizeof *rh);
+        const rto_scene view = {.meshes = (rto_mesh *)c->scene.meshes, .mesh_count = c->scene.mesh_count,
+                                .instances = (rto_instance *)c->scene.instances,
+                                .instance_count = c->scene.instance_count};
+        rto_status bs = rr && rh ? RTO_OK : rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        for (size_t x = 0; !bs && x < nredo; x++)
+            rr[x] = hrays[redo[x]];
+        if (!bs)
+            bs = rto_trace_brute(&view, rr, nredo, NULL, rh, &mm);
+        for (size_t x = 0; !bs && x < nredo; x++)
+            hexp[redo[x]] = rh[x];
+        free(rr);
+        free(rh);
+        if (bs == RTO_ERR_INVALID_ARGUMENT) {
+            /* a GPU ray that cannot be traced (non-finite): the queue step names it; judge the oracle's ray */
+            for (size_t x = 0; x < nredo; x++) {
+                hrays[redo[x]] = ro[redo[x]];
+                hexp[redo[x]] = eh[redo[x]];
+            }
+        } else if (bs) {
+            s = rto__fail(c->msg, bs, "%s", mm.text);
+        }
+    }
+    free(redo);
+    return s;
+}
+
+/* The hit records of bounce d, paired through the queue's rays, judged by check-hits: with its conformance model on a
+ * mesh scene (rto_hits_check), field by field on the stage2 scene, whose analytic primitives the model cannot
+ * re-intersect (rto__hits_check_records: IDs, missFlag and objToWorld exact, t and bary within §9). */
 static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n, const rto_wf_ray *rg, size_t m,
                             const qresult *q)
 {
@@ -387,7 +344,6 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
     rto_npy e = {0}, g = {0};
     rto_hit_record *paired = NULL, *hexp = NULL;
     rto_wf_ray *hrays = NULL;
-    size_t *redo = NULL;
     rto_status s = RTO_OK;
     if (!rto__fc_gpu_bounce_file(c, name, rg, &g, &s))
         goto out;
@@ -422,69 +378,31 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
     const rto_hit_record *eh = e.data, *gh = g.data;
     for (size_t i = 0; i < n; i++)
         paired[i] = q->gpu_of[i] != NONE32 ? gh[q->gpu_of[i]] : eh[i];
-    if (c->stage2) {
-        s = stage2_hits(c, d, ro, n, eh, paired, q);
-        goto out;
-    }
-    if ((s = rto__fc_load_scene(c)))
-        goto out;
-    /* Each GPU record is judged with the ray the GPU traced (§9's model holds a record to its own ray; how far the
-     * GPU's ray may be from the oracle's is the queue step's rule): where the paired GPU ray differs from the
-     * oracle's, the expected record is the oracle's arithmetic on the GPU's ray, brute force (a conforming
-     * implementation of §6 too). */
-    if (!(hrays = rto__alloc(n, sizeof *hrays)) || !(hexp = rto__alloc(n, sizeof *hexp)) ||
-        !(redo = rto__alloc(n, sizeof *redo))) {
-        s = rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-        goto out;
-    }
-    size_t nredo = 0;
-    for (size_t i = 0; i < n; i++) {
-        hrays[i] = ro[i];
-        hexp[i] = eh[i];
-        if (q->gpu_of[i] != NONE32 && memcmp(&rg[q->gpu_of[i]], &ro[i], sizeof ro[i])) {
-            hrays[i] = rg[q->gpu_of[i]];
-            redo[nredo++] = i;
-        }
-    }
-    if (nredo) {
-        rto_wf_ray *rr = rto__alloc(nredo, sizeof *rr);
-        rto_hit_record *rh = rto__alloc(nredo, sizeof *rh);
-        const rto_scene view = {.meshes = (rto_mesh *)c->scene.meshes, .mesh_count = c->scene.mesh_count,
-                                .instances = (rto_instance *)c->scene.instances,
-                                .instance_count = c->scene.instance_count};
-        rto_status bs = rr && rh ? RTO_OK : rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-        for (size_t x = 0; !bs && x < nredo; x++)
-            rr[x] = hrays[redo[x]];
-        if (!bs)
-            bs = rto_trace_brute(&view, rr, nredo, NULL, rh, &mm);
-        for (size_t x = 0; !bs && x < nredo; x++)
-            hexp[redo[x]] = rh[x];
-        free(rr);
-        free(rh);
-        if (bs == RTO_ERR_INVALID_ARGUMENT) {
-            /* a GPU ray that cannot be traced (non-finite): the queue step names it; judge the oracle's ray */
-            for (size_t x = 0; x < nredo; x++) {
-                hrays[redo[x]] = ro[redo[x]];
-                hexp[redo[x]] = eh[redo[x]];
-            }
-        } else if (bs) {
-            s = rto__fail(c->msg, bs, "%s", mm.text);
-            goto out;
-        }
-    }
     rto_hits_check_desc hd;
     memset(&hd, 0, sizeof hd);
-    hd.rays = hrays;
+    hd.rays = ro;
     hd.ray_count = n;
-    hd.expected = hexp;
+    hd.expected = eh;
     hd.gpu = paired;
     hd.gpu_count = n;
-    hd.instances = c->scene.instances;
-    hd.instance_count = c->scene.instance_count;
-    hd.meshes = c->scene.meshes;
-    hd.mesh_count = c->scene.mesh_count;
+    if (!c->stage2) {
+        if ((s = rto__fc_load_scene(c)))
+            goto out;
+        if (!(hrays = rto__alloc(n, sizeof *hrays)) || !(hexp = rto__alloc(n, sizeof *hexp))) {
+            s = rto__fail(c->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+            goto out;
+        }
+        if ((s = gpu_ray_records(c, ro, n, rg, q, eh, hrays, hexp)))
+            goto out;
+        hd.rays = hrays;
+        hd.expected = hexp;
+        hd.instances = c->scene.instances;
+        hd.instance_count = c->scene.instance_count;
+        hd.meshes = c->scene.meshes;
+        hd.mesh_count = c->scene.mesh_count;
+    }
     rto_report sub;
-    const rto_status hs = rto_hits_check(&hd, &sub, &mm);
+    const rto_status hs = c->stage2 ? rto__hits_check_records(&hd, &sub, &mm) : rto_hits_check(&hd, &sub, &mm);
     if (hs == RTO_ERR_INVALID_ARGUMENT) {
         /* the bundle's own records or geometry disagree: refused as input, never blamed on the GPU */
         s = rto__fc_bad_expected(c, name, "%s", mm.text);
@@ -505,14 +423,17 @@ static rto_status step_hits(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t 
             rto__fc_add_row(c, sub.rows[r].index, sub.rows[r].field, sub.rows[r].expected, sub.rows[r].actual,
                             sub.rows[r].diff, sub.rows[r].tolerance);
         c->r->tolerance_bound = sub.tolerance_bound;
-        rto__report_summary(c->r, "hits: bounce %" PRIu32 " (check-hits rules, ray = the oracle's queue index): %s", d,
-                           sub.summary);
+        if (c->stage2)
+            rto__report_summary(c->r, "hits: bounce %" PRIu32 " (stage2 scene: IDs, missFlag, objToWorld exact, t and "
+                               "bary within §9): %s", d, sub.summary);
+        else
+            rto__report_summary(c->r, "hits: bounce %" PRIu32 " (check-hits rules, ray = the oracle's queue index): "
+                               "%s", d, sub.summary);
     }
 out:
     free(paired);
     free(hrays);
     free(hexp);
-    free(redo);
     rto_npy_free(&e);
     rto_npy_free(&g);
     return s;

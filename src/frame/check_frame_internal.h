@@ -149,8 +149,6 @@ const char *rto__fc_file_name(rto_bundle_file f, uint32_t d, char name[RTO_BUNDL
 rto_status rto__fc_bad_expected(fcheck *c, const char *file, const char *fmt, ...) RTO_PRINTF(3, 4);
 /** A fault of a file of the GPU's dump: "GPU dump <dir>: <file>: <text>" (RTO_ERR_PARSE). */
 rto_status rto__fc_bad_gpu(fcheck *c, const char *file, const char *fmt, ...) RTO_PRINTF(3, 4);
-/** "dtype <u4, shape (3, 3)" or "64-byte records, shape (12,)": what an array holds, for messages. */
-const char *rto__fc_describe(const rto_npy_desc *d, char *buf, size_t cap);
 /** Whether the bundle keeps a file: listed in its manifest. */
 int rto__fc_exp_has(fcheck *c, const char *name);
 /** Loads a bundle file (sha256 checked) and requires exactly want's dtype and shape. */

@@ -72,42 +72,6 @@ rto_status rto__fc_bad_gpu(fcheck *c, const char *file, const char *fmt, ...)
     return s;
 }
 
-static int same_desc(const rto_npy_desc *have, const rto_npy_desc *want)
-{
-    if (have->dtype != want->dtype || have->ndim != want->ndim)
-        return 0;
-    for (uint32_t i = 0; i < want->ndim && i < RTO_NPY_MAX_DIMS; i++)
-        if (have->shape[i] != want->shape[i])
-            return 0;
-    if (want->dtype != RTO_DTYPE_STRUCT)
-        return 1;
-    if (have->nfields != want->nfields)
-        return 0;
-    for (uint32_t i = 0; i < want->nfields && i < RTO_NPY_MAX_FIELDS; i++) {
-        const rto_npy_field *a = &have->fields[i], *b = &want->fields[i];
-        if (a->type != b->type || a->count != b->count || a->offset != b->offset || strcmp(a->name, b->name))
-            return 0;
-    }
-    return 1;
-}
-
-/* "dtype <u4, shape (3, 3)" or "64-byte records, shape (12,)": what an array holds, for messages. */
-const char *rto__fc_describe(const rto_npy_desc *d, char *buf, size_t cap)
-{
-    char descr[256];
-    int used;
-    if (d->dtype == RTO_DTYPE_STRUCT)
-        used = snprintf(buf, cap, "%zu-byte records, shape (", rto_npy_itemsize(d));
-    else
-        used = snprintf(buf, cap, "dtype %s, shape (", rto_npy_descr(d, descr, sizeof descr) ? "?" : descr);
-    for (uint32_t i = 0; used >= 0 && (size_t)used < cap && i < d->ndim && i < RTO_NPY_MAX_DIMS; i++)
-        used += snprintf(buf + used, cap - (size_t)used, "%s%llu%s", i ? " " : "", (unsigned long long)d->shape[i],
-                         d->ndim == 1 || i + 1 < d->ndim ? "," : "");
-    if (used >= 0 && (size_t)used < cap)
-        snprintf(buf + used, cap - (size_t)used, ")");
-    return buf;
-}
-
 /* Whether the bundle keeps a file: listed in its manifest (a listed file that is gone is a damaged bundle, refused
  * when read). */
 int rto__fc_exp_has(fcheck *c, const char *name) { return rto__bundle_lists(c->b, name); }
@@ -122,10 +86,10 @@ rto_status rto__fc_exp_load(fcheck *c, const char *name, const rto_npy_desc *wan
     rto_status s = rto_bundle_read_name(c->b, name, out, &m);
     if (s)
         return rto__fail(c->msg, s, "expected bundle %s: %s: %s", c->desc->expected_dir, name, m.text);
-    if (!same_desc(&out->desc, want)) {
+    if (!rto_npy_desc_equal(&out->desc, want)) {
         char have[160], need[160];
-        return rto__fc_bad_expected(c, name, "holds %s; expected %s", rto__fc_describe(&out->desc, have, sizeof have),
-                                    rto__fc_describe(want, need, sizeof need));
+        return rto__fc_bad_expected(c, name, "holds %s; expected %s", rto_npy_desc_text(&out->desc, NULL, have, sizeof have),
+                                    rto_npy_desc_text(want, NULL, need, sizeof need));
     }
     return RTO_OK;
 }
@@ -388,7 +352,7 @@ rto_status rto__fc_read_gpu_arrays(fcheck *c)
         const rto_npy_desc *d = &c->g_emit.desc;
         if (d->dtype != RTO_DTYPE_U32 || d->ndim != 1)
             return rto__fc_bad_gpu(c, name, "holds %s; expected dtype <u4, shape (maxDepth + 1,)",
-                                   rto__fc_describe(d, have, sizeof have));
+                                   rto_npy_desc_text(d, NULL, have, sizeof have));
         c->g_emit_n = (size_t)d->shape[0];
     } else {
         rto__fc_not_dumped(c, name);
@@ -401,7 +365,7 @@ rto_status rto__fc_read_gpu_arrays(fcheck *c)
         const int shape_ok = (d->ndim == 2 && d->shape[1] == 3) || (d->ndim == 1 && d->shape[0] % 3 == 0);
         if (d->dtype != RTO_DTYPE_U32 || !shape_ok)
             return rto__fc_bad_gpu(c, name, "holds %s; expected dtype <u4, shape (maxDepth + 1, 3) or "
-                                   "(3 * (maxDepth + 1),)", rto__fc_describe(d, have, sizeof have));
+                                   "(3 * (maxDepth + 1),)", rto_npy_desc_text(d, NULL, have, sizeof have));
         c->g_ind_n = (size_t)(d->ndim == 2 ? d->shape[0] : d->shape[0] / 3);
     } else {
         rto__fc_not_dumped(c, name);

@@ -182,7 +182,7 @@ rto_status rto__fc_step_accum(fcheck *c)
             const rto_npy_desc *d = &g.desc;
             if (d->dtype != RTO_DTYPE_F32 || d->ndim != 3 || (d->shape[2] != 3 && d->shape[2] != 4)) {
                 s = rto__fc_bad_gpu(c, nname, "holds %s; expected dtype <f4, shape (height, width, 4) or "
-                                    "(height, width, 3)", rto__fc_describe(d, have, sizeof have));
+                                    "(height, width, 3)", rto_npy_desc_text(d, NULL, have, sizeof have));
                 goto out;
             }
             a = g.data;
