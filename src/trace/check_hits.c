@@ -279,6 +279,7 @@ static const char *const freedom_facts[FREEDOM_COUNT] = {"", "accepted_arithmeti
  * summary says so). */
 typedef struct hcheck {
     const rto_hits_check_desc *d;
+    int records_only; /* rto__hits_check_records: no triangles to re-intersect */
     rto_scene scene;
     cf_scene cs;
     uint64_t scan_tests;
@@ -394,6 +395,79 @@ static void compare_claim(size_t i, const rto_wf_ray *ray, const rto_hit_record 
     compare_instance_fields(i, ref, g, rr);
 }
 
+/* §9's fixed rules, for records of primitives the model cannot re-intersect (rto__hits_check_records): t within
+ * 1e-5 max(1, |t|) of the expected record's, u and v within 1e-4. */
+#define RECORD_BARY_ABS 1e-4
+
+static double record_t_tolerance(float t) { return 1e-5 * (fabs((double)t) > 1.0 ? fabs((double)t) : 1.0); }
+
+/* A GPU record against the expected one, field by field, where the scene's primitives are not triangles
+ * (rto__hits_check_records): missFlag, instanceId, primId, customIndex, hitGroup and objToWorld exact, t and the
+ * barycentrics within §9's fixed rules. A record of another outcome or primitive is reported by its IDs alone. */
+static void compare_records(size_t i, const rto_hit_record *e, const rto_hit_record *g, ray_result *rr)
+{
+    if (e->miss_flag != g->miss_flag ||
+        (!g->miss_flag && (e->instance_id != g->instance_id || e->prim_id != g->prim_id))) {
+        const rto_hit_fault f = e->miss_flag != g->miss_flag         ? RTO_HIT_MISS_FLAG
+                                : e->instance_id != g->instance_id ? RTO_HIT_INSTANCE
+                                                                   : RTO_HIT_PRIM;
+        departure_rows(rr, f, "", e, g);
+        if (g->miss_flag)
+            fault(rr, f, 0, "ray %zu: the GPU reports a miss; the oracle hits primitive %" PRIu32 " of instance "
+                  "%" PRIu32 " at t = %.9g", i, e->prim_id, e->instance_id, (double)e->t);
+        else if (e->miss_flag)
+            fault(rr, f, 0, "ray %zu: the GPU reports a hit on primitive %" PRIu32 " of instance %" PRIu32 " at t = "
+                  "%.9g; the oracle's ray misses", i, g->prim_id, g->instance_id, (double)g->t);
+        else
+            fault(rr, f, 0, "ray %zu: the GPU hits primitive %" PRIu32 " of instance %" PRIu32 " at t = %.9g, the "
+                  "oracle primitive %" PRIu32 " of instance %" PRIu32 " at t = %.9g", i, g->prim_id, g->instance_id,
+                  (double)g->t, e->prim_id, e->instance_id, (double)e->t);
+        return;
+    }
+    const struct {
+        rto_hit_fault f;
+        const char *field;
+        uint32_t e, a;
+    } ids[] = {
+        {RTO_HIT_INSTANCE, "instanceId", e->instance_id, g->instance_id}, /* a miss record's: 0xFFFFFFFF */
+        {RTO_HIT_PRIM, "primId", e->prim_id, g->prim_id},
+        {RTO_HIT_CUSTOM_INDEX, "customIndex", e->custom_index, g->custom_index},
+        {RTO_HIT_HIT_GROUP, "hitGroup", e->hit_group, g->hit_group},
+    };
+    for (size_t k = 0; k < sizeof ids / sizeof ids[0]; k++) {
+        if (ids[k].e == ids[k].a)
+            continue;
+        id_row(rr, ids[k].f, ids[k].field, ids[k].e, ids[k].a);
+        fault(rr, ids[k].f, 0, "ray %zu: %s is %" PRIu32 ", the oracle's %" PRIu32, i, ids[k].field, ids[k].a,
+              ids[k].e);
+    }
+    const double tt = record_t_tolerance(e->t);
+    if (!(fabs((double)g->t - (double)e->t) <= tt)) {
+        float_row(rr, RTO_HIT_T, "t", e->t, g->t, tt, 1);
+        fault(rr, RTO_HIT_T, tt, "ray %zu: t = %.9g, the oracle's %.9g (|diff| %.3g > %.3g = 1e-5 max(1, |t|))", i,
+              (double)g->t, (double)e->t, fabs((double)g->t - (double)e->t), tt);
+    }
+    for (int k = 0; k < 2; k++) {
+        if (fabs((double)g->bary[k] - (double)e->bary[k]) <= RECORD_BARY_ABS)
+            continue;
+        float_row(rr, RTO_HIT_BARY, k ? "bary.v" : "bary.u", e->bary[k], g->bary[k], RECORD_BARY_ABS, 1);
+        fault(rr, RTO_HIT_BARY, RECORD_BARY_ABS, "ray %zu: bary.%c = %.9g, the oracle's %.9g (|diff| %.3g > 1e-4)", i,
+              k ? 'v' : 'u', (double)g->bary[k], (double)e->bary[k], fabs((double)g->bary[k] - (double)e->bary[k]));
+    }
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 3; r++) {
+            if (g->obj_to_world[c][r] == e->obj_to_world[c][r])
+                continue;
+            char field[RTO_REPORT_NAME_MAX];
+            matrix_field(c, r, field);
+            float_row(rr, RTO_HIT_TRANSFORM, field, e->obj_to_world[c][r], g->obj_to_world[c][r], 0, 0);
+            fault(rr, RTO_HIT_TRANSFORM, 0, "ray %zu: %s = %.9g, the oracle's %.9g", i, field,
+                  (double)g->obj_to_world[c][r], (double)e->obj_to_world[c][r]);
+        }
+    if (!rr->faults)
+        rr->freedom = FR_ARITH;
+}
+
 static void compare_ray(hcheck *c, size_t i, ray_result *rr)
 {
     const rto_hits_check_desc *d = c->d;
@@ -406,6 +480,10 @@ static void compare_ray(hcheck *c, size_t i, ray_result *rr)
         id_row(rr, RTO_HIT_MISS_FLAG, "missFlag", e->miss_flag, g->miss_flag);
         fault(rr, RTO_HIT_MISS_FLAG, 0, "ray %zu: missFlag is %" PRIu32 ", neither 0 (hit) nor 1 (miss)", i,
               g->miss_flag);
+        return;
+    }
+    if (c->records_only) {
+        compare_records(i, e, g, rr);
         return;
     }
     const int first_hit = (ray->flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0;
@@ -612,7 +690,8 @@ static void report_rows(rto_report *r, size_t i, const ray_result *rr)
     }
 }
 
-rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *msg)
+/* rto_hits_check (records_only 0) and rto__hits_check_records (1). */
+static rto_status hits_check(const rto_hits_check_desc *d, int records_only, rto_report *r, rto_msg *msg)
 {
     if (!d || !r)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL descriptor or report");
@@ -620,13 +699,18 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
     for (size_t k = 0; k < sizeof check_names / sizeof check_names[0]; k++)
         rto__report_add_check(r, check_names[k]);
     rto__report_table(r, "hit records", "ray");
-    snprintf(r->tolerance, sizeof r->tolerance,
-             "§9's conformance model (binary32 correctly rounded, a*b+c fused or not, division 2.5 ulp): t, u, v in "
-             "its intervals; IDs, customIndex, hitGroup, missFlag, objToWorld exact");
+    if (records_only)
+        snprintf(r->tolerance, sizeof r->tolerance,
+                 "no triangles to re-intersect: t within 1e-5 max(1, |t|), u, v within 1e-4 of the expected record "
+                 "(§9); IDs, customIndex, hitGroup, missFlag, objToWorld exact");
+    else
+        snprintf(r->tolerance, sizeof r->tolerance,
+                 "§9's conformance model (binary32 correctly rounded, a*b+c fused or not, division 2.5 ulp): t, u, v "
+                 "in its intervals; IDs, customIndex, hitGroup, missFlag, objToWorld exact");
     if ((d->ray_count && (!d->rays || !d->expected)) || (d->gpu_count && !d->gpu))
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL rays, expected records or GPU records");
-    rto_status s = check_scene(d, msg);
-    if (!s)
+    rto_status s = RTO_OK;
+    if (!records_only && !(s = check_scene(d, msg)))
         s = check_expected(d, msg);
     if (s)
         return s;
@@ -637,10 +721,15 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
         hits += !d->expected[i].miss_flag;
         first_hit += (d->rays[i].flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0;
     }
-    snprintf(r->context, sizeof r->context,
-             "%zu rays (the oracle: %zu hits, %zu misses), GPU dump of %zu records; %" PRIu32 " instance%s, %" PRIu32
-             " mesh%s", n, hits, n - hits, gn, d->instance_count, d->instance_count == 1 ? "" : "s", d->mesh_count,
-             d->mesh_count == 1 ? "" : "es");
+    if (records_only)
+        snprintf(r->context, sizeof r->context,
+                 "%zu rays (the oracle: %zu hits, %zu misses), GPU dump of %zu records; records compared field by "
+                 "field (no triangles to re-intersect)", n, hits, n - hits, gn);
+    else
+        snprintf(r->context, sizeof r->context,
+                 "%zu rays (the oracle: %zu hits, %zu misses), GPU dump of %zu records; %" PRIu32 " instance%s, %"
+                 PRIu32 " mesh%s", n, hits, n - hits, gn, d->instance_count, d->instance_count == 1 ? "" : "s",
+                 d->mesh_count, d->mesh_count == 1 ? "" : "es");
     rto__report_fact(r, "rays", (int64_t)n);
     rto__report_fact(r, "gpu_records", (int64_t)gn);
     rto__report_fact(r, "hits", (int64_t)hits);
@@ -665,12 +754,12 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
         rto__report_mark(r, "size", RTO_CHECK_PASSED);
     }
 
-    hcheck c = {.d = d};
+    hcheck c = {.d = d, .records_only = records_only};
     c.scene.meshes = (rto_mesh *)d->meshes; /* read only: the model takes a const rto_scene */
     c.scene.mesh_count = d->mesh_count;
     c.scene.instances = (rto_instance *)d->instances;
     c.scene.instance_count = d->instance_count;
-    if ((s = cf_scene_init(&c.cs, &c.scene, msg)))
+    if (!records_only && (s = cf_scene_init(&c.cs, &c.scene, msg)))
         return s;
     size_t accepted[FREEDOM_COUNT] = {0}, first_at[FREEDOM_COUNT] = {0};
     ray_result rr;
@@ -737,4 +826,14 @@ rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *
         rto__report_append(r, "; %zu ray(s) accepted unverified (the search for certain hits stopped after %" PRIu64
                           " triangle tests)", c.unverified, c.scan_tests);
     return RTO_OK;
+}
+
+rto_status rto_hits_check(const rto_hits_check_desc *d, rto_report *r, rto_msg *msg)
+{
+    return hits_check(d, 0, r, msg);
+}
+
+rto_status rto__hits_check_records(const rto_hits_check_desc *d, rto_report *r, rto_msg *msg)
+{
+    return hits_check(d, 1, r, msg);
 }

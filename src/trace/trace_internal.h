@@ -15,6 +15,14 @@ int rto__mesh_triangle_hit(const rto_mesh *mesh, uint32_t prim, const float o[3]
                            float best_t, uint32_t flags, rto_tri_hit *hit);
 /** Refuses rays that cannot be traced: non-finite origin, direction, tMin or tMax, or tMin > tMax. */
 rto_status rto__rays_check(const rto_wf_ray *rays, size_t n, rto_msg *msg);
+/**
+ * rto_hits_check for primitives that are not triangles (check-frame's stage2 scene: seed 002's analytic spheres and
+ * boxes), which the conformance model cannot re-intersect: each GPU record against the expected one field by field,
+ * missFlag, instanceId, primId, customIndex, hitGroup and objToWorld exactly, t within 1e-5 max(1, |t|) and u, v
+ * within 1e-4 (§9's fixed rules). The report is rto_hits_check's (fault classes, checks, facts, rows); instances and
+ * meshes are not read and the expected records are taken as they are.
+ */
+rto_status rto__hits_check_records(const rto_hits_check_desc *desc, rto_report *report, rto_msg *msg);
 
 #if defined(__GNUC__)
 #pragma GCC visibility pop
