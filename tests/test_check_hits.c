@@ -7,6 +7,7 @@
 #include "testutil.h"
 
 #include "trace/conform.h"
+#include "trace/trace_internal.h"
 
 #include <math.h>
 
@@ -1088,6 +1089,137 @@ static void test_input_errors(void **state)
         assert_string_equal(rto_hit_fault_name((rto_hit_fault)k), names[k]);
 }
 
+/* rto__hits_check_records, the rule for primitives the model cannot re-intersect (check-frame's stage2 scene): each
+ * record against the expected one, missFlag, IDs, customIndex, hitGroup and objToWorld exact, t within
+ * 1e-5 max(1, |t|), u and v within 1e-4. Each bound from both sides, 1e-6 of the bound or more away from it (far above
+ * binary32's spacing there: 2^-22 at 4, 2^-25 at 0.25); no scene is given, none is read. */
+static rto_status records_check(const rto_wf_ray *rays, const rto_hit_record *e, const rto_hit_record *g, size_t n,
+                                rto_report *r)
+{
+    rto_hits_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.rays = rays;
+    d.ray_count = n;
+    d.expected = e;
+    d.gpu = g;
+    d.gpu_count = n;
+    rto_msg msg = {{0}};
+    return rto__hits_check_records(&d, r, &msg);
+}
+
+static void test_records_only(void **state)
+{
+    (void)state;
+    const double o[3] = {0, 0, 5}, dir[3] = {0, 0, -1};
+    rto_wf_ray rays[3];
+    rto_hit_record e[3];
+    for (int k = 0; k < 3; k++)
+        rays[k] = tu_ray(o, dir, 0.001f, 1000.0f, 0);
+    memset(e, 0, sizeof e);
+    /* ray 0 hits primitive 0 of instance 2 at t 4, ray 1 primitive 0 of instance 1 at t 0.5, ray 2 misses */
+    e[0].t = 4.0f;
+    e[0].instance_id = 2;
+    e[0].custom_index = 2;
+    e[0].hit_group = 1;
+    e[0].bary[0] = 0.25f;
+    e[0].bary[1] = 0.5f;
+    e[0].obj_to_world[0][0] = e[0].obj_to_world[1][1] = e[0].obj_to_world[2][2] = 1.0f;
+    e[0].obj_to_world[3][2] = -1.0f;
+    e[1] = e[0];
+    e[1].t = 0.5f;
+    e[1].instance_id = e[1].custom_index = 1;
+    e[2] = tu_miss_record(1000.0f);
+    rto_hit_record g[3];
+    rto_report r;
+    memcpy(g, e, sizeof g);
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_OK);
+    assert_int_equal(fact(&r, "accepted_differences"), 0);
+
+    /* t: 4e-5 at t = 4, 1e-5 at t = 0.5 (max(1, |t|)); u and v: 1e-4 */
+    g[0].t = 4.000039f;
+    g[1].t = 0.500009f;
+    g[0].bary[0] = 0.250099f;
+    g[0].bary[1] = 0.499901f;
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_OK);
+    assert_int_equal(fact(&r, "accepted_arithmetic"), 2);
+    const struct {
+        size_t ray;
+        float *field, value;
+        rto_hit_fault fault;
+        const char *row;
+    } over[] = {
+        {0, &g[0].t, 4.000041f, RTO_HIT_T, "t"},
+        {0, &g[0].t, 3.999959f, RTO_HIT_T, "t"},
+        {1, &g[1].t, 0.500011f, RTO_HIT_T, "t"},
+        {1, &g[1].t, 0.499989f, RTO_HIT_T, "t"},
+        {0, &g[0].bary[0], 0.250101f, RTO_HIT_BARY, "bary.u"},
+        {0, &g[0].bary[1], 0.499899f, RTO_HIT_BARY, "bary.v"},
+        {1, &g[1].obj_to_world[3][2], -0.99999994f, RTO_HIT_TRANSFORM, "objToWorld[3][2]"},
+        {2, &g[2].t, 999.98f, RTO_HIT_T, "t"}, /* a miss record's t too: 1e-2 at tMax 1000 */
+        {0, &g[0].t, NAN, RTO_HIT_T, "t"},
+    };
+    for (size_t k = 0; k < sizeof over / sizeof over[0]; k++) {
+        const float keep = *over[k].field;
+        *over[k].field = over[k].value;
+        assert_int_equal(records_check(rays, e, g, 3, &r), RTO_ERR_MISMATCH);
+        assert_int_equal(r.code, over[k].fault);
+        int64_t ray = -1;
+        assert_true(rto_report_where(&r, "ray", &ray) && ray == (int64_t)over[k].ray);
+        assert_true(r.nrows == 1 && !strcmp(r.rows[0].field, over[k].row));
+        *over[k].field = keep;
+    }
+    g[2].t = 999.995f; /* within 1e-2 of tMax: accepted */
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_OK);
+    assert_int_equal(fact(&r, "accepted_arithmetic"), 3);
+    g[2].t = 1000.0f;
+
+    /* IDs exact: another primitive, another instance, a miss for a hit and the reverse, customIndex, hitGroup */
+    g[0].prim_id = 1;
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_ERR_MISMATCH);
+    assert_int_equal(r.code, RTO_HIT_PRIM);
+    assert_non_null(strstr(r.summary, "prim: ray 0: "));
+    g[0] = e[0];
+    g[1].instance_id = 3;
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_ERR_MISMATCH);
+    assert_int_equal(r.code, RTO_HIT_INSTANCE);
+    g[1] = tu_miss_record(1000.0f);
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_ERR_MISMATCH);
+    assert_int_equal(r.code, RTO_HIT_MISS_FLAG);
+    g[1] = e[1];
+    g[2] = e[0];
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_ERR_MISMATCH);
+    assert_int_equal(r.code, RTO_HIT_MISS_FLAG);
+    g[2] = e[2];
+    g[2].instance_id = 0; /* a miss record naming an instance */
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_ERR_MISMATCH);
+    assert_int_equal(r.code, RTO_HIT_INSTANCE);
+    g[2] = e[2];
+    g[0].custom_index = 3;
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_ERR_MISMATCH);
+    assert_int_equal(r.code, RTO_HIT_CUSTOM_INDEX);
+    g[0] = e[0];
+    g[1].hit_group = 0;
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_ERR_MISMATCH);
+    assert_int_equal(r.code, RTO_HIT_HIT_GROUP);
+    g[1] = e[1];
+    g[0].miss_flag = 2;
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_ERR_MISMATCH);
+    assert_int_equal(r.code, RTO_HIT_MISS_FLAG);
+    g[0] = e[0];
+    /* a short dump is a size fault, as in rto_hits_check */
+    assert_int_equal(records_check(rays, e, g, 3, &r), RTO_OK);
+    rto_hits_check_desc d;
+    memset(&d, 0, sizeof d);
+    d.rays = rays;
+    d.ray_count = 3;
+    d.expected = e;
+    d.gpu = g;
+    d.gpu_count = 2;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto__hits_check_records(&d, &r, &msg), RTO_ERR_MISMATCH);
+    assert_int_equal(r.code, RTO_HIT_SIZE);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1104,6 +1236,7 @@ int main(void)
         cmocka_unit_test(test_first_hit_rays),
         cmocka_unit_test(test_generated_rays),
         cmocka_unit_test(test_input_errors),
+        cmocka_unit_test(test_records_only),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
