@@ -6,6 +6,9 @@
 #define _GNU_SOURCE
 #include "testutil.h"
 
+#include "core/tolerance.h"
+
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -167,6 +170,45 @@ static void test_accum_boundary_barycentric(void **state)
     accum_boundary("triangle", 2e-4);
 }
 
+/* The accum rule and the queue's origin rule of §9 as core/tolerance.c states them, on boundaries computed here by
+ * hand: at e = 0 only the absolute part counts (the largest float within 1e-6 passes, the next float up fails; with an
+ * absolute part a float holds, 2^-20, exactly at the bound passes and one float over fails); the relative part is
+ * 1e-4 |e| (0.100001 at e = +-1000 with 1e-6, margins far above binary32's 6e-5 spacing there); a NaN matches only a
+ * NaN, an infinity only itself; the sign of zero does not matter. */
+static void test_tolerance_rules(void **state)
+{
+    (void)state;
+    assert_true(rto__tol_accum(0.0, 1e-6) == 1e-6 && rto__tol_accum(-0.0, 2e-4) == 2e-4);
+    assert_true(fabs(rto__tol_accum(-1000.0, 1e-6) - 0.100001) < 1e-15);
+    float in = (float)1e-6;
+    if ((double)in > 1e-6)
+        in = nextafterf(in, 0.0f);
+    const float out = nextafterf(in, 1.0f);
+    assert_true((double)in <= 1e-6 && (double)out > 1e-6);
+    assert_true(rto__tol_accum_close(0.0f, in, 1e-6) && rto__tol_accum_close(0.0f, -in, 1e-6) &&
+                rto__tol_accum_close(-0.0f, in, 1e-6));
+    assert_false(rto__tol_accum_close(0.0f, out, 1e-6) || rto__tol_accum_close(0.0f, -out, 1e-6));
+    assert_true(rto__tol_accum_close(0.0f, 0x1p-20f, 0x1p-20) && rto__tol_accum_close(0.0f, -0x1p-20f, 0x1p-20));
+    assert_false(rto__tol_accum_close(0.0f, nextafterf(0x1p-20f, 1.0f), 0x1p-20));
+    assert_true(rto__tol_accum_close(1000.0f, 1000.098f, 1e-6) && rto__tol_accum_close(-1000.0f, -999.902f, 1e-6));
+    assert_false(rto__tol_accum_close(1000.0f, 1000.102f, 1e-6) || rto__tol_accum_close(-1000.0f, -999.898f, 1e-6));
+    /* `triangle`'s absolute part: 1e-4 0.5 + 2e-4 = 2.5e-4 at 0.5 */
+    assert_true(rto__tol_accum_close(0.5f, 0.50024f, 2e-4) && rto__tol_accum_close(0.5f, 0.49976f, 2e-4));
+    assert_false(rto__tol_accum_close(0.5f, 0.50026f, 2e-4) || rto__tol_accum_close(0.5f, 0.49974f, 2e-4));
+    assert_true(rto__tol_accum_close(0.0f, -0.0f, 1e-6) && rto__tol_accum_close(-0.0f, 0.0f, 0.0));
+    assert_true(rto__tol_accum_close(NAN, NAN, 1e-6) && rto__tol_accum_close(NAN, -NAN, 0.0));
+    assert_false(rto__tol_accum_close(NAN, 0.0f, 1e-6) || rto__tol_accum_close(0.0f, NAN, 1e-6) ||
+                 rto__tol_accum_close(NAN, INFINITY, 1e-6));
+    assert_true(rto__tol_accum_close(INFINITY, INFINITY, 1e-6) && rto__tol_accum_close(-INFINITY, -INFINITY, 1e-6));
+    assert_false(rto__tol_accum_close(INFINITY, -INFINITY, 1e-6) || rto__tol_accum_close(INFINITY, FLT_MAX, 1e-6) ||
+                 rto__tol_accum_close(FLT_MAX, INFINITY, 1e-6) || rto__tol_accum_close(1.0f, INFINITY, 1e-6));
+
+    /* the origin rule, 1e-5 max(4 M, |o|): 4e-5 below |o| = 4 M, 1e-3 at |o| = 100 (M = 1) or M = 25 */
+    assert_true(rto__tol_origin(0.0, 1.0) == 4 * 1e-5 && rto__tol_origin(-3.0, 1.0) == 4 * 1e-5);
+    assert_true(fabs(rto__tol_origin(-100.0, 1.0) - 1e-3) < 1e-18 && fabs(rto__tol_origin(1.0, 25.0) - 1e-3) < 1e-18);
+    assert_true(rto__tol_origin(NAN, 1.0) == 4 * 1e-5 && rto__tol_origin(-INFINITY, 1.0) == INFINITY);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -174,6 +216,7 @@ int main(void)
         cmocka_unit_test(test_arguments),
         cmocka_unit_test(test_accum_boundary),
         cmocka_unit_test(test_accum_boundary_barycentric),
+        cmocka_unit_test(test_tolerance_rules),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

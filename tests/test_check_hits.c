@@ -6,6 +6,7 @@
  * neighbour triangle) is accepted and listed, and a near-tie just outside the t tolerance is not. */
 #include "testutil.h"
 
+#include "core/tolerance.h"
 #include "trace/conform.h"
 #include "trace/trace_internal.h"
 
@@ -1220,6 +1221,43 @@ static void test_records_only(void **state)
     assert_int_equal(r.code, RTO_HIT_SIZE);
 }
 
+/* The t and barycentric rules of §9 as core/tolerance.c states them, on boundaries computed here by hand: for
+ * |t| <= 1 the t bound is 1e-5 itself, which 0 + 1e-5 and 2e-5 - 1e-5 reach exactly (inside) and the next double up
+ * leaves (outside); above 1 it grows as |t| (1e-5 2^20 = 10.48576 at t = 2^20, margins far above the spacing of
+ * doubles there); NaN is never within, nor an infinite value of a finite one or of itself (bit-identical values are
+ * accepted before the rule), while an infinite e has an infinite bound; the sign of zero does not matter. The
+ * barycentric bound is 1e-4 at any value. */
+static void test_tolerance_rules(void **state)
+{
+    (void)state;
+    const double T = 1e-5, B = 1e-4, big = 1048576.0;
+    assert_true(rto__tol_t_scale(0.0) == 1.0 && rto__tol_t_scale(-0.0) == 1.0 && rto__tol_t_scale(0.5) == 1.0);
+    assert_true(rto__tol_t_scale(-1.0) == 1.0 && rto__tol_t_scale(2.0) == 2.0 && rto__tol_t_scale(-3.0) == 3.0);
+    assert_true(rto__tol_t_scale(NAN) == 1.0 && rto__tol_t_scale(-INFINITY) == INFINITY);
+    assert_true(rto__tol_t(0.25) == T && rto__tol_t(-1.0) == T && rto__tol_t(-4.0) == 4 * T);
+    assert_true(fabs(rto__tol_t(big) - 10.48576) < 1e-14);
+    assert_true(rto__tol_t_close(0.0, T) && rto__tol_t_close(0.0, -T) && rto__tol_t_close(-0.0, T));
+    assert_true(rto__tol_t_close(T, 2 * T) && rto__tol_t_close(2 * T, T));
+    assert_false(rto__tol_t_close(0.0, nextafter(T, 1.0)) || rto__tol_t_close(0.0, -nextafter(T, 1.0)));
+    assert_false(rto__tol_t_close(T, nextafter(2 * T, 1.0)));
+    assert_true(rto__tol_t_close(big, big + 10.48575) && rto__tol_t_close(-big, -big - 10.48575));
+    assert_false(rto__tol_t_close(big, big + 10.48577) || rto__tol_t_close(-big, -big + 10.48577));
+    assert_false(rto__tol_t_close(1.0, 1.0 + 1.1e-5) || rto__tol_t_close(0.5, 0.5 - 1.1e-5));
+    assert_true(rto__tol_t_close(0.0, -0.0) && rto__tol_t_close(-0.0, 0.0));
+    assert_false(rto__tol_t_close(NAN, NAN) || rto__tol_t_close(1.0, NAN) || rto__tol_t_close(NAN, 1.0));
+    assert_false(rto__tol_t_close(INFINITY, INFINITY) || rto__tol_t_close(-INFINITY, -INFINITY) ||
+                 rto__tol_t_close(1.0, INFINITY) || rto__tol_t_close(-big, -INFINITY));
+    assert_true(rto__tol_t_close(INFINITY, 1.0) && rto__tol_t(-INFINITY) == INFINITY);
+
+    assert_true(rto__tol_bary_close(0.0, B) && rto__tol_bary_close(0.0, -B) && rto__tol_bary_close(-0.0, B));
+    assert_true(rto__tol_bary_close(B, 2 * B) && rto__tol_bary_close(0.0, -0.0));
+    assert_false(rto__tol_bary_close(0.0, nextafter(B, 1.0)) || rto__tol_bary_close(0.0, -nextafter(B, 1.0)));
+    assert_true(rto__tol_bary_close(0.5, 0.50009) && !rto__tol_bary_close(0.5, 0.50011));
+    assert_false(rto__tol_bary_close(100.0, 100.00011)); /* no relative part */
+    assert_false(rto__tol_bary_close(NAN, NAN) || rto__tol_bary_close(INFINITY, INFINITY) ||
+                 rto__tol_bary_close(0.0, NAN));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1237,6 +1275,7 @@ int main(void)
         cmocka_unit_test(test_generated_rays),
         cmocka_unit_test(test_input_errors),
         cmocka_unit_test(test_records_only),
+        cmocka_unit_test(test_tolerance_rules),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

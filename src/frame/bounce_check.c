@@ -1,6 +1,7 @@
 /* One bounce of check-frame (check_frame_internal.h): its emit counter and FrameCounters, its indirect args, its
  * queue, and the payloads and hit records that travel with the queue's rays. */
 #include "check_frame_internal.h"
+#include "core/tolerance.h"
 #include "../trace/trace_internal.h"
 
 #include <inttypes.h>
@@ -168,7 +169,7 @@ static int word_close(uint32_t e, uint32_t a)
     float fe, fa;
     memcpy(&fe, &e, 4);
     memcpy(&fa, &a, 4);
-    return fabs((double)fa - (double)fe) <= rto__fc_accum_tolerance(fe, ACCUM_ABS);
+    return rto__tol_accum_close(fe, fa, RTO__TOL_ACCUM_ABS); /* payload floats carry colour on its way to accum */
 }
 
 /* The GPU's payload of oracle ray i: its partner's row, or the store's row at its payloadSlot; NULL for a ray
@@ -246,7 +247,7 @@ static void step_payloads(fcheck *c, uint32_t d, const rto_wf_ray *ro, size_t n,
             memcpy(&fa, &a[k], 4);
             if (payload_float(x[k]) && payload_float(a[k]))
                 rto__fc_add_row(c, i, field, rto__val_f32(fe), rto__val_f32(fa), rto__val_f64((double)fa - (double)fe),
-                                rto__val_f64(rto__fc_accum_tolerance(fe, ACCUM_ABS)));
+                                rto__val_f64(rto__tol_accum(fe, RTO__TOL_ACCUM_ABS)));
             else
                 rto__fc_add_row(c, i, field, rto__val_hex32(x[k]), rto__val_hex32(a[k]), rto__val_hex32(x[k] ^ a[k]),
                                 rto__val_none());

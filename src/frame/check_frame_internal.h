@@ -21,14 +21,6 @@
 
 #define NONE32 UINT32_MAX
 
-/* The accum rule's parts (docs/frame.md "The GPU dump layout"; DESIGN.md §9). */
-#define ACCUM_REL 1e-4
-#define ACCUM_ABS 1e-6
-/* The absolute part of the accum rule for a program whose colours are barycentrics (the built-in `triangle`, whose
- * red is (1 - u) - v): the barycentric rule of the hit records, twice, since a GPU's u and v may each differ by 1e-4
- * (§9). */
-#define ACCUM_ABS_BARY 2e-4
-
 /* A local bit of the not-comparable mask: a pixel with a ray in the first queue that dropped rays (on a GPU, which
  * of that queue's rays are kept is arbitrary, so any of their pixels may end up differently). */
 #define MASK_DROP_QUEUE 0x80u
@@ -71,7 +63,7 @@ typedef struct fcheck {
     uint32_t w, h, depth, words; /* width, height, maxDepth, payload words */
     uint64_t cap, pixels;        /* queue capacity 2 W H, W H */
     int stage2;
-    double accum_abs; /* ACCUM_ABS, or ACCUM_ABS_BARY for `triangle` */
+    double accum_abs; /* the accum rule's absolute part: RTO__TOL_ACCUM_ABS (RTO__TOL_ACCUM_ABS_BARY: `triangle`) */
     double scale; /* M: the largest magnitude of the scene bounds and the camera position */
     double fail_percent;
     /* the bundle's frame-wide arrays */
@@ -218,8 +210,6 @@ void rto__fc_step_extra_queues(fcheck *c);
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Accum and image (pixel_check.c)                                                                                   */
 
-/** §9's accum rule with absolute part abs (ACCUM_ABS, or the frame's accum_abs). */
-double rto__fc_accum_tolerance(float e, double abs);
 /** The accum (accum.npy, accum.exr) against the bundle's. */
 rto_status rto__fc_step_accum(fcheck *c);
 /** The 8-bit image against the bundle's. */

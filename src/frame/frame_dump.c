@@ -1,6 +1,7 @@
 /* check-frame's input (check_frame_internal.h): the expected frame bundle and the GPU's dump read and checked
  * for shape. */
 #include "check_frame_internal.h"
+#include "core/tolerance.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -225,7 +226,8 @@ rto_status rto__fc_read_manifest(fcheck *c)
         return rto__fc_bad_expected(c, "manifest.json",
                                     "frame.scene_kind is missing or neither \"mesh\" nor \"stage2\"");
     const char *program = rto_bundle_get_str(c->b, "program", "name");
-    c->accum_abs = program && !strcmp(program, "triangle") && !c->stage2 ? ACCUM_ABS_BARY : ACCUM_ABS;
+    c->accum_abs =
+        program && !strcmp(program, "triangle") && !c->stage2 ? RTO__TOL_ACCUM_ABS_BARY : RTO__TOL_ACCUM_ABS;
     return RTO_OK;
 }
 

@@ -1,6 +1,7 @@
 /* check-frame's pixels (check_frame_internal.h): accum and the 8-bit image against the bundle's, pixel by pixel
  * under DESIGN.md §9, their statistics, and the artefacts written for a failed comparison (diff images, listing). */
 #include "check_frame_internal.h"
+#include "core/tolerance.h"
 #include "core/json.h"
 
 #include <inttypes.h>
@@ -18,19 +19,9 @@
 
 static const char channel_names[4][2] = {"r", "g", "b", "a"};
 
-/* §9's accum rule with absolute part abs (ACCUM_ABS, or the frame's accum_abs). Payload floats carry colour on its way
- * to accum, so they compare with it too. */
-double rto__fc_accum_tolerance(float e, double abs) { return ACCUM_REL * fabs((double)e) + abs; }
-
-/* §9's accum rule for one channel: within 1e-4 |e| + 1e-6; infinities must match, NaN matches only NaN. */
-static int accum_close(const fcheck *c, float e, float a)
-{
-    if (isnan(e) || isnan(a))
-        return isnan(e) && isnan(a);
-    if (isinf(e) || isinf(a))
-        return e == a;
-    return fabs((double)a - (double)e) <= rto__fc_accum_tolerance(e, c->accum_abs);
-}
+/* §9's accum rule for one channel with the frame's absolute part: within 1e-4 |e| + 1e-6 (+ 2e-4 for `triangle`);
+ * infinities must match, NaN matches only NaN. */
+static int accum_close(const fcheck *c, float e, float a) { return rto__tol_accum_close(e, a, c->accum_abs); }
 
 static void stats_note(pixel_stats *ps, uint32_t x, uint32_t y, const float *e, const float *a, uint32_t ch)
 {
@@ -109,20 +100,20 @@ static void compare_accum(fcheck *c, const char *file, const float *e, const flo
     uint32_t k0 = 0;
     while (k0 + 1 < ch && accum_close(c, f->e[k0], f->a[k0]))
         k0++;
-    c->r->tolerance_bound = rto__fc_accum_tolerance(f->e[k0], c->accum_abs);
+    c->r->tolerance_bound = rto__tol_accum(f->e[k0], c->accum_abs);
     for (uint32_t i = 0; i < ps->nlist && c->r->nrows < RTO_REPORT_MAX_ROWS; i++)
         for (uint32_t k = 0; k < ch; k++) {
             const pixel_diff *x = &ps->list[i];
             if (!accum_close(c, x->e[k], x->a[k]))
                 rto__fc_add_row(c, (uint64_t)x->y * c->w + x->x, channel_names[k], rto__val_f32(x->e[k]),
                                 rto__val_f32(x->a[k]), rto__val_f64((double)x->a[k] - (double)x->e[k]),
-                                rto__val_f64(rto__fc_accum_tolerance(x->e[k], c->accum_abs)));
+                                rto__val_f64(rto__tol_accum(x->e[k], c->accum_abs)));
         }
     rto__report_summary(c->r, "accum: %s: pixel %" PRIu32 " (x %" PRIu32 ", y %" PRIu32 ") channel %s is %.9g, the "
                        "oracle's %.9g (|diff| %.3g > %.3g); %" PRIu64 " of %" PRIu64 " compared pixels outside 1e-4 "
                        "relative + %g", file, f->y * c->w + f->x, f->x, f->y, channel_names[k0], (double)f->a[k0],
                        (double)f->e[k0], fabs((double)f->a[k0] - (double)f->e[k0]),
-                       rto__fc_accum_tolerance(f->e[k0], c->accum_abs), ps->over, ps->compared, c->accum_abs);
+                       rto__tol_accum(f->e[k0], c->accum_abs), ps->over, ps->compared, c->accum_abs);
 }
 
 static rto_status keep_images(pixel_stats *ps, uint32_t w, uint32_t h, uint32_t ch, rto_pixel_type t, const void *e,

@@ -1,16 +1,13 @@
 /* check-frame's queues (check_frame_internal.h): a bounce's rays against the oracle's as multisets keyed by
  * (pixel, kind, payloadSlot), every field within DESIGN.md §9's ray tolerances. */
 #include "check_frame_internal.h"
+#include "core/tolerance.h"
 
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* The ray tolerance (docs/frame.md "The GPU dump layout"): §9's relative 1e-5 of hit t, carried to the quantities a
- * SHADE pass derives from a hit. */
-#define RAY_REL 1e-5
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Queues: multisets keyed by (pixel, kind, payloadSlot)                                                            */
@@ -47,17 +44,13 @@ static rkey *keys_of(const rto_wf_ray *rays, size_t n)
     return k;
 }
 
-/* The tolerance of float field f (0 .. 7: origin.xyz, tMin, dir.xyz, tMax) of a ray whose value is e. An origin is
- * a hit point o + t d, off by |dt| |d| when t is off by §9's 1e-5 max(1, |t|); a t inside the scene is at most the
- * distance across it from the camera, under 4 M. Directions and t bounds are relative, as §9's t. */
+/* The tolerance of float field f (0 .. 7: origin.xyz, tMin, dir.xyz, tMax) of a ray whose value is e (docs/frame.md
+ * "The GPU dump layout"): an origin by §9's origin rule, 1e-5 max(4 M, |o|) (a hit point o + t d, off by |dt| |d|
+ * when t is off by the t rule; a t inside the scene is at most the distance across it from the camera, under 4 M);
+ * directions and t bounds by the t rule itself, 1e-5 max(1, |v|). */
 static double ray_tolerance(const fcheck *c, int f, float e)
 {
-    const double a = fabs((double)e);
-    if (f < 3) {
-        const double m = 4.0 * c->scale;
-        return RAY_REL * (a > m ? a : m);
-    }
-    return RAY_REL * (a > 1.0 ? a : 1.0);
+    return f < 3 ? rto__tol_origin(e, c->scale) : rto__tol_t(e);
 }
 
 static int float_close(float e, float a, double tol)

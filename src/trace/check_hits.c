@@ -8,6 +8,7 @@
  * one is the highest-priority fault of the first wrong ray, so a report reads "bary at ray 1234" and not "hits
  * differ"; every class seen anywhere is listed too. */
 #include "conform.h"
+#include "core/tolerance.h"
 #include "internal.h"
 #include "report_internal.h"
 #include "trace_internal.h"
@@ -395,15 +396,10 @@ static void compare_claim(size_t i, const rto_wf_ray *ray, const rto_hit_record 
     compare_instance_fields(i, ref, g, rr);
 }
 
-/* §9's fixed rules, for records of primitives the model cannot re-intersect (rto__hits_check_records): t within
- * 1e-5 max(1, |t|) of the expected record's, u and v within 1e-4. */
-#define RECORD_BARY_ABS 1e-4
-
-static double record_t_tolerance(float t) { return 1e-5 * (fabs((double)t) > 1.0 ? fabs((double)t) : 1.0); }
-
 /* A GPU record against the expected one, field by field, where the scene's primitives are not triangles
  * (rto__hits_check_records): missFlag, instanceId, primId, customIndex, hitGroup and objToWorld exact, t and the
- * barycentrics within §9's fixed rules. A record of another outcome or primitive is reported by its IDs alone. */
+ * barycentrics within §9's fixed rules (core/tolerance.h). A record of another outcome or primitive is reported by its
+ * IDs alone. */
 static void compare_records(size_t i, const rto_hit_record *e, const rto_hit_record *g, ray_result *rr)
 {
     if (e->miss_flag != g->miss_flag ||
@@ -441,17 +437,17 @@ static void compare_records(size_t i, const rto_hit_record *e, const rto_hit_rec
         fault(rr, ids[k].f, 0, "ray %zu: %s is %" PRIu32 ", the oracle's %" PRIu32, i, ids[k].field, ids[k].a,
               ids[k].e);
     }
-    const double tt = record_t_tolerance(e->t);
-    if (!(fabs((double)g->t - (double)e->t) <= tt)) {
+    const double tt = rto__tol_t(e->t);
+    if (!rto__tol_t_close(e->t, g->t)) {
         float_row(rr, RTO_HIT_T, "t", e->t, g->t, tt, 1);
         fault(rr, RTO_HIT_T, tt, "ray %zu: t = %.9g, the oracle's %.9g (|diff| %.3g > %.3g = 1e-5 max(1, |t|))", i,
               (double)g->t, (double)e->t, fabs((double)g->t - (double)e->t), tt);
     }
     for (int k = 0; k < 2; k++) {
-        if (fabs((double)g->bary[k] - (double)e->bary[k]) <= RECORD_BARY_ABS)
+        if (rto__tol_bary_close(e->bary[k], g->bary[k]))
             continue;
-        float_row(rr, RTO_HIT_BARY, k ? "bary.v" : "bary.u", e->bary[k], g->bary[k], RECORD_BARY_ABS, 1);
-        fault(rr, RTO_HIT_BARY, RECORD_BARY_ABS, "ray %zu: bary.%c = %.9g, the oracle's %.9g (|diff| %.3g > 1e-4)", i,
+        float_row(rr, RTO_HIT_BARY, k ? "bary.v" : "bary.u", e->bary[k], g->bary[k], RTO__TOL_BARY, 1);
+        fault(rr, RTO_HIT_BARY, RTO__TOL_BARY, "ray %zu: bary.%c = %.9g, the oracle's %.9g (|diff| %.3g > 1e-4)", i,
               k ? 'v' : 'u', (double)g->bary[k], (double)e->bary[k], fabs((double)g->bary[k] - (double)e->bary[k]));
     }
     for (int c = 0; c < 4; c++)

@@ -180,7 +180,7 @@ static int plausible(const rto_scene *sc, const rto_wf_ray *ray, const rto_hit_r
     if (!obj_ray(sc, h->instance_id, h->prim_id, ray, min_cos, &r))
         return min_cos > 0;
     const double dt = (double)h->t - r.t;
-    if (!(fabs(dt) <= XC_T_REL * fmax(1, fabs(r.t)) || fabs(dt) * r.dlen * r.cosa / r.s <= XC_EDGE_REL))
+    if (!(fabs(dt) <= rto__tol_t(r.t) || fabs(dt) * r.dlen * r.cosa / r.s <= XC_EDGE_REL))
         return 0;
     int degenerate;
     return boundary_distance(r.v, r.p, &degenerate) * r.cosa / r.s >= -XC_EDGE_REL;
@@ -208,8 +208,6 @@ static int is_hit(const rto_hit_record *h) { return h && h->miss_flag == 0; }
 /* A hit that names its triangle (an occluded TERMINATE_ON_FIRST_HIT record from Embree names none). */
 static int names_tri(const rto_hit_record *h) { return is_hit(h) && h->prim_id != UINT32_MAX; }
 
-static int t_close(double a, double b) { return fabs(a - b) <= XC_T_REL * fmax(1, fabs(a)); }
-
 int xc_agree(const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_record *b, double *rel_dt)
 {
     *rel_dt = 0;
@@ -221,8 +219,8 @@ int xc_agree(const rto_wf_ray *ray, const rto_hit_record *a, const rto_hit_recor
         return 1;
     if (a->instance_id != b->instance_id || a->prim_id != b->prim_id)
         return 0;
-    *rel_dt = fabs((double)a->t - b->t) / fmax(1, fabs((double)a->t));
-    return t_close(a->t, b->t);
+    *rel_dt = fabs((double)a->t - b->t) / rto__tol_t_scale(a->t);
+    return rto__tol_t_close(a->t, b->t);
 }
 
 /* Same vertex index in the same instance, or world positions equal within XC_SHARED_REL. */
@@ -361,7 +359,7 @@ static int sliver_t(const xc_input *in, const rto_hit_record *h, const cf_prim *
     if (!xc_plane_hit(in->scene, h->instance_id, h->prim_id, in->ray, &t, &u, &v))
         return 0;
     *k = spreads(p->tri.t, t, h->t);
-    return *k <= XC_MODEL_K && p->tri.t.hi - p->tri.t.lo > 2 * XC_T_REL * fmax(1, fabs(t));
+    return *k <= XC_MODEL_K && p->tri.t.hi - p->tri.t.lo > 2 * RTO__TOL_T_REL * rto__tol_t_scale(t);
 }
 
 /* plausible(), or under the model: a triangle a conforming implementation may hit, at a t within XC_MODEL_K spreads
@@ -403,7 +401,8 @@ void xc_classify(const xc_input *in, xc_result *out)
     cf_prim po, pe;
     const int have_po = model_of(in, o, &po), have_pe = et && model_of(in, et, &pe);
 
-    if (is_hit(o) && is_hit(e) && et && (t_close(o->t, et->t) || (have_po && have_pe && overlap(po.tri.t, pe.tri.t))) &&
+    if (is_hit(o) && is_hit(e) && et &&
+        (rto__tol_t_close(o->t, et->t) || (have_po && have_pe && overlap(po.tri.t, pe.tri.t))) &&
         (o->instance_id != et->instance_id || o->prim_id != et->prim_id) &&
         plausible_in(in, o, have_po ? &po : NULL) && plausible_in(in, et, have_pe ? &pe : NULL)) {
         if (share_vertex(sc, o, et, why, sizeof why)) {
@@ -470,7 +469,7 @@ void xc_classify(const xc_input *in, xc_result *out)
     } else if (!is_hit(o) && is_hit(e)) {
         cand[0] = et;
     } else if (et) { /* both hit, different triangles or t */
-        if (t_close(o->t, et->t) || (have_po && have_pe && overlap(po.tri.t, pe.tri.t))) {
+        if (rto__tol_t_close(o->t, et->t) || (have_po && have_pe && overlap(po.tri.t, pe.tri.t))) {
             cand[0] = o;
             cand_oracle[0] = 1;
             cand[1] = et;

@@ -48,14 +48,16 @@
 #ifndef RTO_TRACE_CROSSCHECK_H
 #define RTO_TRACE_CROSSCHECK_H
 
+#include "../core/tolerance.h"
 #include "conform.h"
 #include "rtoracle.h"
 
 #include <stddef.h>
 #include <stdint.h>
 
-/* Tolerances (docs/trace.md). */
-#define XC_T_REL 1e-5        /* t: |dt| <= XC_T_REL max(1, |t|), DESIGN.md §9 */
+/* Tolerances (docs/trace.md). t: |dt| <= XC_T_REL max(1, |t|), DESIGN.md §9's t rule (rto__tol_t,
+ * core/tolerance.h). */
+#define XC_T_REL RTO__TOL_T_REL
 #define XC_SHARED_REL 1e-6   /* shared vertex: |dx| <= XC_SHARED_REL max(1, |x|) per world coordinate */
 #define XC_PLANE_REL 1e-6    /* coplanar: distance to the other plane <= XC_PLANE_REL max(1, largest coordinate) */
 #define XC_EDGE_REL 1e-5     /* grazing: distance to an edge <= XC_EDGE_REL S / |cos a| (relative to S) */
