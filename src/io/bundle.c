@@ -1,9 +1,12 @@
 /* Golden bundles (DESIGN.md §8): a directory of .npy files plus manifest.json. A bundle is built in a temporary
  * sibling directory and renamed into place, so a reader never sees a half-written bundle and a failed run never
  * leaves one behind. The manifest is written by jansson with a fixed key order and no timestamps, so the same
- * inputs give the same bytes. */
+ * inputs give the same bytes.
+ *
+ * This file writes bundles (rto_bundle_begin ... rto_bundle_commit) and decides what a new bundle may replace;
+ * bundle_read.c reads them back, bundle_share.c holds the share table of arrays written together. */
 #define _GNU_SOURCE /* renameat2 (glibc >= 2.28) */
-#include "internal.h"
+#include "bundle_internal.h"
 #include "core/json.h"
 
 #include <dirent.h>
@@ -19,29 +22,6 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-struct rto_bundle {
-    char *name;   /* outdir as the caller gave it, for messages */
-    char *outdir; /* where the bundle goes: name, or the real path a symbolic link names */
-    char *tmpdir;
-    json_t *root;
-    json_t *files;
-    json_t *cases;
-    char *stamp; /* the stamp's head (rto_bundle_set_request), written at commit; NULL: unstamped */
-    /* The first failure of a setter, kept so that rto_bundle_commit fails with it even when the caller ignored it. */
-    rto_status err;
-    rto_msg err_msg;
-    /* Shared arrays (rto_bundle_set_share): the table, and the arrays this bundle wrote itself (not linked), which
-     * other arrays of the bundle may link to and which commit registers in the table. */
-    rto_bundle_share *share;
-    struct share_file *own;
-    size_t own_count, own_cap;
-};
-
-struct rto_bundle_reader {
-    char *dir;
-    json_t *root;
-};
 
 rto_status rto_sha256_file(const char *path, char hex[65], rto_msg *msg)
 {
@@ -103,7 +83,7 @@ static void remove_tree(const char *path)
         nftw(path, rm_entry, 16, FTW_DEPTH | FTW_PHYS);
 }
 
-static int plain_name(const char *name)
+int rto__bundle_plain_name(const char *name)
 {
     return name && *name && !strchr(name, '/') && strcmp(name, ".") && strcmp(name, "..");
 }
@@ -208,7 +188,7 @@ static rto_status listed_entries(json_t *manifest, const char *dir, const char *
         {
             const char *name = json_string_value(json_object_get(e, kinds[k].field));
             json_t *prev = name ? json_object_get(set, name) : NULL;
-            if (!plain_name(name) || !strcmp(name, "manifest.json") ||
+            if (!rto__bundle_plain_name(name) || !strcmp(name, "manifest.json") ||
                 (prev && json_is_true(prev) != kinds[k].is_file)) {
                 json_decref(set);
                 return refuse(msg, top, "%s/manifest.json: %s entry %zu is not a plain name", dir, kinds[k].list, i);
@@ -316,183 +296,6 @@ static rto_status keep_error(rto_bundle *b, rto_status s, const rto_msg *why, co
     return s;
 }
 
-/* ---------------------------------------------------------------------------------------------------------------- */
-/* Shared arrays (rtoracle.h, rto_bundle_share)                                                                     */
-
-/* A file a bundle wrote: its content (sha256 and size) and where it is, with the inode, size and mtime it had when
- * recorded. A file that no longer has them was changed or replaced by someone else and is not linked to. */
-typedef struct share_file {
-    char hex[65];
-    uint64_t bytes;
-    char *path; /* the bundle's own files: the name in its temporary directory; the table's: the final path */
-    dev_t dev;
-    ino_t ino;
-    off_t size;
-    struct timespec mtime;
-} share_file;
-
-/* Open addressing on the sha256's first 64 bits, linear probing, at most half full. */
-struct rto_bundle_share {
-    share_file *slot; /* path NULL: empty */
-    size_t cap, used;
-};
-
-rto_bundle_share *rto_bundle_share_create(void)
-{
-    rto_bundle_share *t = calloc(1, sizeof *t);
-    if (t && !(t->slot = calloc(t->cap = 1024, sizeof *t->slot))) {
-        free(t);
-        t = NULL;
-    }
-    return t;
-}
-
-void rto_bundle_share_destroy(rto_bundle_share *t)
-{
-    if (!t)
-        return;
-    for (size_t i = 0; i < t->cap; i++)
-        free(t->slot[i].path);
-    free(t->slot);
-    free(t);
-}
-
-void rto_bundle_set_share(rto_bundle *b, rto_bundle_share *t)
-{
-    if (b)
-        b->share = t;
-}
-
-static size_t share_home(const rto_bundle_share *t, const char *hex)
-{
-    uint64_t h = 0;
-    for (int i = 0; i < 16; i++)
-        h = h << 4 | (uint64_t)(hex[i] <= '9' ? hex[i] - '0' : hex[i] - 'a' + 10);
-    return (size_t)(h & (t->cap - 1));
-}
-
-/* The slot of (hex, bytes), or the empty slot where it would go. */
-static share_file *share_slot(rto_bundle_share *t, const char *hex, uint64_t bytes)
-{
-    for (size_t i = share_home(t, hex);; i = (i + 1) & (t->cap - 1)) {
-        share_file *e = &t->slot[i];
-        if (!e->path || (e->bytes == bytes && !memcmp(e->hex, hex, 64)))
-            return e;
-    }
-}
-
-/* Whether path is still the file recorded in e: a regular file with the same inode, size and mtime. */
-static bool share_unchanged(const share_file *e, const char *path)
-{
-    struct stat st;
-    return lstat(path, &st) == 0 && S_ISREG(st.st_mode) && st.st_dev == e->dev && st.st_ino == e->ino &&
-           st.st_size == e->size && (uint64_t)st.st_size == e->bytes && st.st_mtim.tv_sec == e->mtime.tv_sec &&
-           st.st_mtim.tv_nsec == e->mtime.tv_nsec;
-}
-
-static bool share_record(share_file *e, const char *path)
-{
-    struct stat st;
-    if (lstat(path, &st) != 0 || !S_ISREG(st.st_mode))
-        return false;
-    e->dev = st.st_dev;
-    e->ino = st.st_ino;
-    e->size = st.st_size;
-    e->mtime = st.st_mtim;
-    return true;
-}
-
-/* Registers a file the bundle wrote, now at path (final), replacing what the table had for the same content (a file
- * found changed, or one a link to failed): the newest copy is the one to link to. Out of memory: not registered. */
-static void share_register(rto_bundle_share *t, const share_file *own, const char *path)
-{
-    if (t->used + 1 > t->cap / 2) {
-        share_file *old = t->slot;
-        size_t old_cap = t->cap;
-        share_file *grown = calloc(old_cap * 2, sizeof *grown);
-        if (!grown)
-            return;
-        t->slot = grown;
-        t->cap = old_cap * 2;
-        for (size_t i = 0; i < old_cap; i++)
-            if (old[i].path)
-                *share_slot(t, old[i].hex, old[i].bytes) = old[i];
-        free(old);
-    }
-    share_file rec = *own;
-    char *copy = strdup(path);
-    if (!copy || !share_record(&rec, path)) {
-        free(copy);
-        return;
-    }
-    rec.path = copy;
-    share_file *e = share_slot(t, own->hex, own->bytes);
-    if (e->path)
-        free(e->path);
-    else
-        t->used++;
-    *e = rec;
-}
-
-/* The link just made at path (in the bundle's temporary directory) is the recorded file: the file was not replaced
- * between the check and link(). Otherwise the new name is removed again (it is the bundle's own) and not used. */
-static bool linked_as_recorded(const share_file *e, const char *path)
-{
-    if (share_unchanged(e, path))
-        return true;
-    unlink(path);
-    return false;
-}
-
-/* Links path to an identical file the bundle wrote already or the table lists, if one is still as recorded.
- * true: linked. */
-static bool share_link(rto_bundle *b, const char *hex, uint64_t bytes, const char *path)
-{
-    for (size_t i = 0; i < b->own_count; i++) {
-        const share_file *e = &b->own[i];
-        if (e->bytes != bytes || memcmp(e->hex, hex, 64) != 0)
-            continue;
-        char *src = rto__path_join(b->tmpdir, e->path);
-        bool ok = src && share_unchanged(e, src) && link(src, path) == 0 && linked_as_recorded(e, path);
-        free(src);
-        if (ok)
-            return true;
-    }
-    const share_file *e = share_slot(b->share, hex, bytes);
-    return e->path && share_unchanged(e, e->path) && link(e->path, path) == 0 && linked_as_recorded(e, path);
-}
-
-/* Remembers a file the bundle wrote (name in its temporary directory) for links within the bundle and for commit.
- * Out of memory: it is just not shared. */
-static void share_own(rto_bundle *b, const char *name, const char *hex, uint64_t bytes, const char *path)
-{
-    if (b->own_count == b->own_cap) {
-        size_t cap = b->own_cap ? 2 * b->own_cap : 8;
-        share_file *grown = realloc(b->own, cap * sizeof *grown);
-        if (!grown)
-            return;
-        b->own = grown;
-        b->own_cap = cap;
-    }
-    share_file *e = &b->own[b->own_count];
-    memcpy(e->hex, hex, 65);
-    e->bytes = bytes;
-    if (!share_record(e, path) || !(e->path = strdup(name)))
-        return;
-    b->own_count++;
-}
-
-/* At commit, once the bundle is at outdir: its own files go into the table under their final paths. */
-static void share_commit(rto_bundle *b)
-{
-    for (size_t i = 0; i < b->own_count; i++) {
-        char *path = rto__path_join(b->outdir, b->own[i].path);
-        if (path)
-            share_register(b->share, &b->own[i], path);
-        free(path);
-    }
-}
-
 rto_status rto_bundle_begin(const char *outdir, const char *kind, rto_bundle **out, rto_msg *msg)
 {
     *out = NULL;
@@ -534,7 +337,7 @@ rto_status rto_bundle_begin(const char *outdir, const char *kind, rto_bundle **o
 
 const char *rto_bundle_tmpdir(const rto_bundle *b) { return b ? b->tmpdir : NULL; }
 
-static json_t *section_of(json_t *root, const char *section, int create)
+json_t *rto__bundle_section(json_t *root, const char *section, int create)
 {
     if (!section || !*section)
         return root;
@@ -554,7 +357,7 @@ static rto_status set_value(rto_bundle *b, const char *section, const char *key,
         json_decref(v);
         return RTO_ERR_INVALID_ARGUMENT;
     }
-    json_t *o = key ? section_of(b->root, section, 1) : NULL;
+    json_t *o = key ? rto__bundle_section(b->root, section, 1) : NULL;
     if (!o) {
         /* no key, or a section name already used by a value that is not an object; otherwise out of memory */
         json_t *had = section && *section ? json_object_get(b->root, section) : b->root;
@@ -608,9 +411,9 @@ rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role,
 {
     rto_msg why = {{0}};
     char hex[65], descr[1024];
-    char *path = b && plain_name(name) && role && desc ? rto__path_join(b->tmpdir, name) : NULL;
+    char *path = b && rto__bundle_plain_name(name) && role && desc ? rto__path_join(b->tmpdir, name) : NULL;
     rto_status s = path ? RTO_OK
-                 : b && plain_name(name) && role && desc
+                 : b && rto__bundle_plain_name(name) && role && desc
                      ? rto__fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
                      : rto__fail(&why, RTO_ERR_INVALID_ARGUMENT, "bad bundle file '%s'", name ? name : "(null)");
     if (!s && b->share) {
@@ -618,10 +421,10 @@ rto_status rto_bundle_add_npy(rto_bundle *b, const char *name, const char *role,
          * is written (without hashing it again) and remembered. */
         uint64_t bytes = 0;
         s = rto__npy_hash(name, desc, data, hex, &bytes, &why);
-        if (!s && !share_link(b, hex, bytes, path)) {
+        if (!s && !rto__bundle_share_link(b, hex, bytes, path)) {
             s = rto__npy_write_hashed(path, desc, data, NULL, &why);
             if (!s)
-                share_own(b, name, hex, bytes, path);
+                rto__bundle_share_own(b, name, hex, bytes, path);
         }
     } else if (!s) {
         s = rto__npy_write_hashed(path, desc, data, hex, &why);
@@ -650,7 +453,7 @@ rto_status rto__bundle_add_image(rto_bundle *b, const char *name, const char *ro
 {
     rto_msg why = {{0}};
     char hex[65];
-    const bool valid = b && plain_name(name) && role && image && write;
+    const bool valid = b && rto__bundle_plain_name(name) && role && image && write;
     char *path = valid ? rto__path_join(b->tmpdir, name) : NULL;
     rto_status s = path    ? write(path, image, &why)
                    : valid ? rto__fail(&why, RTO_ERR_OUT_OF_MEMORY, "out of memory")
@@ -677,7 +480,7 @@ rto_status rto_bundle_add_case(rto_bundle *b, const char *name, const char *case
 {
     rto_msg why = {{0}};
     char hex[65];
-    bool valid = b && plain_name(name) && case_id;
+    bool valid = b && rto__bundle_plain_name(name) && case_id;
     char *dir = valid ? rto__path_join(b->tmpdir, name) : NULL;
     char *m = dir ? rto__path_join(dir, "manifest.json") : NULL;
     rto_status s = m       ? rto_sha256_file(m, hex, &why)
@@ -825,280 +628,7 @@ rto_status rto_bundle_commit(rto_bundle *b, rto_msg *msg)
     if (!s)
         s = install(b, msg);
     if (!s && b->share)
-        share_commit(b);
+        rto__bundle_share_commit(b);
     rto_bundle_abort(b);
     return s;
-}
-
-/* ---------------------------------------------------------------------------------------------------------------- */
-
-static int cmp_cstr(const void *a, const void *b) { return strcmp(*(const char *const *)a, *(const char *const *)b); }
-
-/* The N of a file named PREFIX N _..., or -1. */
-static long long indexed_name(const char *name, const char *prefix)
-{
-    size_t n = strlen(prefix);
-    if (strncmp(name, prefix, n) != 0 || name[n] < '0' || name[n] > '9')
-        return -1;
-    char *end;
-    long long v = strtoll(name + n, &end, 10);
-    return *end == '_' && v >= 0 ? v : -1;
-}
-
-/*
- * What every reader may then take for granted of manifest.json, checked once when the bundle is opened: `files` is a
- * list of entries with plain, unique file names (no path, no NUL); a shape is a list of non-negative integers whose
- * product fits the file it describes (each element takes at least a byte); counts.meshes (when present) numbers the
- * mesh_N_ and blas_N_ files exactly. Kind-specific agreements (instances.npy against counts.instances, the TLAS
- * figures) stay with the validators that read those arrays.
- */
-static rto_status validate_manifest(const char *dir, json_t *root, rto_msg *msg)
-{
-    json_t *files = json_object_get(root, "files");
-    if (!json_is_array(files))
-        return rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json has no files list", dir);
-    const size_t count = json_array_size(files);
-    const char **names = calloc(count ? count : 1, sizeof *names);
-    if (!names)
-        return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-    rto_status s = RTO_OK;
-    long long meshes = -1;
-    json_t *jm = json_object_get(json_object_get(root, "counts"), "meshes");
-    if (jm && (!json_is_integer(jm) || json_integer_value(jm) < 0 || json_integer_value(jm) > UINT32_MAX))
-        s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is not a count", dir);
-    else if (jm)
-        meshes = json_integer_value(jm);
-    size_t i;
-    json_t *e;
-    json_array_foreach(files, i, e)
-    {
-        if (s)
-            break;
-        json_t *jn = json_object_get(e, "name");
-        const char *name = json_string_value(jn);
-        if (!json_is_object(e) || !name) {
-            s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: files entry %zu has no name", dir, i);
-            break;
-        }
-        if (!plain_name(name) || strlen(name) != json_string_length(jn)) {
-            s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: files entry %zu names '%.200s', not a plain file name "
-                         "inside the bundle", dir, i, name);
-            break;
-        }
-        names[i] = name;
-        json_t *shape = json_object_get(e, "shape");
-        if (shape) {
-            uint64_t elements = 1;
-            size_t k;
-            json_t *d;
-            int bad = !json_is_array(shape);
-            json_array_foreach(shape, k, d)
-            {
-                const json_int_t v = json_is_integer(d) ? json_integer_value(d) : -1;
-                if (v < 0 || (v && elements > (UINT64_C(1) << 62) / (uint64_t)v)) {
-                    bad = 1;
-                    break;
-                }
-                elements *= (uint64_t)v;
-            }
-            struct stat st;
-            char *path = bad ? NULL : rto__path_join(dir, name);
-            if (!bad && path && lstat(path, &st) == 0 && S_ISREG(st.st_mode) && elements > (uint64_t)st.st_size)
-                bad = 2;
-            free(path);
-            if (bad) {
-                s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: the shape of %.200s %s", dir, name,
-                             bad == 2 ? "has more elements than the file has bytes"
-                                      : "is not a list of non-negative integers with a product under 2^62");
-                break;
-            }
-        }
-        for (int p = 0; p < 2 && meshes >= 0; p++) {
-            const long long n = indexed_name(name, p ? "blas_" : "mesh_");
-            if (n >= meshes) {
-                s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is %lld, but the bundle lists %s",
-                             dir, meshes, name);
-                break;
-            }
-        }
-    }
-    if (!s && count > 1) {
-        qsort(names, count, sizeof *names, cmp_cstr);
-        for (i = 1; i < count && !s; i++)
-            if (strcmp(names[i - 1], names[i]) == 0)
-                s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json lists %.200s twice", dir, names[i]);
-    }
-    /* Every mesh counted has its files, when the bundle holds mesh or BLAS files at all. */
-    for (int p = 0; p < 2 && !s && meshes > 0; p++) {
-        const char *prefix = p ? "blas_" : "mesh_";
-        unsigned char *seen = calloc((size_t)meshes, 1);
-        size_t listed = 0;
-        if (!seen) {
-            s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-            break;
-        }
-        for (i = 0; i < count; i++) {
-            const long long n = indexed_name(names[i], prefix);
-            if (n >= 0) {
-                seen[n] = 1;
-                listed++;
-            }
-        }
-        for (long long m = 0; listed && m < meshes && !s; m++)
-            if (!seen[m])
-                s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: counts.meshes is %lld, but no %s%lld_ file is "
-                             "listed", dir, meshes, prefix, m);
-        free(seen);
-    }
-    free(names);
-    return s;
-}
-
-rto_status rto_bundle_open(const char *dir, rto_bundle_reader **out, rto_msg *msg)
-{
-    *out = NULL;
-    char *path = dir ? rto__path_join(dir, "manifest.json") : NULL;
-    if (!path)
-        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "no bundle directory given");
-    json_error_t err;
-    /* Opened as a plain file first: json_load_file would wait for ever on a manifest.json that is a FIFO. */
-    uint64_t size;
-    rto_status opened = RTO_OK;
-    FILE *fp = rto__open_regular(path, &size, &opened, msg);
-    if (!fp) {
-        free(path);
-        return opened;
-    }
-    json_t *root = json_loadf(fp, JSON_REJECT_DUPLICATES, &err);
-    fclose(fp);
-    if (!root) {
-        rto_status s = rto__fail(msg, RTO_ERR_PARSE, "%s: %s (line %d)", path, err.text, err.line);
-        free(path);
-        return s;
-    }
-    free(path);
-    rto_status s = RTO_OK;
-    const char *format = json_string_value(json_object_get(root, "format"));
-    json_t *version = json_object_get(root, "format_version");
-    if (!format || strcmp(format, "rtoracle-bundle") != 0)
-        s = rto__fail(msg, RTO_ERR_PARSE, "%s is not an rtoracle bundle (manifest format '%s')", dir,
-                     format ? format : "missing");
-    else if (!json_is_integer(version) || json_integer_value(version) != RTO_BUNDLE_FORMAT_VERSION)
-        s = rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: bundle format version %lld is not supported (this rtoracle reads %d)",
-                     dir, json_is_integer(version) ? (long long)json_integer_value(version) : -1LL,
-                     RTO_BUNDLE_FORMAT_VERSION);
-    else
-        s = validate_manifest(dir, root, msg);
-    rto_bundle_reader *r = s ? NULL : calloc(1, sizeof *r);
-    if (!s && (!r || !(r->dir = strdup(dir)))) {
-        free(r);
-        r = NULL;
-        s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-    }
-    if (s) {
-        json_decref(root);
-        return s;
-    }
-    r->root = root;
-    *out = r;
-    return RTO_OK;
-}
-
-void rto_bundle_close(rto_bundle_reader *r)
-{
-    if (!r)
-        return;
-    json_decref(r->root);
-    free(r->dir);
-    free(r);
-}
-
-const char *rto_bundle_get_str(rto_bundle_reader *r, const char *section, const char *key)
-{
-    json_t *o = r ? section_of(r->root, section, 0) : NULL;
-    return o ? json_string_value(json_object_get(o, key)) : NULL;
-}
-
-int rto_bundle_get_int(rto_bundle_reader *r, const char *section, const char *key, int64_t *value)
-{
-    json_t *o = r ? section_of(r->root, section, 0) : NULL;
-    json_t *v = o ? json_object_get(o, key) : NULL;
-    if (!json_is_integer(v))
-        return 0;
-    *value = (int64_t)json_integer_value(v);
-    return 1;
-}
-
-/* The path of the first manifest entry whose field `key` equals `value` (malloc'ed), after checking its sha256. */
-static rto_status checked_path(rto_bundle_reader *r, const char *key, const char *value, char **out, rto_msg *msg)
-{
-    *out = NULL;
-    json_t *files = r ? json_object_get(r->root, "files") : NULL;
-    size_t i;
-    json_t *e;
-    json_array_foreach(files, i, e)
-    {
-        const char *v = json_string_value(json_object_get(e, key));
-        const char *name = json_string_value(json_object_get(e, "name"));
-        const char *sha = json_string_value(json_object_get(e, "sha256"));
-        if (!v || strcmp(v, value) != 0)
-            continue;
-        if (!plain_name(name) || !sha)
-            return rto__fail(msg, RTO_ERR_PARSE, "%s: manifest entry '%s' lacks a plain name or sha256", r->dir, value);
-        char *path = rto__path_join(r->dir, name);
-        char hex[65];
-        rto_status s = path ? rto_sha256_file(path, hex, msg) : rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
-        if (!s && strcmp(hex, sha) != 0)
-            s = rto__fail(msg, RTO_ERR_PARSE, "%s: sha256 %s does not match the manifest's %s (file changed?)", path,
-                         hex, sha);
-        if (s)
-            free(path);
-        else
-            *out = path;
-        return s;
-    }
-    return rto__fail(msg, RTO_ERR_IO, "%s: the bundle has no file with %s '%s'", r ? r->dir : "(null)", key, value);
-}
-
-/* Loads the file of the first manifest entry whose field `key` equals `value`, after checking its sha256. */
-static rto_status read_entry(rto_bundle_reader *r, const char *key, const char *value, rto_npy *out, rto_msg *msg)
-{
-    char *path = NULL;
-    rto_status s = checked_path(r, key, value, &path, msg);
-    if (!s)
-        s = rto_npy_read(path, out, msg);
-    free(path);
-    return s;
-}
-
-rto_status rto__bundle_checked_path(rto_bundle_reader *r, const char *name, char **path, rto_msg *msg)
-{
-    *path = NULL;
-    if (!r || !name)
-        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL bundle or name");
-    return checked_path(r, "name", name, path, msg);
-}
-
-rto_status rto_bundle_read_role(rto_bundle_reader *r, const char *role, rto_npy *out, rto_msg *msg)
-{
-    return read_entry(r, "role", role, out, msg);
-}
-
-rto_status rto_bundle_read_name(rto_bundle_reader *r, const char *name, rto_npy *out, rto_msg *msg)
-{
-    return read_entry(r, "name", name, out, msg);
-}
-
-int rto__bundle_lists(rto_bundle_reader *r, const char *name)
-{
-    json_t *files = r && name ? json_object_get(r->root, "files") : NULL;
-    size_t i;
-    json_t *e;
-    json_array_foreach(files, i, e)
-    {
-        const char *n = json_string_value(json_object_get(e, "name"));
-        if (n && !strcmp(n, name))
-            return 1;
-    }
-    return 0;
 }
