@@ -36,29 +36,6 @@ static const opt_name tlas_names[] = {{"sweep", 0}, {"karras", 1}, {NULL, 0}};
 /* Most rays a command makes or reads: width * height or --count. */
 #define TRACE_MAX_RAYS (UINT64_C(1) << 26)
 
-/* Reads a ray file: WfRay records in any form rto_layout_accept takes. */
-static rto_status read_rays(const char *path, rto_wf_ray **rays, size_t *n, rto_msg *msg)
-{
-    rto_npy npy = {0};
-    rto_status s = rto_npy_read(path, &npy, msg);
-    size_t count = 0;
-    if (!s)
-        s = rto_layout_accept(RTO_LAYOUT_WF_RAY, &npy, &count, msg);
-    if (!s && count > TRACE_MAX_RAYS)
-        s = rto_msg_set(msg, RTO_ERR_UNSUPPORTED, "%s: %zu rays (at most %llu)", path, count,
-                        (unsigned long long)TRACE_MAX_RAYS);
-    if (!s) {
-        *rays = cli_alloc(count, sizeof **rays);
-        if (!*rays)
-            s = rto_msg_set(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", count);
-        else if (count)
-            memcpy(*rays, npy.data, count * sizeof **rays);
-        *n = count;
-    }
-    rto_npy_free(&npy);
-    return s;
-}
-
 int cmd_trace(int argc, char **argv)
 {
     const char *out = NULL, *rays_arg = "primary", *camera_arg = NULL, *light_arg = NULL;
@@ -153,7 +130,7 @@ int cmd_trace(int argc, char **argv)
     memcpy(rd.light_dir, light, sizeof light);
     rd.threads = (uint32_t)threads;
     if (!s && from_file) {
-        s = read_rays(rays_arg, &rays, &n, &msg);
+        s = rto_rays_read(rays_arg, TRACE_MAX_RAYS, &rays, &n, &msg);
     } else if (!s) {
         const size_t cap = rto_rays_capacity(&rd);
         rays = cli_alloc(cap, sizeof *rays);

@@ -147,23 +147,15 @@ bool xc_parse_sets(const char *text, rto_ray_set *sets, size_t *n)
 
 int xc_run_file(run *r, const char *path, rto_msg *msg)
 {
-    rto_npy npy = {0};
+    rto_wf_ray *rays = NULL;
     size_t count = 0;
-    if (rto_npy_read(path, &npy, msg) || rto_layout_accept(RTO_LAYOUT_WF_RAY, &npy, &count, msg)) {
-        rto_npy_free(&npy);
-        return cli_fail("crosscheck", "--rays %s: %s", path, msg->text);
-    }
-    if (count > XC_MAX_RAYS) {
-        rto_npy_free(&npy);
-        return cli_fail("crosscheck", "--rays %s: %zu rays, at most %llu", path, count,
-                        (unsigned long long)XC_MAX_RAYS);
-    }
-    const rto_wf_ray *rays = npy.data;
+    if (rto_rays_read(path, XC_MAX_RAYS, &rays, &count, msg))
+        return cli_fail("crosscheck", "--rays %s", msg->text);
     for (size_t i = 0; i < count; i++)
         r->culling |= (rays[i].flags & (RTO_RAY_FLAG_CULL_BACK_FACING | RTO_RAY_FLAG_CULL_FRONT_FACING)) != 0;
     const char *base = strrchr(path, '/');
     rto_status st = trace_both(r, base ? base + 1 : path, rays, count, msg);
-    rto_npy_free(&npy);
+    free(rays);
     return st ? cli_status("crosscheck", st, msg) : EXIT_PASS;
 }
 

@@ -1278,6 +1278,12 @@ size_t rto_rays_capacity(const rto_rays_desc *desc);
  */
 rto_status rto_rays_generate(const rto_accel *accel, const rto_rays_desc *desc, rto_wf_ray *rays, size_t cap,
                              size_t *n, rto_camera_uniforms *camera_out, rto_msg *msg);
+/**
+ * Reads a ray file: WfRay records in any form rto_layout_accept takes (structured, (n, 16) words or flat) into a
+ * fresh array (*rays, free with free()) of *n rays. More than max rays is refused (RTO_ERR_UNSUPPORTED) after the
+ * header is read. The rays are not checked here: rto_trace refuses what cannot be traced.
+ */
+rto_status rto_rays_read(const char *path, size_t max, rto_wf_ray **rays, size_t *n, rto_msg *msg);
 
 /* Hit validation (DESIGN.md §9). */
 

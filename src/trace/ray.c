@@ -654,3 +654,28 @@ rto_status rto_rays_generate(const rto_accel *accel, const rto_rays_desc *desc, 
         *n = 0;
     return st;
 }
+
+rto_status rto_rays_read(const char *path, size_t max, rto_wf_ray **rays, size_t *n, rto_msg *msg)
+{
+    if (!path || !rays || !n)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL ray file, array or count");
+    *rays = NULL;
+    *n = 0;
+    rto_npy npy = {0};
+    size_t count = 0;
+    rto_status s = rto_npy_read(path, &npy, msg);
+    if (!s && (s = rto_layout_accept(RTO_LAYOUT_WF_RAY, &npy, &count, msg)))
+        rto__fail(msg, s, "%s: %s", path, msg ? msg->text : "");
+    if (!s && count > max)
+        s = rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: %zu rays (at most %zu)", path, count, max);
+    if (!s) {
+        *rays = rto__alloc(count, sizeof **rays);
+        if (!*rays)
+            s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", count);
+        else if (count)
+            memcpy(*rays, npy.data, count * sizeof **rays);
+        *n = s ? 0 : count;
+    }
+    rto_npy_free(&npy);
+    return s;
+}
