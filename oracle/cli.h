@@ -68,6 +68,42 @@ bool cli_camera_numbers(const char *spec, rto_camera *cam);
 /** The camera --camera names (scene, auto, an index, or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY; NULL = scene) into *cam,
  * the automatic framing resolved for an image of the given aspect. false after one line on a bad value. */
 bool cli_pick_camera(const char *cmd, const char *spec, const rto_scene *sc, float aspect, rto_camera *cam);
+/** A scene loaded for tracing (trace, render): the scene, its trees (self-checked) and the camera --camera names. */
+typedef struct cli_traced_scene {
+    rto_scene *scene;
+    rto_accel *accel;
+    rto_camera camera;
+} cli_traced_scene;
+/** Loads spec within the texture budget (MiB), prints its warnings, picks the camera for an image of width x height
+ * (warning when a scene camera's aspect stretches the image), builds the trees (--tlas karras when karras) and checks
+ * them. EXIT_PASS, or EXIT_BAD_INPUT after one line (nothing then to free). */
+int cli_load_traced_scene(const char *cmd, const char *spec, uint64_t texture_budget_mb, const char *camera_arg,
+                          uint32_t width, uint32_t height, unsigned karras, uint32_t threads, cli_traced_scene *out);
+void cli_traced_scene_free(cli_traced_scene *t);
+
+/* Programs on the command line (program_cli.c). */
+/** --param NAME=V[,V..][:NAME=V..] into values (at most RTO_PROGRAM_PARAMS_MAX); false after one line. */
+bool cli_parse_params(const char *text, rto_param_value *out, uint32_t *n);
+/** Prints each built-in program with its parameters (render --program list). */
+void cli_list_programs(void);
+/** The program --program names: a built-in one, or with is_plugin the plugin loaded into *plugin (unload it with
+ * rto_plugin_unload). NULL after one line. */
+const rto_program *cli_pick_program(const char *name, bool is_plugin, rto_plugin **plugin);
+/** A progress bar on stderr, only on a terminal, redrawn at most every 0.1 s: the state cli_progress takes. */
+typedef struct cli_progress_bar {
+    bool on;
+    double last;
+    int drawn;
+} cli_progress_bar;
+/** A frame's progress callback (arg: a cli_progress_bar). */
+void cli_progress(void *arg, double fraction);
+/** Monotonic seconds. */
+double cli_now(void);
+/** Whether the frame fd describes (program, size, depth, keep) fits the memory budget (MiB; 0: the default), by
+ * rto_frame_memory_bound, before any work; false after one line naming the frame and --stages. */
+bool cli_frame_within_budget(const rto_frame_desc *fd, uint64_t memory_mb, const char *stages);
+/** render's line after a bundle is written: rays traced, hits, emitted, dropped, conflicts, seconds, the bundle. */
+void cli_frame_summary(const char *spec, const rto_frame *frame, double seconds, const char *out);
 
 /* Names of the key formats and sort algorithms, for option tables and manifests. */
 extern const opt_name cli_format_names[];
@@ -106,6 +142,18 @@ typedef struct key_origin {
     const char *request; /* the up-to-date record's request (rto_bundle_set_request), or NULL for none */
 } key_origin;
 
+/* The lists of `suite sort` (suite_lists.c). */
+#define CLI_SUITE_SIZES_MAX (4 * RTO_SIZE_CLASS_MAX + OPT_LIST_MAX)
+#define CLI_SUITE_DISTS_MAX 256
+/** --sizes: size classes and numbers, deduplicated and ascending (all when none given). EXIT_PASS, or EXIT_BAD_INPUT
+ * after one line. */
+int cli_suite_sizes(const opt_list *sizes_opt, size_t sizes[CLI_SUITE_SIZES_MAX], size_t *count);
+/** --dists: distributions in the order first named; a group (all, centroid, raw) adds its members not named before.
+ * EXIT_PASS, or EXIT_BAD_INPUT after one line. */
+int cli_suite_dists(const opt_list *dists_opt, const rto_dist_info *dists[CLI_SUITE_DISTS_MAX], size_t *count);
+/** A structured {key, value} GPU sort dump (path names it in messages) split into its keys (replacing gpu's data) and
+ * values. EXIT_PASS, or EXIT_BAD_INPUT after one line. */
+int cli_split_pairs(rto_npy *gpu, rto_npy *values, const char *path);
 /** Sorts keys with p and writes a sort bundle to outdir (atomically). share: NULL, or the table of shared arrays
  * (rto_bundle_set_share) the bundle links identical arrays of earlier bundles from. */
 rto_status sort_bundle_write(const char *outdir, rto_key_format f, const void *keys, size_t n, const sort_params *p,

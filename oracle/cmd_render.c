@@ -47,85 +47,6 @@ static const char render_usage[] =
 
 static const opt_name tlas_names[] = {{"sweep", 0}, {"karras", 1}, {NULL, 0}};
 
-/* --param NAME=V[,V..][:NAME=V..] into values (at most RTO_PROGRAM_PARAMS_MAX). */
-static bool parse_params(const char *text, rto_param_value *out, uint32_t *n)
-{
-    *n = 0;
-    const char *p = text;
-    while (*p) {
-        const char *eq = strchr(p, '='), *end = strchr(p, ':');
-        if (!end)
-            end = p + strlen(p);
-        if (!eq || eq > end || eq == p || (size_t)(eq - p) >= sizeof out->name || *n == RTO_PROGRAM_PARAMS_MAX) {
-            cli_fail("render", "--param %s: expected NAME=V[,V..] items separated by ':'", text);
-            return false;
-        }
-        rto_param_value *v = &out[(*n)++];
-        memset(v, 0, sizeof *v);
-        memcpy(v->name, p, (size_t)(eq - p));
-        char values[256];
-        const size_t len = (size_t)(end - eq - 1);
-        if (len >= sizeof values) {
-            cli_fail("render", "--param %s: value too long", v->name);
-            return false;
-        }
-        memcpy(values, eq + 1, len);
-        values[len] = '\0';
-        uint32_t count = 1;
-        for (const char *c = values; *c; c++)
-            count += *c == ',';
-        if (count > 4 || !cli_parse_floats(values, v->value, count)) {
-            cli_fail("render", "--param %s=%s: expected 1 to 4 comma-separated finite numbers", v->name, values);
-            return false;
-        }
-        v->count = count;
-        p = *end ? end + 1 : end;
-    }
-    return true;
-}
-
-static void list_programs(void)
-{
-    for (uint32_t i = 0; rto_program_builtin_at(i); i++) {
-        const rto_program *p = rto_program_builtin_at(i);
-        printf("%s (maxDepth %u, payload %u bytes): %s\n", p->name, p->max_depth, p->payload_size, p->description);
-        for (uint32_t k = 0; k < p->param_count; k++) {
-            char v[96];
-            size_t len = 0;
-            for (uint32_t c = 0; c < p->params[k].count; c++)
-                len += (size_t)snprintf(v + len, sizeof v - len, "%s%g", c ? "," : "", (double)p->params[k].value[c]);
-            printf("  --param %s=%-18s %s\n", p->params[k].name, v, p->params[k].help);
-        }
-    }
-}
-
-/* A progress bar on stderr, only on a terminal, redrawn at most every 0.1 s. */
-typedef struct progress {
-    bool on;
-    double last;
-    int drawn;
-} progress;
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void on_progress(void *arg, double fraction)
-{
-    progress *p = arg;
-    const double t = now();
-    if (!p->on || (fraction < 1.0 && t - p->last < 0.1))
-        return;
-    p->last = t;
-    const int width = 30, full = (int)(fraction * width + 0.5);
-    fprintf(stderr, "\rrender [%.*s%*s] %3d%%", full, "##############################", width - full, "",
-            (int)(fraction * 100 + 0.5));
-    p->drawn = 1;
-}
-
 int cmd_render(int argc, char **argv)
 {
     const char *out = NULL, *program_arg = NULL, *camera_arg = NULL, *param_arg = NULL, *stages_arg = "lean";
@@ -159,7 +80,7 @@ int cmd_render(int argc, char **argv)
     if (rc >= 0)
         return rc;
     if (program_arg && !strcmp(program_arg, "list")) {
-        list_programs();
+        cli_list_programs();
         return EXIT_PASS;
     }
     static const char *const required[] = {"program", "output", NULL};
@@ -176,7 +97,7 @@ int cmd_render(int argc, char **argv)
         return cli_fail("render", "--stages %s: %s", stages_arg, msg.text);
     rto_param_value params[RTO_PROGRAM_PARAMS_MAX];
     uint32_t nparams = 0;
-    if (param_arg && !parse_params(param_arg, params, &nparams))
+    if (param_arg && !cli_parse_params(param_arg, params, &nparams))
         return EXIT_BAD_INPUT;
     const bool is_plugin =
         !rto_program_builtin(program_arg) && (strchr(program_arg, '/') || strstr(program_arg, ".so"));
@@ -188,79 +109,41 @@ int cmd_render(int argc, char **argv)
     }
 
     rto_plugin *plugin = NULL;
-    const rto_program *prog = rto_program_builtin(program_arg);
-    if (is_plugin) {
-        rto_status s = rto_plugin_load(program_arg, &plugin, &msg);
-        if (s) {
-            free(request);
-            return cli_fail("render", "--program %s", msg.text);
-        }
-        prog = rto_plugin_program(plugin);
-    } else if (!prog) {
+    const rto_program *prog = cli_pick_program(program_arg, is_plugin, &plugin);
+    if (!prog) {
         free(request);
-        return cli_fail("render", "--program %s: not a built-in program (triangle, sun-shadow, normals) or a .so",
-                        program_arg);
+        return EXIT_BAD_INPUT;
     }
 
     /* the frame's memory from its size, depth, payload and stages alone: refused before the scene is loaded */
-    {
-        rto_frame_desc plan;
-        memset(&plan, 0, sizeof plan);
-        plan.program = prog;
-        plan.width = (uint32_t)width;
-        plan.height = (uint32_t)height;
-        plan.max_depth = (uint32_t)depth;
-        plan.keep = keep;
-        char what[160];
-        snprintf(what, sizeof what, "a %llux%llu frame of %s (maxDepth %u, --stages %s)", (unsigned long long)width,
-                 (unsigned long long)height, prog->name, depth ? (unsigned)depth : prog->max_depth, stages_arg);
-        if (!cli_within_budget("render", rto_frame_memory_bound(&plan), memory_mb, what)) {
-            rto_plugin_unload(plugin);
-            free(request);
-            return EXIT_BAD_INPUT;
-        }
+    rto_frame_desc fd;
+    memset(&fd, 0, sizeof fd);
+    fd.program = prog;
+    fd.width = (uint32_t)width;
+    fd.height = (uint32_t)height;
+    fd.max_depth = (uint32_t)depth;
+    fd.keep = keep;
+    if (!cli_frame_within_budget(&fd, memory_mb, stages_arg)) {
+        rto_plugin_unload(plugin);
+        free(request);
+        return EXIT_BAD_INPUT;
     }
 
     const char *spec = args.arg[0];
     const bool stage2 = !strcmp(spec, "stage2");
-    rto_scene *sc = NULL;
-    rto_accel *acc = NULL;
-    rto_camera cam;
+    cli_traced_scene ts;
+    memset(&ts, 0, sizeof ts);
     rto_status s = RTO_OK;
-    if (!stage2) {
-        rto_scene_load_desc load = {0};
-        load.texture_budget_bytes = (size_t)(budget_mb << 20);
-        if ((s = rto_scene_load_ex(spec, &load, &sc, &msg))) {
-            rto_plugin_unload(plugin);
-            free(request);
-            return cli_fail("render", "%s", msg.text);
-        }
-        for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
-            fprintf(stderr, "rtoracle render: warning: %s\n", sc->warnings[w]);
-        if (!cli_pick_camera("render", camera_arg, sc, (float)width / (float)height, &cam)) {
-            rto_scene_destroy(sc);
-            rto_plugin_unload(plugin);
-            free(request);
-            return EXIT_BAD_INPUT;
-        }
-        /* A scene camera's own aspect wins over the image's (rto_camera_uniforms_make): say so when they differ,
-         * since the image is then stretched (a 4:3 glTF camera on a 16:9 frame draws circles as ellipses). */
-        const double image_aspect = (double)width / (double)height;
-        if (cam.aspect > 0.0f && fabs((double)cam.aspect - image_aspect) > 1e-3 * image_aspect)
-            fprintf(stderr, "rtoracle render: warning: camera '%s' has aspect %.4g, the image %ux%u has %.4g: the "
-                    "image is stretched (render at a size of aspect %.4g, or pass --camera auto)\n", cam.name,
-                    (double)cam.aspect, (unsigned)width, (unsigned)height, image_aspect, (double)cam.aspect);
-        rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, (uint32_t)threads};
-        rto_report r;
-        s = rto_accel_build(sc, &adesc, &acc, &msg);
-        if (!s && (s = rto_accel_check(acc, &r, &msg)) == RTO_ERR_MISMATCH) {
-            rto_accel_destroy(acc);
-            rto_scene_destroy(sc);
-            rto_plugin_unload(plugin);
-            free(request);
-            return cli_fail("render", "internal self-check of the trees failed: %s", msg.text);
-        }
-    } else {
+    if (!stage2 && (rc = cli_load_traced_scene("render", spec, budget_mb, camera_arg, (uint32_t)width,
+                                               (uint32_t)height, karras, (uint32_t)threads, &ts))) {
+        rto_plugin_unload(plugin);
+        free(request);
+        return rc;
+    }
+    rto_scene *sc = ts.scene;
+    rto_accel *acc = ts.accel;
+    rto_camera cam = ts.camera;
+    if (stage2) {
         cam = rto_camera_default();
         snprintf(cam.name, sizeof cam.name, "stage2 default");
         if (camera_arg && strcmp(camera_arg, "scene") && strcmp(camera_arg, "auto") &&
@@ -271,25 +154,18 @@ int cmd_render(int argc, char **argv)
         }
     }
 
-    progress bar = {isatty(STDERR_FILENO) == 1, 0, 0};
-    rto_frame_desc fd;
-    memset(&fd, 0, sizeof fd);
-    fd.program = prog;
+    cli_progress_bar bar = {isatty(STDERR_FILENO) == 1, 0, 0};
     fd.scene_kind = stage2 ? RTO_FRAME_SCENE_STAGE2 : RTO_FRAME_SCENE_MESH;
     fd.accel = acc;
-    fd.width = (uint32_t)width;
-    fd.height = (uint32_t)height;
-    fd.max_depth = (uint32_t)depth;
     fd.camera = &cam;
     fd.params = params;
     fd.param_count = nparams;
-    fd.keep = keep;
     fd.threads = (uint32_t)threads;
-    fd.progress = on_progress;
+    fd.progress = cli_progress;
     fd.progress_arg = &bar;
     rto_frame *frame = NULL;
     rto_bundle *b = NULL;
-    const double t0 = now();
+    const double t0 = cli_now();
     if (!s)
         s = rto_frame_render(&fd, &frame, &msg);
     if (bar.drawn)
@@ -312,25 +188,10 @@ int cmd_render(int argc, char **argv)
     } else {
         rto_bundle_abort(b);
     }
-    if (!s) {
-        uint64_t traced = 0, hits = 0, emitted = 0, dropped = 0, conflicts = 0;
-        for (uint32_t d = 0; d <= frame->max_depth; d++) {
-            traced += frame->counters[d].traced;
-            hits += frame->counters[d].hits;
-            emitted += frame->counters[d].emitted;
-            dropped += frame->counters[d].dropped;
-            conflicts += frame->counters[d].conflicts;
-        }
-        char sum[64];
-        printf("render %s: %s %ux%u maxDepth %u: %llu rays traced (%llu hits), %llu emitted, %llu dropped, "
-               "%llu conflicts; %.2f s -> %s (%s)\n",
-               spec, frame->program, frame->width, frame->height, frame->max_depth, (unsigned long long)traced,
-               (unsigned long long)hits, (unsigned long long)emitted, (unsigned long long)dropped,
-               (unsigned long long)conflicts, now() - t0, out, cli_dir_summary(out, sum, sizeof sum));
-    }
+    if (!s)
+        cli_frame_summary(spec, frame, cli_now() - t0, out);
     rto_frame_destroy(frame);
-    rto_accel_destroy(acc);
-    rto_scene_destroy(sc);
+    cli_traced_scene_free(&ts);
     rto_plugin_unload(plugin);
     free(request);
     return cli_status("render", s, &msg);

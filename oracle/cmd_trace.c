@@ -85,25 +85,17 @@ int cmd_trace(int argc, char **argv)
         return EXIT_PASS;
     }
 
+    cli_traced_scene ts;
+    if ((rc = cli_load_traced_scene("trace", args.arg[0], budget_mb, camera_arg, (uint32_t)width, (uint32_t)height,
+                                    karras, (uint32_t)threads, &ts))) {
+        free(request);
+        return rc;
+    }
+    const rto_scene *sc = ts.scene;
+    const rto_accel *acc = ts.accel;
+    const rto_camera cam = ts.camera;
     rto_msg msg = {{0}};
-    rto_scene *sc = NULL;
-    rto_scene_load_desc load = {0};
-    load.texture_budget_bytes = (size_t)(budget_mb << 20);
-    rto_status s = rto_scene_load_ex(args.arg[0], &load, &sc, &msg);
-    if (s) {
-        free(request);
-        return cli_fail("trace", "%s", msg.text);
-    }
-    for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
-        fprintf(stderr, "rtoracle trace: warning: %s\n", sc->warnings[w]);
-    rto_camera cam;
-    if (!cli_pick_camera("trace", camera_arg, sc, (float)width / (float)height, &cam)) {
-        free(request);
-        rto_scene_destroy(sc);
-        return EXIT_BAD_INPUT;
-    }
-    rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, (uint32_t)threads};
-    rto_accel *acc = NULL;
+    rto_status s = RTO_OK;
     rto_wf_ray *rays = NULL;
     rto_hit_record *hits = NULL;
     rto_trace_counters *counters = NULL;
@@ -111,14 +103,6 @@ int cmd_trace(int argc, char **argv)
     rto_camera_uniforms cu;
     memset(&cu, 0, sizeof cu);
     size_t n = 0;
-    rto_report r;
-    s = rto_accel_build(sc, &adesc, &acc, &msg);
-    if (!s && (s = rto_accel_check(acc, &r, &msg)) == RTO_ERR_MISMATCH) {
-        free(request);
-        rto_scene_destroy(sc);
-        rto_accel_destroy(acc);
-        return cli_fail("trace", "internal self-check of the trees failed: %s", msg.text);
-    }
     rto_rays_desc rd;
     memset(&rd, 0, sizeof rd);
     rd.set = set;
@@ -176,7 +160,6 @@ int cmd_trace(int argc, char **argv)
     free(hits);
     free(counters);
     free(request);
-    rto_accel_destroy(acc);
-    rto_scene_destroy(sc);
+    cli_traced_scene_free(&ts);
     return cli_status("trace", s, &msg);
 }

@@ -1,5 +1,5 @@
 /* What the commands that trace a scene share (trace, render): numbers from the command line, the camera chosen by
- * --camera, and the mesh geometry a GPU uploads. */
+ * --camera, and the scene loaded with its trees. */
 #include "cli.h"
 
 #include <math.h>
@@ -65,4 +65,50 @@ bool cli_pick_camera(const char *cmd, const char *spec, const rto_scene *sc, flo
         return false;
     }
     return true;
+}
+
+int cli_load_traced_scene(const char *cmd, const char *spec, uint64_t texture_budget_mb, const char *camera_arg,
+                          uint32_t width, uint32_t height, unsigned karras, uint32_t threads, cli_traced_scene *out)
+{
+    memset(out, 0, sizeof *out);
+    rto_msg msg = {{0}};
+    rto_scene_load_desc load = {0};
+    load.texture_budget_bytes = (size_t)(texture_budget_mb << 20);
+    if (rto_scene_load_ex(spec, &load, &out->scene, &msg))
+        return cli_fail(cmd, "%s", msg.text);
+    const rto_scene *sc = out->scene;
+    for (uint32_t w = 0; w < sc->warning_count && w < RTO_SCENE_MAX_WARNINGS; w++)
+        fprintf(stderr, "rtoracle %s: warning: %s\n", cmd, sc->warnings[w]);
+    rto_camera *cam = &out->camera;
+    if (!cli_pick_camera(cmd, camera_arg, sc, (float)width / (float)height, cam)) {
+        cli_traced_scene_free(out);
+        return EXIT_BAD_INPUT;
+    }
+    /* A scene camera's own aspect wins over the image's (rto_camera_uniforms_make): say so when they differ, since
+     * the image is then stretched (a 4:3 glTF camera on a 16:9 frame draws circles as ellipses). */
+    const double image_aspect = (double)width / (double)height;
+    if (cam->aspect > 0.0f && fabs((double)cam->aspect - image_aspect) > 1e-3 * image_aspect)
+        fprintf(stderr, "rtoracle %s: warning: camera '%s' has aspect %.4g, the image %ux%u has %.4g: the image is "
+                "stretched (use a size of aspect %.4g, or pass --camera auto)\n", cmd, cam->name, (double)cam->aspect,
+                (unsigned)width, (unsigned)height, image_aspect, (double)cam->aspect);
+    const rto_accel_desc adesc = {karras ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP, threads};
+    rto_report r;
+    rto_status s = rto_accel_build(sc, &adesc, &out->accel, &msg);
+    if (!s && (s = rto_accel_check(out->accel, &r, &msg)) == RTO_ERR_MISMATCH) {
+        cli_traced_scene_free(out);
+        return cli_fail(cmd, "internal self-check of the trees failed: %s", msg.text);
+    }
+    if (s) {
+        cli_traced_scene_free(out);
+        return cli_status(cmd, s, &msg);
+    }
+    return EXIT_PASS;
+}
+
+void cli_traced_scene_free(cli_traced_scene *t)
+{
+    rto_accel_destroy(t->accel);
+    rto_scene_destroy(t->scene);
+    t->accel = NULL;
+    t->scene = NULL;
 }
