@@ -276,39 +276,3 @@ rto_status sort_bundle_write(const char *outdir, rto_key_format f, const void *k
     }
     return rto_bundle_commit(b, msg);
 }
-
-/* Splits a structured {key, value} GPU dump into separate key and value arrays. */
-int cli_split_pairs(rto_npy *gpu, rto_npy *values, const char *path)
-{
-    const rto_npy_desc *d = &gpu->desc;
-    const rto_npy_field *kf = NULL, *vf = NULL;
-    for (uint32_t i = 0; i < d->nfields; i++) {
-        if (!strcmp(d->fields[i].name, "key"))
-            kf = &d->fields[i];
-        if (!strcmp(d->fields[i].name, "value"))
-            vf = &d->fields[i];
-    }
-    if (d->ndim != 1 || !kf || !vf || kf->count != 1 || vf->count != 1 || vf->type != RTO_DTYPE_U32 ||
-        (kf->type != RTO_DTYPE_U32 && kf->type != RTO_DTYPE_U64))
-        return cli_fail("check-sort", "%s: a structured GPU dump must be 1-D with fields key (<u4 or <u8) and value "
-                        "(<u4)", path);
-    size_t n = (size_t)d->shape[0], rec = rto_npy_itemsize(d), ksz = rto_dtype_size(kf->type);
-    unsigned char *keys = malloc(n ? n * ksz : 1), *vals = malloc(n ? n * 4 : 1);
-    if (!keys || !vals) {
-        free(keys);
-        free(vals);
-        return cli_fail("check-sort", "out of memory");
-    }
-    for (size_t i = 0; i < n; i++) {
-        memcpy(keys + i * ksz, (unsigned char *)gpu->data + i * rec + kf->offset, ksz);
-        memcpy(vals + i * 4, (unsigned char *)gpu->data + i * rec + vf->offset, 4);
-    }
-    free(gpu->data);
-    gpu->data = keys;
-    gpu->nbytes = n * ksz;
-    gpu->desc = rto_npy_desc_keys(kf->type == RTO_DTYPE_U32 ? RTO_KEY_U32 : RTO_KEY_U64, n);
-    values->data = vals;
-    values->nbytes = n * 4;
-    values->desc = rto_npy_desc_array(RTO_DTYPE_U32, 1, n, 0, 0);
-    return EXIT_PASS;
-}

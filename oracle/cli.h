@@ -151,9 +151,16 @@ int cli_suite_sizes(const opt_list *sizes_opt, size_t sizes[CLI_SUITE_SIZES_MAX]
 /** --dists: distributions in the order first named; a group (all, centroid, raw) adds its members not named before.
  * EXIT_PASS, or EXIT_BAD_INPUT after one line. */
 int cli_suite_dists(const opt_list *dists_opt, const rto_dist_info *dists[CLI_SUITE_DISTS_MAX], size_t *count);
-/** A structured {key, value} GPU sort dump (path names it in messages) split into its keys (replacing gpu's data) and
- * values. EXIT_PASS, or EXIT_BAD_INPUT after one line. */
-int cli_split_pairs(rto_npy *gpu, rto_npy *values, const char *path);
+/* A GPU's sort dump (sort_dump.c). */
+typedef struct cli_sort_dump {
+    rto_npy gpu, values, passes;
+} cli_sort_dump;
+/** Reads --gpu (keys, or {key, value} records split into keys and values), --gpu-values and --gpu-passes (each may
+ * be NULL but gpu) and points d's gpu_* fields at them; d->format must be the input's. EXIT_PASS, or EXIT_BAD_INPUT
+ * after one line. */
+int cli_sort_dump_load(const char *gpu, const char *values, const char *passes, cli_sort_dump *dump,
+                       rto_sort_check_desc *d);
+void cli_sort_dump_free(cli_sort_dump *dump);
 /** Sorts keys with p and writes a sort bundle to outdir (atomically). share: NULL, or the table of shared arrays
  * (rto_bundle_set_share) the bundle links identical arrays of earlier bundles from. */
 rto_status sort_bundle_write(const char *outdir, rto_key_format f, const void *keys, size_t n, const sort_params *p,

@@ -28,17 +28,16 @@ static const char check_epilog[] =
     "(--no-artifacts skips it).\n";
 
 typedef struct loaded {
-    rto_npy input, gpu, values, passes;
+    rto_npy input;
     rto_sort_bundle bundle;
+    cli_sort_dump dump;
 } loaded;
 
 static void loaded_free(loaded *l)
 {
     rto_sort_bundle_free(&l->bundle);
     rto_npy_free(&l->input);
-    rto_npy_free(&l->gpu);
-    rto_npy_free(&l->values);
-    rto_npy_free(&l->passes);
+    cli_sort_dump_free(&l->dump);
 }
 
 static int load(const char *path, rto_npy *out, const char *what)
@@ -117,44 +116,14 @@ int cmd_check_sort(int argc, char **argv)
     } else if ((rc = load(input, &l.input, "--input"))) {
         goto out;
     }
-    if ((rc = load(gpu, &l.gpu, "--gpu")))
-        goto out;
-    if (l.gpu.desc.dtype == RTO_DTYPE_STRUCT) {
-        if (values) {
-            rc = cli_fail("check-sort", "--gpu-values given, but --gpu %s already carries values", gpu);
-            goto out;
-        }
-        if ((rc = cli_split_pairs(&l.gpu, &l.values, gpu)))
-            goto out;
-    } else if (values && (rc = load(values, &l.values, "--gpu-values"))) {
-        goto out;
-    }
-    rto_key_format gf;
-    size_t gn;
     const rto_npy *in = l.input.data || !expected ? &l.input : &l.bundle.keys;
     if (rto_npy_as_keys(in, &d.format, &d.n, &msg)) {
         rc = cli_fail("check-sort", "input: %s", msg.text);
         goto out;
     }
-    if (rto_npy_as_keys(&l.gpu, &gf, &gn, &msg)) {
-        rc = cli_fail("check-sort", "--gpu %s: %s", gpu, msg.text);
-        goto out;
-    }
-    if (gf != d.format) {
-        rc = cli_fail("check-sort", "--gpu %s holds %s keys but the input holds %s keys", gpu,
-                      gf == RTO_KEY_U32 ? "uint32" : "uint64", d.format == RTO_KEY_U32 ? "uint32" : "uint64");
-        goto out;
-    }
     d.input = in->data;
-    d.gpu_keys = l.gpu.data;
-    d.gpu_n = gn;
-    if (l.values.data) {
-        if (l.values.desc.dtype != RTO_DTYPE_U32 || l.values.desc.ndim != 1 || l.values.desc.shape[0] != gn) {
-            rc = cli_fail("check-sort", "GPU values must be a 1-D uint32 array of %zu entries (one per GPU slot)", gn);
-            goto out;
-        }
-        d.gpu_values = l.values.data;
-    }
+    if ((rc = cli_sort_dump_load(gpu, values, passes, &l.dump, &d)))
+        goto out;
     /* An LSD radix sort is stable by construction: hold a GPU's key/value radix output to it. */
     if (radix_bundle && d.gpu_values)
         stable = true;
@@ -163,23 +132,6 @@ int cmd_check_sort(int argc, char **argv)
         goto out;
     }
     d.require_stable = stable;
-    if (passes) {
-        if ((rc = load(passes, &l.passes, "--gpu-passes")))
-            goto out;
-        rto_dtype want = d.format == RTO_KEY_U32 ? RTO_DTYPE_U32 : RTO_DTYPE_U64;
-        if (l.passes.desc.dtype != want || l.passes.desc.ndim != 2) {
-            rc = cli_fail("check-sort", "--gpu-passes %s: expected a 2-D %s array (passes x slots)", passes,
-                          want == RTO_DTYPE_U32 ? "uint32" : "uint64");
-            goto out;
-        }
-        d.gpu_passes = l.passes.data;
-        d.gpu_pass_count = (uint32_t)l.passes.desc.shape[0];
-        d.gpu_pass_len = (size_t)l.passes.desc.shape[1];
-        if (l.passes.desc.shape[0] > UINT32_MAX) {
-            rc = cli_fail("check-sort", "--gpu-passes %s: too many passes", passes);
-            goto out;
-        }
-    }
 
     rto_report r;
     rto_status s = rto_sort_check(&d, &r, &msg);
