@@ -1,14 +1,15 @@
 #!/usr/bin/env python3
-"""results.py: keep a GPU run's results and the table docs/gpu.md shows from them.
+"""results.py: keep a GPU run's results and the tables docs/results/gpu.md shows from them (scripts/results_tables.py
+  regenerates that file from every recorded run; the commands below rewrite one marked part of a doc).
 
   gpu/results.py record RUN.json OUT.json --commit C --date D --device TEXT --note TEXT
       OUT.json: gpu/run's --json output with where and when it ran (commit, date, device, how it was run), the
       case directories' paths left out.
-  gpu/results.py table OUT.json [OUT2.json ...] --doc docs/gpu.md
+  gpu/results.py table OUT.json [OUT2.json ...] --doc docs/results/gpu.md
       rewrites the part of the doc between "<!-- gpu-results begin -->" and "<!-- gpu-results end -->": one line
       per run (commit, date, device, driver, how), then one row per case (family, case, passes, what the check
       said besides pass, GPU time per run). Never typed by hand: run this again whenever a verdict rule changes.
-  gpu/results.py sort-timings CI.json FULL.json --commit C --date D --doc docs/gpu.md
+  gpu/results.py sort-timings CI.json FULL.json --commit C --date D --doc docs/results/gpu.md
       rewrites the part between "<!-- sort-timings begin -->" and "<!-- sort-timings end -->": the sort families'
       cases and wall seconds in a --subset ci run and a full run (gpu/run --json of each).
 """
