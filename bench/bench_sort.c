@@ -11,7 +11,7 @@
  * bitonic paths, each beside qsort and a plain LSD radix sort). --json: bench_util.h. */
 #include "rtoracle.h"
 #include "bench_util.h"
-#include "core/internal.h" /* rto__sort_check_reference */
+#include "sort/sort_internal.h" /* rto__sort_check_reference */
 #include "sort/bitonic_internal.h"
 
 #include <stdio.h>

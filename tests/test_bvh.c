@@ -2,7 +2,7 @@
  * brute-force unions, qsort), the acceleration-structure object against the step-by-step pipeline with the canonical
  * network, empty meshes, and mutation tests for the tree validators. */
 #include "testutil.h"
-#include "core/internal.h" /* rto__karras_build_scalar, the kept per-node builder */
+#include "bvh/bvh_internal.h" /* rto__karras_build_scalar, the kept per-node builder */
 
 #include <math.h>
 #include <unistd.h>

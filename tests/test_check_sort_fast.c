@@ -8,7 +8,7 @@
  * (rto__sort_match) is held to qsort on its own: its sort gives qsort's bytes, and its verdict is qsort's memcmp. */
 #include "testutil.h"
 
-#include "core/internal.h"
+#include "sort/sort_internal.h"
 
 enum { TEXT_CAP = 1 << 16 };
 

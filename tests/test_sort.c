@@ -2,6 +2,7 @@
  * (key, index) qsort for stability, and a literal transcription of DESIGN.md §4's pseudo-code for every pass. */
 #include "testutil.h"
 #include "sort/bitonic_internal.h"
+#include "sort/sort_internal.h"
 
 /* DESIGN.md §4 verbatim: every i, l = i ^ j, act when l > i. Used to check the oracle's checkpoints. */
 static void literal_network(uint64_t *a, size_t n, uint64_t *passes)

@@ -7,7 +7,9 @@
  * network's bytes (§4). The stages run on threads with static partitions (below; docs/bvh.md "Building"). An
  * instance of an empty BLAS has an empty world box and gets no key and no leaf; an empty mesh gets an empty BLAS
  * (§5). Building validates nothing beyond its inputs; rto_accel_check runs the tree validators. */
-#include "internal.h"
+#include "bvh_internal.h"
+#include "keys/keys_internal.h"
+#include "sort/sort_internal.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -16,7 +16,7 @@
  *     into subtrees of at most n / (8 workers) leaves; each worker sweeps the subtrees whose first leaf lies in its
  *     static share of the leaves, and the few top nodes get their boxes last. Every node is a function of the keys
  *     alone, so the bytes do not depend on the worker count. */
-#include "internal.h"
+#include "bvh_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -2,7 +2,7 @@
  * AABB union from already sorted TLAS keys (the keys and their sort live in src/keys and src/sort). Children of node
  * i are 2i+1 and 2i+2; leaf j (sorted position j) is node N_PADDED - 1 + j. EMPTY boxes are (+inf, -inf), the
  * identity of the union, so an internal node's box is the plain union of both children. */
-#include "internal.h"
+#include "bvh_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -7,6 +7,7 @@
  * the calling thread in worker order, which is item order, so queues, accum sums and counters come out exactly as a
  * serial run makes them, whatever the thread count. */
 #include "frame_internal.h"
+#include "trace/trace_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -2,6 +2,7 @@
  * for shape. */
 #include "check_frame_internal.h"
 #include "core/tolerance.h"
+#include "io/io_internal.h"
 
 #include <errno.h>
 #include <inttypes.h>

@@ -11,7 +11,7 @@
  *  - A target that is not a regular file is never replaced: a symbolic link is followed (its target is replaced,
  *    the link stays), a directory or device is refused. */
 #define _GNU_SOURCE /* O_DIRECTORY, O_NOFOLLOW, O_CLOEXEC, SYS_getdents64 */
-#include "internal.h"
+#include "io_internal.h"
 
 #include <dirent.h>
 #include <errno.h>

@@ -7,6 +7,7 @@
  * bundle_read.c reads them back, bundle_share.c holds the share table of arrays written together. */
 #define _GNU_SOURCE /* renameat2 (glibc >= 2.28) */
 #include "bundle_internal.h"
+#include "io_internal.h"
 #include "core/json.h"
 
 #include <dirent.h>

@@ -1,6 +1,7 @@
 /* Golden bundles read back (DESIGN.md §8): rto_bundle_open checks manifest.json once, and every file is read after
  * its sha256 is checked against the manifest (bundle_internal.h). */
 #include "bundle_internal.h"
+#include "io_internal.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -1,6 +1,7 @@
 /* Bundles written together sharing identical arrays (DESIGN.md §8; rtoracle.h, rto_bundle_share): the share table,
  * and the links a bundle makes to a file it or an earlier committed bundle wrote (bundle_internal.h). */
 #include "bundle_internal.h"
+#include "io_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

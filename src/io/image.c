@@ -7,7 +7,7 @@
  * memory, io/png_write.c PNG (without the module), and rto_file_write puts the bytes in place atomically, with every
  * rule of io/atomic.c. Comparing: the module runs ImageBufAlgo::compare (and absdiff / mul for the diff image); the
  * verdict is idiff's rule, computed here. */
-#include "internal.h"
+#include "io_internal.h"
 #include "scene/image_module.h"
 
 #include <float.h>

@@ -5,6 +5,7 @@
  * rather than parsed). Offsets in messages are byte offsets from the start of the file, so they match a hexdump. */
 #define _POSIX_C_SOURCE 200809L /* fileno, fstat, O_CLOEXEC */
 
+#include "io_internal.h"
 #include "npy_internal.h"
 
 #include <errno.h>

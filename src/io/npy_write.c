@@ -2,6 +2,7 @@
  * one preamble (rto__npy_preamble), so a file's hash computed from memory is the hash of the file written. */
 #define _POSIX_C_SOURCE 200809L /* O_CLOEXEC */
 
+#include "io_internal.h"
 #include "npy_internal.h"
 
 #include <errno.h>

@@ -2,7 +2,7 @@
  * without loading the image module, whose OpenImageIO takes about half a second to load; a render that writes no
  * float image and reads no JPEG texture never loads it. The bytes depend on the pixels and zlib alone: no time, no
  * text chunks, zlib's level 6 and libpng's default filter choice. */
-#include "internal.h"
+#include "io_internal.h"
 
 #include <png.h>
 #include <setjmp.h>

@@ -22,7 +22,8 @@
  * image module's file, not the libraries the module loads (OpenImageIO, libpng): after an upgrade of those alone,
  * `--force` rewrites textured scenes' bundles. */
 #define _GNU_SOURCE
-#include "internal.h"
+#include "io_internal.h"
+#include "scene/image_module.h"
 
 #include <errno.h>
 #include <inttypes.h>

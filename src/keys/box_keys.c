@@ -2,7 +2,7 @@
  * vertex bounds, an instance's world box; the box rules themselves are core/aabb.c's), and the TLAS / BLAS keys of a
  * whole set of boxes. The BVH builders consume these keys; nothing here knows a tree. */
 #include "core/aabb.h"
-#include "internal.h"
+#include "keys_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

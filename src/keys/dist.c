@@ -1,6 +1,6 @@
 /* Named key distributions and size classes (DESIGN.md §3). Every value is a pure function of (dist, format, seed,
  * n), built from the shared PRNG, so a JS or WGSL harness can regenerate any input bit for bit. */
-#include "internal.h"
+#include "keys_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

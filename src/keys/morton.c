@@ -1,5 +1,5 @@
 /* Morton keys for the TLAS (u32, 5 bits per axis) and BLAS (u64, 10 bits per axis), DESIGN.md §3. */
-#include "internal.h"
+#include "keys_internal.h"
 
 #include <math.h>
 

@@ -104,6 +104,15 @@ typedef struct rto_image_module {
 } rto_image_module;
 /** Loads the module once per process (thread-safe); NULL, with *error set to one line saying why, when it cannot. */
 const rto_image_module *rto__image_module(const char **error);
+/** The image module file rtoracle would load (scene/image_module_load.c), or NULL when there is none. */
+const char *rto__image_module_path(void);
+/** The places a module loaded on demand is searched, in order (scene/image_module_load.c): $ENV_NAME, FILE beside the
+ * running executable, <exe dir>/../RELATIVE (the install layout, so a copied install uses its own module), then the
+ * build tree's and the configured install path. Returns how many (at most RTO_MODULE_PATHS); rel holds the two
+ * executable-relative paths. */
+#define RTO_MODULE_PATHS 5
+size_t rto__module_paths(const char *env_name, const char *file, const char *relative, const char *build,
+                         const char *install, const char *paths[RTO_MODULE_PATHS], char rel[2][4096]);
 #if defined(__GNUC__)
 #pragma GCC visibility pop
 #endif

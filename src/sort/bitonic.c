@@ -2,6 +2,7 @@
  * that the array after every pass is a checkpoint a GPU dump can be compared with. Data-oblivious: the schedule
  * depends only on n_padded, never on the keys (why it replaced the radix scatter in seeds/001). */
 #include "bitonic_internal.h"
+#include "sort_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -4,6 +4,7 @@
  * final order comes from the C library's qsort, independent of the oracle's own sorts; only checkpoint passes are
  * compared with the oracle, because they are defined by its schedule. */
 #include "report_internal.h"
+#include "sort_internal.h"
 
 #include <inttypes.h>
 #include <stdio.h>

@@ -8,7 +8,7 @@
  *   - the remaining bits are split into the fewest passes of at most 11 bits (2048 counters, within L1), all
  *     histograms are counted in one read of the input, and a pass whose digit is the same in every key is skipped.
  * A sorted array is unique whatever the algorithm, so the output bytes equal the bitonic network's. */
-#include "internal.h"
+#include "sort_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -2,7 +2,7 @@
  * scheme a GPU radix sort runs per digit, with every intermediate exposed so a GPU dump can be compared stage by
  * stage. This is the sort whose scatter race corrupted the TLAS in seeds/001; the reference makes such a race show
  * up as the first pass, tile and digit where a GPU's histogram, base or scatter differs. */
-#include "internal.h"
+#include "sort_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -2,6 +2,7 @@
  * radix intermediates), with a manifest a GPU harness reads (DESIGN.md §4, §8); and the same bundle read back for
  * check-sort, every array checked against the manifest first. */
 #include "io/bundle_in.h"
+#include "sort_internal.h"
 
 #include <inttypes.h>
 #include <stdlib.h>

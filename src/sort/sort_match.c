@@ -15,7 +15,7 @@
  * For a team (rto__team_run), the top digit's counting and scattering split the input into static ranges, one per
  * worker, and each worker then takes the buckets whose first slot falls in its range; the verdict is the AND of the
  * workers', the same for every thread count. */
-#include "internal.h"
+#include "sort_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -4,6 +4,7 @@
  * binary32 term by term, and the random sets draw from the shared counter-based PRNG of §3, one stream per purpose.
  * docs/trace.md "Cameras and ray sets" states every formula. */
 #include "internal.h"
+#include "trace_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,4 +1,5 @@
-/* Private pieces of the tracer shared by its files (src/trace/). Not installed; not exported. */
+/* Private pieces of the tracer shared by its files (src/trace/), and the secondary rays' offset, which the frame
+ * (frame/frame.c) uses too. Not installed; not exported. */
 #ifndef RTO_TRACE_INTERNAL_H
 #define RTO_TRACE_INTERNAL_H
 
@@ -23,6 +24,10 @@ rto_status rto__rays_check(const rto_wf_ray *rays, size_t n, rto_msg *msg);
  * meshes are not read and the expected records are taken as they are.
  */
 rto_status rto__hits_check_records(const rto_hits_check_desc *desc, rto_report *report, rto_msg *msg);
+
+/** The self-intersection offset of secondary rays (shadow rays, rto_frame_env.ray_offset): 1e-4 max(1, M), M the
+ * largest finite magnitude among the bounds' coordinates and the camera position (trace/ray.c). */
+float rto__ray_offset(const rto_aabb *bounds, const rto_camera_uniforms *u);
 
 #if defined(__GNUC__)
 #pragma GCC visibility pop
