@@ -1,5 +1,6 @@
-/* The glTF 2.0 loader: a C entry point over the C++17 shim in gltf.cpp (tinygltf for parsing, the image module of
- * image_module.h for textures). Nothing C++ crosses this header. */
+/* The glTF 2.0 loader: a C entry point over the C++17 shim in gltf.cpp, gltf_nodes.cpp and gltf_mesh.cpp (tinygltf
+ * for parsing, the image module of image_module.h for textures; their shared C++ declarations are in
+ * gltf_internal.h). Nothing C++ crosses this header. */
 #ifndef RTO_GLTF_H
 #define RTO_GLTF_H
 
