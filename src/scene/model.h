@@ -1,5 +1,5 @@
 /* The scene model shared by every loader (src/scene/): limits, warnings, names, the load options and the validation
- * every loaded scene goes through. The loaders (procedural.c, gltf.cpp) depend on this file only; scene.c dispatches
+ * every loaded scene goes through. The loaders (procedural.c, gltf*.cpp) depend on this file only; scene.c dispatches
  * a spec to them. Not installed; included from the C++ glTF shim too. */
 #ifndef RTO_SCENE_MODEL_H
 #define RTO_SCENE_MODEL_H
