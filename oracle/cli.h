@@ -80,8 +80,11 @@ typedef struct cli_traced_scene {
 int cli_load_traced_scene(const char *cmd, const char *spec, uint64_t texture_budget_mb, const char *camera_arg,
                           uint32_t width, uint32_t height, unsigned karras, uint32_t threads, cli_traced_scene *out);
 void cli_traced_scene_free(cli_traced_scene *t);
+/** The camera of the stage2 scene: its default, or --camera's 10 numbers. EXIT_PASS, or EXIT_BAD_INPUT after one
+ * line. */
+int cli_stage2_camera(const char *cmd, const char *camera_arg, rto_camera *cam);
 
-/* Programs on the command line (program_cli.c). */
+/* Frames on the command line (frame_cli.c): programs, the memory plan, progress, the bundle, the summary. */
 /** --param NAME=V[,V..][:NAME=V..] into values (at most RTO_PROGRAM_PARAMS_MAX); false after one line. */
 bool cli_parse_params(const char *text, rto_param_value *out, uint32_t *n);
 /** Prints each built-in program with its parameters (render --program list). */
@@ -104,6 +107,11 @@ double cli_now(void);
 bool cli_frame_within_budget(const rto_frame_desc *fd, uint64_t memory_mb, const char *stages);
 /** render's line after a bundle is written: rays traced, hits, emitted, dropped, conflicts, seconds, the bundle. */
 void cli_frame_summary(const char *spec, const rto_frame *frame, double seconds, const char *out);
+/** Writes a frame's bundle to out (atomically): with ts (a mesh scene) the build and geometry files first, then the
+ * frame's (rto_frame_bundle_write, with the wall times when timings), frame.scene_kind, and the up-to-date record of
+ * request with the scene's and the plugin's files as sources. */
+rto_status cli_frame_bundle(const char *out, const char *request, const cli_traced_scene *ts, const char *plugin,
+                            const rto_frame *frame, bool timings, rto_msg *msg);
 
 /* Names of the key formats and sort algorithms, for option tables and manifests. */
 extern const opt_name cli_format_names[];

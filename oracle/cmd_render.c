@@ -140,23 +140,16 @@ int cmd_render(int argc, char **argv)
         free(request);
         return rc;
     }
-    rto_scene *sc = ts.scene;
-    rto_accel *acc = ts.accel;
     rto_camera cam = ts.camera;
-    if (stage2) {
-        cam = rto_camera_default();
-        snprintf(cam.name, sizeof cam.name, "stage2 default");
-        if (camera_arg && strcmp(camera_arg, "scene") && strcmp(camera_arg, "auto") &&
-            !cli_camera_numbers(camera_arg, &cam)) {
-            rto_plugin_unload(plugin);
-            free(request);
-            return cli_fail("render", "--camera %s: stage2 takes scene (its default camera) or 10 numbers", camera_arg);
-        }
+    if (stage2 && (rc = cli_stage2_camera("render", camera_arg, &cam))) {
+        rto_plugin_unload(plugin);
+        free(request);
+        return rc;
     }
 
     cli_progress_bar bar = {isatty(STDERR_FILENO) == 1, 0, 0};
     fd.scene_kind = stage2 ? RTO_FRAME_SCENE_STAGE2 : RTO_FRAME_SCENE_MESH;
-    fd.accel = acc;
+    fd.accel = ts.accel;
     fd.camera = &cam;
     fd.params = params;
     fd.param_count = nparams;
@@ -164,30 +157,14 @@ int cmd_render(int argc, char **argv)
     fd.progress = cli_progress;
     fd.progress_arg = &bar;
     rto_frame *frame = NULL;
-    rto_bundle *b = NULL;
     const double t0 = cli_now();
     if (!s)
         s = rto_frame_render(&fd, &frame, &msg);
     if (bar.drawn)
         fputc('\n', stderr);
     if (!s)
-        s = rto_bundle_begin(out, "frame", &b, &msg);
-    if (!s)
-        s = cli_set_request(b, request, sc, is_plugin ? program_arg : NULL, &msg);
-    if (!s && !stage2)
-        s = rto_bvh_bundle_write(acc, b, &msg);
-    if (!s && !stage2)
-        s = rto_scene_bundle_write(sc, b, &msg);
-    if (!s)
-        s = rto_frame_bundle_write(frame, timings && !no_timings, b, &msg);
-    if (!s) {
-        rto_bundle_set_str(b, "frame", "scene_kind", stage2 ? "stage2" : "mesh");
-        if (stage2)
-            rto_bundle_set_str(b, "", "scene", "stage2");
-        s = rto_bundle_commit(b, &msg);
-    } else {
-        rto_bundle_abort(b);
-    }
+        s = cli_frame_bundle(out, request, stage2 ? NULL : &ts, is_plugin ? program_arg : NULL, frame,
+                             timings && !no_timings, &msg);
     if (!s)
         cli_frame_summary(spec, frame, cli_now() - t0, out);
     rto_frame_destroy(frame);

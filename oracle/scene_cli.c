@@ -112,3 +112,12 @@ void cli_traced_scene_free(cli_traced_scene *t)
     t->accel = NULL;
     t->scene = NULL;
 }
+
+int cli_stage2_camera(const char *cmd, const char *camera_arg, rto_camera *cam)
+{
+    *cam = rto_camera_default();
+    snprintf(cam->name, sizeof cam->name, "stage2 default");
+    if (camera_arg && strcmp(camera_arg, "scene") && strcmp(camera_arg, "auto") && !cli_camera_numbers(camera_arg, cam))
+        return cli_fail(cmd, "--camera %s: stage2 takes scene (its default camera) or 10 numbers", camera_arg);
+    return EXIT_PASS;
+}

@@ -1,5 +1,5 @@
 /* What render needs beyond the scene (scene_cli.c): program parameters from the command line, the list of built-in
- * programs, the frame's memory plan, a progress bar and the summary line. */
+ * programs, the frame's memory plan, a progress bar, the frame's bundle and the summary line. */
 #include "cli.h"
 
 #include <stdlib.h>
@@ -119,4 +119,27 @@ const rto_program *cli_pick_program(const char *name, bool is_plugin, rto_plugin
         return NULL;
     }
     return rto_plugin_program(*plugin);
+}
+
+rto_status cli_frame_bundle(const char *out, const char *request, const cli_traced_scene *ts, const char *plugin,
+                            const rto_frame *frame, bool timings, rto_msg *msg)
+{
+    rto_bundle *b = NULL;
+    rto_status s = rto_bundle_begin(out, "frame", &b, msg);
+    if (!s)
+        s = cli_set_request(b, request, ts ? ts->scene : NULL, plugin, msg);
+    if (!s && ts)
+        s = rto_bvh_bundle_write(ts->accel, b, msg);
+    if (!s && ts)
+        s = rto_scene_bundle_write(ts->scene, b, msg);
+    if (!s)
+        s = rto_frame_bundle_write(frame, timings, b, msg);
+    if (s) {
+        rto_bundle_abort(b);
+        return s;
+    }
+    rto_bundle_set_str(b, "frame", "scene_kind", ts ? "mesh" : "stage2");
+    if (!ts)
+        rto_bundle_set_str(b, "", "scene", "stage2");
+    return rto_bundle_commit(b, msg);
 }
