@@ -491,22 +491,9 @@ static void check_fixture(const char *rel, uint32_t nrays, uint32_t seed)
     assert_int_equal(emb_device_create(1, NULL, &d, &msg), RTO_OK);
     if (emb_scene_create(d, s, &desc, &e, &msg))
         fail_msg("%s: %s", path, msg.text);
-    rto_aabb b = rto_scene_aabb(s);
-    rto_wf_ray *r = malloc(nrays * sizeof *r);
+    rto_wf_ray *r = random_rays(s, nrays, seed); /* origins in the bounds grown by half their size, uniform dirs */
     rto_hit_record *h = malloc(nrays * sizeof *h);
-    assert_true(r && h);
-    /* origins in the bounds grown by half their size, directions uniform on the sphere */
-    float lo[3] = {b.min.x, b.min.y, b.min.z}, hi[3] = {b.max.x, b.max.y, b.max.z};
-    for (uint32_t i = 0; i < nrays; i++) {
-        float o[3];
-        for (int k = 0; k < 3; k++) {
-            float ext = hi[k] - lo[k];
-            o[k] = lo[k] - 0.5f * ext + 2 * ext * rto_unit(seed, 8 * i + (uint32_t)k);
-        }
-        float z = 2 * rto_unit(seed, 8 * i + 3) - 1, phi = 6.2831853f * rto_unit(seed, 8 * i + 4);
-        float rad = sqrtf(fmaxf(0, 1 - z * z));
-        r[i] = ray_make(o[0], o[1], o[2], rad * cosf(phi), rad * sinf(phi), z);
-    }
+    assert_non_null(h);
     assert_int_equal(emb_trace(e, d, r, nrays, 2, h, &msg), RTO_OK);
     uint32_t count[XC_CLASS_COUNT] = {0}, hits = 0;
     cf_scene model;

@@ -14,6 +14,9 @@ void inst_set(rto_scene *s, uint32_t i, uint32_t blas, double sx, double sy, dou
 void scene_free(rto_scene *s);
 rto_scene *hand_scene(void);
 rto_wf_ray ray_make(float ox, float oy, float oz, float dx, float dy, float dz);
+/** n rays of a scene with origins in its bounds grown by half their size and directions uniform on the sphere
+ * (test_embree_classes.c). */
+rto_wf_ray *random_rays(const rto_scene *s, uint32_t n, uint32_t seed);
 
 /* Defined in test_embree_classes.c */
 rto_hit_record hit_rec(uint32_t inst, uint32_t prim, float t);

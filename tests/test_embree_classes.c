@@ -286,7 +286,7 @@ void test_class_sliver(void **state)
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* The oracle against Embree, and mutations of the oracle's records                                                 */
 
-static rto_wf_ray *random_rays(const rto_scene *s, uint32_t n, uint32_t seed)
+rto_wf_ray *random_rays(const rto_scene *s, uint32_t n, uint32_t seed)
 {
     rto_aabb b = rto_scene_aabb(s);
     rto_wf_ray *r = malloc(n * sizeof *r);
