@@ -20,13 +20,18 @@ run 2 "$RTO" info
 run 2 "$RTO" info triangle extra
 run 2 "$RTO" info --frobnicate triangle
 
-# every fixture: exit 0, with counts and a scene that is not empty
+# every fixture: exit 0, with counts and a scene that is not empty, as text and as JSON (under the sanitizers one of
+# the two in turn: a textured fixture loads OpenImageIO, most of a second there)
 n=0
 while IFS= read -r f; do
-    run 0 "$RTO" info "$f" && has "^instances: " out && has "^bounds: .*min" out
-    [ -s "$T/err" ] && { fail "info $f: a successful run wrote to stderr"; sed 's/^/    | /' "$T/err" | head -5; }
-    run 0 "$RTO" info "$f" --json && has '"instances": ' out && has '"triangles_instanced": ' out
     n=$((n + 1))
+    if [ $((n % $(sampled 2))) = 0 ] || [ $((n % 2)) = 1 ]; then
+        run 0 "$RTO" info "$f" && has "^instances: " out && has "^bounds: .*min" out
+        [ -s "$T/err" ] && { fail "info $f: a successful run wrote to stderr"; sed 's/^/    | /' "$T/err" | head -5; }
+    fi
+    if [ $((n % $(sampled 2))) = 0 ] || [ $((n % 2)) = 0 ]; then
+        run 0 "$RTO" info "$f" --json && has '"instances": ' out && has '"triangles_instanced": ' out
+    fi
 done < <(find "$FIX" -type f \( -iname '*.gltf' -o -iname '*.glb' \) | sort)
 [ "$n" -ge 7 ] || fail "only $n fixtures found under $FIX"
 
@@ -82,7 +87,7 @@ refused "$RTO" info instances:random:5 && has "not a centroid distribution" err
 printf 'not a shared object\n' >"$T/bogus.so"
 RTO_IMAGE_MODULE="$T/bogus.so" run 0 "$RTO" info "$FIX/Duck/glTF/Duck.gltf" && has "^textures:   0$" out &&
     has "cannot load $T/bogus.so" out
-libm=$(find /lib /usr/lib -name 'libm.so.6' 2>/dev/null | head -1)
+libm=$(/sbin/ldconfig -p | awk '$1 == "libm.so.6" { print $NF; exit }')
 [ -n "$libm" ] && RTO_IMAGE_MODULE="$libm" run 0 "$RTO" info "$FIX/Duck/glTF/Duck.gltf" &&
     has "is not a compatible image module" out
 
