@@ -1926,6 +1926,160 @@ typedef struct rto_frame_bundle {
 rto_status rto_frame_bundle_read(const char *dir, rto_frame_bundle *out, rto_msg *msg);
 void rto_frame_bundle_free(rto_frame_bundle *bundle);
 
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Visibility buffer (seed 004, DESIGN.md §11): the reference rasterizer, its admissible sets, the material pass      */
+
+/** An ID of the visibility plane (primitive index in its mesh, instance index) where no triangle covers a sample. */
+#define RTO_VB_BACKGROUND 0xFFFFFFFFu
+
+/** The camera of the visibility pass (§11.1): column-major binary32 matrices, 144 bytes (vb_camera.npy, f32 (36,)). */
+typedef struct rto_vbuffer_camera {
+    float view_proj[16];          /* clip = view_proj · (world, 1), WebGPU clip space (0 <= z <= w) */
+    float inverse_projection[16]; /* of the WebGPU projection: the classifier's view depth */
+    float position[3];
+    float pad;
+} rto_vbuffer_camera;
+RTO_STATIC_ASSERT(sizeof(rto_vbuffer_camera) == 144, "rto_vbuffer_camera is 144 bytes");
+
+/** The visibility pass's camera for a width x height image (the checks and aspect of rto_camera_uniforms_make). */
+rto_status rto_vbuffer_camera_make(const rto_camera *camera, uint32_t width, uint32_t height, rto_vbuffer_camera *out,
+                                   rto_msg *msg);
+
+/** What the visibility pass draws: meshes (object space) and their instances, drawn in instance order. */
+typedef struct rto_vbuffer_geometry {
+    const rto_mesh *meshes;
+    uint32_t mesh_count;
+    const rto_instance *instances;
+    uint32_t instance_count;
+} rto_vbuffer_geometry;
+
+/** The G-buffer (§11.4). Sample s of pixel (x, y) is element (y · width + x) · samples + s of every plane. */
+typedef struct rto_vbuffer_planes {
+    uint32_t width, height, samples;
+    uint16_t *visibility;     /* 4 per sample: primitive lo, hi, instance lo, hi 16 bits; background 0xFFFF x 4 */
+    uint16_t *barycentric;    /* 2 per sample, binary16 bits: (b1, b2) at the pixel centre */
+    uint16_t *normal;         /* 4 per sample, binary16 bits: octahedral face normal (2), tangent angle, handedness */
+    uint16_t *derivatives;    /* 4 per sample, binary16 bits: ddx (b1, b2), ddy (b1, b2) */
+    float *depth;             /* 1 per sample: z in [0, 1], 1 where background */
+    uint32_t *depth_unorm24;  /* 1 per sample: round(z · (2^24 - 1)); NULL in a GPU dump that has only depth */
+} rto_vbuffer_planes;
+
+typedef struct rto_vbuffer_desc {
+    uint32_t width, height;
+    uint32_t samples; /* 1 or 4 */
+    uint32_t threads; /* 0: one per online CPU; the output does not depend on it */
+} rto_vbuffer_desc;
+
+/** Admissible-set statistics of a visibility buffer (§11.3). */
+typedef struct rto_vbuffer_stats {
+    uint64_t samples;          /* width · height · samples */
+    uint64_t covered;          /* samples the reference (p = 8) covers */
+    uint64_t certain;          /* samples whose admissible set has one member (background included) */
+    uint64_t uncertain;        /* samples with two or more admissible answers */
+    uint32_t max_set;          /* the largest admissible set */
+    uint64_t set_sizes[5];     /* samples with sets of 1, 2, 3, 4 and 5 or more members */
+    uint64_t clipped_triangles; /* triangles rasterized from homogeneous edge functions (§11.2) */
+} rto_vbuffer_stats;
+
+typedef struct rto_raster rto_raster; /* the rasterizer's setup, kept for evaluations (src/raster/raster.c) */
+
+/** A visibility buffer: the reference planes (p = 8) and each sample's admissible set. */
+typedef struct rto_vbuffer {
+    rto_vbuffer_planes planes;
+    rto_vbuffer_camera camera;
+    uint32_t *admissible_offset; /* samples + 1: sample k's set is admissible[2 offset[k] .. 2 offset[k + 1]) */
+    uint32_t *admissible;        /* (instance, primitive) pairs, in draw order; background (RTO_VB_BACKGROUND x 2) last */
+    rto_vbuffer_stats stats;
+    rto_raster *raster;
+} rto_vbuffer;
+
+/** Rasterizes geometry through camera (§11.1-11.4). RTO_ERR_INVALID_ARGUMENT for a size of 0, over 16384, or
+ * samples other than 1 and 4; RTO_ERR_OUT_OF_MEMORY. */
+rto_status rto_vbuffer_make(const rto_vbuffer_geometry *geometry, const rto_vbuffer_camera *camera,
+                            const rto_vbuffer_desc *desc, rto_vbuffer *out, rto_msg *msg);
+void rto_vbuffer_free(rto_vbuffer *vb);
+
+/** The binary16 bits of a binary32 value, rounded to nearest even (overflow to infinity, NaN kept quiet). */
+uint16_t rto_f16_from_f32(float f);
+/** The binary32 value of binary16 bits (exact). */
+float rto_f16_to_f32(uint16_t h);
+
+/** The material pass's built-in materials (§11.5). */
+typedef enum rto_vb_material {
+    RTO_VB_NORMALS = 0, /* n · 0.5 + 0.5 */
+    RTO_VB_LAMBERT = 1, /* base colour · (ambient + (1 - ambient) max(0, n·L)) */
+    RTO_VB_UNLIT = 2    /* base colour factor times its texture, level of detail from the derivatives */
+} rto_vb_material;
+
+/** The classifier's thresholds (§11.5); RTO_VB_THRESHOLDS_DEFAULT gives the seed's public implementation's. */
+typedef struct rto_vb_thresholds {
+    float normal;       /* an edge where dot(n, n_neighbour) < normal */
+    float depth;        /* ... or |view depth - neighbour's| > depth · |view depth| */
+    float sample_depth; /* ... or the samples' view-depth range > sample_depth · |mean of min and max| */
+} rto_vb_thresholds;
+#define RTO_VB_THRESHOLDS_DEFAULT {0.95f, 0.02f, 0.02f}
+
+typedef struct rto_vbuffer_material_desc {
+    rto_vb_material material;
+    rto_vb_thresholds thresholds;
+    float sun[3];  /* lambert: direction towards the light (normalised by the pass) */
+    float ambient; /* lambert */
+    const rto_material *materials; /* the scene's, by mesh material index; NULL: white */
+    uint32_t material_count;
+    const rto_texture *textures;
+    uint32_t texture_count;
+} rto_vbuffer_material_desc;
+
+/** The classifier (§11.5) on planes: mask[y · width + x] = 1 for an edge pixel, 0 otherwise. */
+rto_status rto_vbuffer_classify(const rto_vbuffer_planes *planes, const rto_vbuffer_camera *camera,
+                                const rto_vb_thresholds *thresholds, uint8_t *mask, rto_msg *msg);
+/** The material pass (§11.5) on planes and a mask: image (width · height · 4 binary16 bits, RGBA). */
+rto_status rto_vbuffer_shade(const rto_vbuffer_planes *planes, const uint8_t *mask,
+                             const rto_vbuffer_geometry *geometry, const rto_vbuffer_material_desc *desc,
+                             uint16_t *image, rto_msg *msg);
+
+/** check-vbuffer's fault classes (§11.6), in the order the check reports the first of them. */
+typedef enum rto_vb_fault {
+    RTO_VB_PASS = 0,
+    RTO_VB_COVERAGE = 1,    /* background where a triangle certainly covers the sample, or a triangle where none may */
+    RTO_VB_ID = 2,          /* a triangle outside the sample's admissible set (or a mesh-meta word that is not it) */
+    RTO_VB_BARYCENTRIC = 3, /* barycentrics outside the chosen triangle's intervals */
+    RTO_VB_NORMAL = 4,      /* the normal plane's encoding */
+    RTO_VB_DERIVATIVE = 5,  /* derivatives outside their intervals */
+    RTO_VB_DEPTH = 6,       /* depth outside its interval, or a constant offset over the plane */
+    RTO_VB_F16_ROUNDING = 7, /* binary16 rounded toward zero over a plane */
+    RTO_VB_EDGE_MASK = 8,   /* the edge mask differs from the classifier on the GPU's own planes */
+    RTO_VB_SHADING = 9      /* the image differs from the material pass on the GPU's own planes and mask */
+} rto_vb_fault;
+/** "coverage", "id", "barycentric", "normal", "derivative", "depth", "f16-rounding", "edge-mask", "shading", "pass". */
+const char *rto_vb_fault_name(rto_vb_fault fault);
+
+typedef struct rto_vbuffer_check_desc {
+    const rto_vbuffer *expected;       /* the oracle's visibility buffer (its raster evaluates the GPU's choices) */
+    const rto_vbuffer_geometry *geometry;
+    const rto_vbuffer_planes *gpu;     /* the GPU's planes; a NULL plane pointer is "not dumped" */
+    const uint8_t *gpu_mask;           /* width · height, or NULL */
+    const uint16_t *gpu_image;         /* width · height · 4 binary16, or NULL */
+    const rto_vbuffer_material_desc *material; /* for the mask and the image */
+    int any_f16_rounding;              /* accept binary16 rounded toward zero (a device's documented choice) */
+} rto_vbuffer_check_desc;
+
+typedef struct rto_vbuffer_check_result {
+    rto_vb_fault fault;                /* RTO_VB_PASS, or the first fault */
+    const char *plane;                 /* the plane of the fault ("visibility", ..., "edge-mask", "image") */
+    uint32_t x, y, sample;             /* where (sample 0 for per-pixel planes) */
+    char what[512];                    /* one line: expected, actual and why */
+    uint64_t compared;                 /* samples compared */
+    uint64_t other_admissible;         /* samples whose GPU ID is admissible but not the reference's */
+    uint64_t mask_gpu_only, mask_oracle_only, mask_either; /* edge-mask symmetric difference and margin pixels */
+    uint32_t planes_checked;           /* bit k: plane k of visibility, barycentric, normal, derivatives, depth, mask,
+                                        * image was dumped and compared */
+} rto_vbuffer_check_result;
+
+/** Checks a GPU's G-buffer, edge mask and image (§11.6). RTO_OK with result->fault set; an error only for unusable
+ * input (sizes that differ from expected's, NULL expected). */
+rto_status rto_vbuffer_check(const rto_vbuffer_check_desc *desc, rto_vbuffer_check_result *result, rto_msg *msg);
+
 #ifdef __cplusplus
 }
 #endif

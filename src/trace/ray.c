@@ -69,7 +69,7 @@ static void perspective(double fov_y, double aspect, double znear, double zfar, 
 /* The general 4x4 inverse by cofactors (the 2x2 minors of the upper and lower row pairs, Laplace expansion), as
  * mat4.invert computes it; a camera harness inverts the matrices it built, so the oracle does the same rather than
  * use the closed forms the tests check it against. Returns 0 for a singular or non-finite matrix. */
-static int invert4(const double a[16], double out[16])
+int rto__invert4(const double a[16], double out[16])
 {
     /* a[4c + r]: a0r = row r of column 0 ... written as gl-matrix names them (aCR = column C, row R). */
     const double a00 = a[0], a01 = a[1], a02 = a[2], a03 = a[3];
@@ -106,11 +106,13 @@ static int invert4(const double a[16], double out[16])
     return 1;
 }
 
-rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, uint32_t height,
-                                    rto_camera_uniforms *out, rto_msg *msg)
+/* The checks every camera passes and its view and (OpenGL) projection matrices in binary64, shared with the
+ * visibility pass (raster/vb_camera.c). */
+rto_status rto__camera_matrices(const rto_camera *camera, uint32_t width, uint32_t height, double view[16],
+                                double proj[16], rto_msg *msg)
 {
-    if (!camera || !out)
-        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL camera or output");
+    if (!camera)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL camera");
     if (width == 0 || height == 0)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera image size %ux%u: both must be at least 1", width,
                         height);
@@ -136,12 +138,27 @@ rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, ui
     const double eye[3] = {camera->position.x, camera->position.y, camera->position.z};
     const double target[3] = {camera->target.x, camera->target.y, camera->target.z};
     const double up[3] = {camera->up.x, camera->up.y, camera->up.z};
-    double view[16], proj[16], iview[16], iproj[16];
+    double iview[16], iproj[16];
     const char *why = "";
     if (!look_at(eye, target, up, view, &why))
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': %s", camera->name, why);
     perspective(fov, aspect, zn, zf, proj);
-    if (!invert4(view, iview) || !invert4(proj, iproj))
+    if (!rto__invert4(view, iview) || !rto__invert4(proj, iproj))
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': its view or projection matrix is singular",
+                        camera->name);
+    return RTO_OK;
+}
+
+rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, uint32_t height,
+                                    rto_camera_uniforms *out, rto_msg *msg)
+{
+    if (!camera || !out)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL camera or output");
+    double view[16], proj[16], iview[16], iproj[16];
+    rto_status st = rto__camera_matrices(camera, width, height, view, proj, msg);
+    if (st != RTO_OK)
+        return st;
+    if (!rto__invert4(view, iview) || !rto__invert4(proj, iproj))
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "camera '%.64s': its view or projection matrix is singular",
                         camera->name);
     rto_camera_uniforms u;
@@ -152,7 +169,7 @@ rto_status rto_camera_uniforms_make(const rto_camera *camera, uint32_t width, ui
         if (!isfinite(u.inverse_projection[k]) || !isfinite(u.inverse_view[k]))
             return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
                             "camera '%.64s': an inverse matrix element overflows binary32 (near %g, far %g)",
-                            camera->name, zn, zf);
+                            camera->name, (double)camera->znear, (double)camera->zfar);
     }
     u.position[0] = camera->position.x;
     u.position[1] = camera->position.y;

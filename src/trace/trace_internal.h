@@ -30,6 +30,12 @@ rto_status rto__hits_check_records(const rto_hits_check_desc *desc, rto_report *
 float rto__ray_offset(const rto_aabb *bounds, const rto_camera_uniforms *u);
 
 #if defined(__GNUC__)
+/* trace/ray.c: a camera's checks and its binary64 view and OpenGL projection matrices (column-major); the general
+ * 4x4 inverse by cofactors (0 for a singular or non-finite matrix). */
+rto_status rto__camera_matrices(const rto_camera *camera, uint32_t width, uint32_t height, double view[16],
+                                double proj[16], rto_msg *msg);
+int rto__invert4(const double a[16], double out[16]);
+
 #pragma GCC visibility pop
 #endif
 
