@@ -1,0 +1,216 @@
+/* The material pass of the visibility buffer (DESIGN.md §11.5): the seed's edge classifier on a G-buffer (the
+ * oracle's or a GPU's own), and the shading of interior pixels once (sample 0) and of edge pixels per sample,
+ * averaged. Thresholds, the sun and the built-in materials are parameters; every value is computed in binary32 in
+ * the order written here, then rounded to binary16 (nearest even) like an RGBA16float store. */
+#include "internal.h"
+#include "raster/material_internal.h"
+#include "raster/raster_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+static size_t sample_index(const rto_vbuffer_planes *p, uint32_t x, uint32_t y, uint32_t s)
+{
+    return ((size_t)y * p->width + x) * p->samples + s;
+}
+
+static int covered(const rto_vbuffer_planes *p, size_t k)
+{
+    const uint16_t *v = p->visibility + 4 * k;
+    return !(v[0] == 0xffffu && v[1] == 0xffffu);
+}
+
+static uint32_t instance_of(const rto_vbuffer_planes *p, size_t k)
+{
+    const uint16_t *v = p->visibility + 4 * k;
+    return (uint32_t)v[2] | (uint32_t)v[3] << 16;
+}
+
+static void normal_of(const rto_vbuffer_planes *p, size_t k, float n[3])
+{
+    const float e[2] = {rto_f16_to_f32(p->normal[4 * k]), rto_f16_to_f32(p->normal[4 * k + 1])};
+    rto__oct_decode(e, n);
+}
+
+/* View-space depth of a stored depth d at the centre of pixel (x, y): (P^-1 (ndc, d, 1)).z / .w, in binary64. */
+static double view_depth(const rto_vbuffer_planes *p, const rto_vbuffer_camera *cam, uint32_t x, uint32_t y, float d)
+{
+    const double nx = ((double)x + 0.5) / p->width * 2.0 - 1.0, ny = 1.0 - ((double)y + 0.5) / p->height * 2.0;
+    const double v[4] = {nx, ny, d, 1.0};
+    const float *m = cam->inverse_projection;
+    double z = 0.0, w = 0.0;
+    for (int c = 0; c < 4; c++) {
+        z += (double)m[4 * c + 2] * v[c];
+        w += (double)m[4 * c + 3] * v[c];
+    }
+    return z / w;
+}
+
+/* Three-valued logic for comparisons taken both ways within a margin: 0 false, 1 true, 2 either. */
+enum { NO = 0, YES = 1, EITHER = 2 };
+
+/* a > b, where |a - b| <= margin |b| may go either way. */
+static int greater(double a, double b, double margin)
+{
+    if (margin > 0.0 && fabs(a - b) <= margin * fabs(b))
+        return EITHER;
+    return a > b ? YES : NO;
+}
+
+static int or3(int a, int b)
+{
+    if (a == YES || b == YES)
+        return YES;
+    return (a == EITHER || b == EITHER) ? EITHER : NO;
+}
+
+int rto__vbuffer_classify_pixel(const rto_vbuffer_planes *p, const rto_vbuffer_camera *cam,
+                                const rto_vb_thresholds *t, uint32_t x, uint32_t y, double margin)
+{
+    const uint32_t S = p->samples;
+    const size_t k0 = sample_index(p, x, y, 0);
+    if (!covered(p, k0)) { /* sample 0 is background: an edge exactly when another sample is not */
+        for (uint32_t s = 1; s < S; s++)
+            if (covered(p, k0 + s))
+                return RTO__VB_EDGE;
+        return RTO__VB_INTERIOR;
+    }
+    int edge = NO;
+    /* the samples: view-depth range over the covered ones, and more than one instance among them */
+    uint32_t n = 0;
+    double dmin = 0.0, dmax = 0.0;
+    for (uint32_t s = 0; s < S; s++) {
+        if (!covered(p, k0 + s))
+            continue;
+        const double vd = view_depth(p, cam, x, y, p->depth[k0 + s]);
+        dmin = n == 0 || vd < dmin ? vd : dmin;
+        dmax = n == 0 || vd > dmax ? vd : dmax;
+        if (instance_of(p, k0 + s) != instance_of(p, k0))
+            return RTO__VB_EDGE;
+        n++;
+    }
+    if (n >= 2)
+        edge = or3(edge, greater(fabs(dmax - dmin), (double)t->sample_depth * fabs((dmax + dmin) * 0.5), margin));
+    /* the 4-neighbours inside the image: background, a normal turned by more than the threshold, a depth step */
+    float nc[3];
+    normal_of(p, k0, nc);
+    const double vc = view_depth(p, cam, x, y, p->depth[k0]);
+    const int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
+    for (int i = 0; i < 4 && edge != YES; i++) {
+        const int64_t nx = (int64_t)x + dx[i], ny = (int64_t)y + dy[i];
+        if (nx < 0 || ny < 0 || nx >= p->width || ny >= p->height)
+            continue;
+        const size_t kn = sample_index(p, (uint32_t)nx, (uint32_t)ny, 0);
+        if (!covered(p, kn))
+            return RTO__VB_EDGE;
+        float nn[3];
+        normal_of(p, kn, nn);
+        const double dot = ((double)nc[0] * nn[0] + (double)nc[1] * nn[1]) + (double)nc[2] * nn[2];
+        edge = or3(edge, greater((double)t->normal, dot, margin)); /* dot < threshold */
+        const double vn = view_depth(p, cam, (uint32_t)nx, (uint32_t)ny, p->depth[kn]);
+        edge = or3(edge, greater(fabs(vc - vn), (double)t->depth * fabs(vc), margin));
+    }
+    return edge == YES ? RTO__VB_EDGE : edge == NO ? RTO__VB_INTERIOR : RTO__VB_EITHER;
+}
+
+static int planes_usable(const rto_vbuffer_planes *p)
+{
+    return p && p->visibility && p->normal && p->depth && p->width > 0 && p->height > 0 &&
+           (p->samples == 1 || p->samples == 4);
+}
+
+rto_status rto_vbuffer_classify(const rto_vbuffer_planes *planes, const rto_vbuffer_camera *camera,
+                                const rto_vb_thresholds *thresholds, uint8_t *mask, rto_msg *msg)
+{
+    if (!planes_usable(planes) || !camera || !thresholds || !mask)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT,
+                         "classify: NULL argument, or planes without visibility, normal or depth");
+    for (uint32_t y = 0; y < planes->height; y++)
+        for (uint32_t x = 0; x < planes->width; x++)
+            mask[(size_t)y * planes->width + x] =
+                (uint8_t)(rto__vbuffer_classify_pixel(planes, camera, thresholds, x, y, 0.0) == RTO__VB_EDGE);
+    return RTO_OK;
+}
+
+/* The base colour of an instance's mesh material: white where there is none (or the ID is out of range). */
+static void base_color(const rto_vbuffer_geometry *g, const rto_vbuffer_material_desc *d, uint32_t inst, float c[4])
+{
+    c[0] = c[1] = c[2] = c[3] = 1.0f;
+    if (!g || inst >= g->instance_count || !d->materials)
+        return;
+    const uint32_t mesh = g->instances[inst].blas;
+    if (mesh >= g->mesh_count)
+        return;
+    const int32_t m = g->meshes[mesh].material;
+    if (m < 0 || (uint32_t)m >= d->material_count)
+        return;
+    memcpy(c, d->materials[m].base_color, 4 * sizeof *c);
+}
+
+/* One sample's colour (§11.5). */
+static void shade_sample(const rto_vbuffer_planes *p, size_t k, const rto_vbuffer_geometry *g,
+                         const rto_vbuffer_material_desc *d, const float sun[3], float c[4])
+{
+    if (!covered(p, k)) {
+        c[0] = c[1] = c[2] = c[3] = 0.0f;
+        return;
+    }
+    float n[3];
+    normal_of(p, k, n);
+    switch (d->material) {
+    case RTO_VB_NORMALS:
+        for (int a = 0; a < 3; a++)
+            c[a] = n[a] * 0.5f + 0.5f;
+        c[3] = 1.0f;
+        return;
+    case RTO_VB_LAMBERT: {
+        base_color(g, d, instance_of(p, k), c);
+        const float nl = (n[0] * sun[0] + n[1] * sun[1]) + n[2] * sun[2];
+        const float light = d->ambient + (1.0f - d->ambient) * (nl > 0.0f ? nl : 0.0f);
+        for (int a = 0; a < 3; a++)
+            c[a] = c[a] * light;
+        return;
+    }
+    case RTO_VB_UNLIT:
+    default:
+        base_color(g, d, instance_of(p, k), c);
+        return;
+    }
+}
+
+rto_status rto_vbuffer_shade(const rto_vbuffer_planes *planes, const uint8_t *mask,
+                             const rto_vbuffer_geometry *geometry, const rto_vbuffer_material_desc *desc,
+                             uint16_t *image, rto_msg *msg)
+{
+    if (!planes || !planes->visibility || !planes->normal || !mask || !desc || !image || planes->width == 0 ||
+        planes->height == 0 || (planes->samples != 1 && planes->samples != 4))
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shade: NULL argument, or planes without visibility or normal");
+    if (desc->material > RTO_VB_UNLIT)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shade: unknown material %d", (int)desc->material);
+    float sun[3] = {desc->sun[0], desc->sun[1], desc->sun[2]};
+    const float sl = sqrtf((sun[0] * sun[0] + sun[1] * sun[1]) + sun[2] * sun[2]);
+    if (desc->material == RTO_VB_LAMBERT && !(sl > 0.0f && isfinite(sl)))
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shade: the sun direction is zero or not finite");
+    for (int a = 0; a < 3 && sl > 0.0f; a++)
+        sun[a] = sun[a] / sl;
+    const uint32_t S = planes->samples;
+    for (uint32_t y = 0; y < planes->height; y++)
+        for (uint32_t x = 0; x < planes->width; x++) {
+            const size_t px = (size_t)y * planes->width + x, k0 = px * S;
+            float c[4];
+            shade_sample(planes, k0, geometry, desc, sun, c);
+            if (mask[px]) {
+                for (uint32_t s = 1; s < S; s++) {
+                    float cs[4];
+                    shade_sample(planes, k0 + s, geometry, desc, sun, cs);
+                    for (int a = 0; a < 4; a++)
+                        c[a] = c[a] + cs[a];
+                }
+                for (int a = 0; a < 4; a++)
+                    c[a] = c[a] / (float)S;
+            }
+            for (int a = 0; a < 4; a++)
+                image[4 * px + (size_t)a] = rto_f16_from_f32(c[a]);
+        }
+    return RTO_OK;
+}

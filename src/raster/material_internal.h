@@ -1,0 +1,33 @@
+/* The material pass's private interface (DESIGN.md §11.5): the classifier's decision for one pixel with a margin about
+ * its thresholds, what check_vbuffer.c compares a GPU's edge mask with (§11.6: a pixel whose decision lies within
+ * 2^-10 relative of a threshold may go either way). Defined in material.c, beside rto_vbuffer_classify, so that the
+ * classifier's rule has one home. */
+#ifndef RTO_MATERIAL_INTERNAL_H
+#define RTO_MATERIAL_INTERNAL_H
+
+#include "rtoracle.h"
+
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
+
+/** The classifier's decisions for one pixel (rto__vbuffer_classify_pixel). */
+#define RTO__VB_INTERIOR 0
+#define RTO__VB_EDGE 1
+#define RTO__VB_EITHER 2 /* the decision turns on a comparison within `margin` of its threshold */
+
+/**
+ * The classifier of §11.5 at pixel (x, y) of planes (visibility, normal and depth are read; planes must hold them),
+ * every threshold comparison `a > t·b` (or `dot < t`) taken both ways where |a − t·b| <= margin·|t·b|: returns
+ * RTO__VB_EDGE when the pixel is an edge whichever way those comparisons go, RTO__VB_INTERIOR when it is interior
+ * whichever way they go, RTO__VB_EITHER otherwise. With margin 0 it is rto_vbuffer_classify's decision (never
+ * RTO__VB_EITHER). check-vbuffer passes 2^-10.
+ */
+int rto__vbuffer_classify_pixel(const rto_vbuffer_planes *planes, const rto_vbuffer_camera *camera,
+                                const rto_vb_thresholds *thresholds, uint32_t x, uint32_t y, double margin);
+
+#if defined(__GNUC__)
+#pragma GCC visibility pop
+#endif
+
+#endif
