@@ -733,7 +733,9 @@ typedef enum rto_dtype {
     RTO_DTYPE_U64 = 3, /* <u8 */
     RTO_DTYPE_I32 = 4, /* <i4 */
     RTO_DTYPE_F32 = 5, /* <f4 */
-    RTO_DTYPE_STRUCT = 6
+    RTO_DTYPE_STRUCT = 6,
+    RTO_DTYPE_U16 = 7, /* <u2 */
+    RTO_DTYPE_F16 = 8  /* <f2: binary16 (the visibility buffer's planes) */
 } rto_dtype;
 
 #define RTO_NPY_MAX_DIMS 4
@@ -1054,9 +1056,22 @@ typedef enum rto_bundle_file {
     RTO_FILE_ACCUM = 22,           /* accum.npy               role "accum"            f32 (H, W, 4), linear */
     RTO_FILE_ACCUM_EXR = 23,       /* accum.exr               role "accum-exr"        RGBA f32 OpenEXR, linear */
     RTO_FILE_IMAGE = 24,           /* image.png               role "image"            RGBA 8-bit PNG, resolved */
-    RTO_FILE_NOT_COMPARABLE = 25   /* not_comparable.npy      role "not-comparable"   u8 (H, W): RTO_PIXEL_* bits */
+    RTO_FILE_NOT_COMPARABLE = 25,  /* not_comparable.npy      role "not-comparable"   u8 (H, W): RTO_PIXEL_* bits */
+    /* Visibility-buffer bundles (rtoracle vbuffer, DESIGN.md §11; S samples a pixel). */
+    RTO_FILE_VB_CAMERA = 26,       /* vb_camera.npy           role "vb-camera"        f32 (36,): rto_vbuffer_camera */
+    RTO_FILE_VB_VISIBILITY = 27,   /* vb_visibility.npy       role "vb-visibility"    u16 (H, W, S, 4) */
+    RTO_FILE_VB_BARYCENTRIC = 28,  /* vb_barycentric.npy      role "vb-barycentric"   f16 (H, W, S, 2) */
+    RTO_FILE_VB_NORMAL = 29,       /* vb_normal.npy           role "vb-normal"        f16 (H, W, S, 4) */
+    RTO_FILE_VB_DERIVATIVES = 30,  /* vb_derivatives.npy      role "vb-derivatives"   f16 (H, W, S, 4) */
+    RTO_FILE_VB_DEPTH = 31,        /* vb_depth.npy            role "vb-depth"         f32 (H, W, S) */
+    RTO_FILE_VB_DEPTH_UNORM24 = 32, /* vb_depth_unorm24.npy   role "vb-depth-unorm24" u32 (H, W, S) */
+    RTO_FILE_VB_ADMISSIBLE_OFFSETS = 33, /* vb_admissible_offsets.npy  "vb-admissible-offsets"  u32 (H W S + 1,) */
+    RTO_FILE_VB_ADMISSIBLE = 34,   /* vb_admissible.npy       role "vb-admissible"    u32 (n, 2): (instance, prim) */
+    RTO_FILE_VB_EDGE_MASK = 35,    /* vb_edge_mask.npy        role "vb-edge-mask"     u8 (H, W) */
+    RTO_FILE_VB_IMAGE = 36,        /* vb_image.npy            role "vb-image"         f16 (H, W, 4) */
+    RTO_FILE_VB_BASE_COLORS = 37   /* vb_base_colors.npy      role "vb-base-colors"   f32 (meshes, 4) */
 } rto_bundle_file;
-#define RTO_BUNDLE_FILE_COUNT 26
+#define RTO_BUNDLE_FILE_COUNT 38
 /** Room for any bundle file name, NUL included. */
 #define RTO_BUNDLE_FILE_NAME_MAX 64
 

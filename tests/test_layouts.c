@@ -247,6 +247,18 @@ static void test_bundle_file_names(void **state)
         {RTO_FILE_ACCUM_EXR, 0, "accum.exr", "accum-exr"},
         {RTO_FILE_IMAGE, 0, "image.png", "image"},
         {RTO_FILE_NOT_COMPARABLE, 0, "not_comparable.npy", "not-comparable"},
+        {RTO_FILE_VB_CAMERA, 0, "vb_camera.npy", "vb-camera"},
+        {RTO_FILE_VB_VISIBILITY, 0, "vb_visibility.npy", "vb-visibility"},
+        {RTO_FILE_VB_BARYCENTRIC, 0, "vb_barycentric.npy", "vb-barycentric"},
+        {RTO_FILE_VB_NORMAL, 0, "vb_normal.npy", "vb-normal"},
+        {RTO_FILE_VB_DERIVATIVES, 0, "vb_derivatives.npy", "vb-derivatives"},
+        {RTO_FILE_VB_DEPTH, 0, "vb_depth.npy", "vb-depth"},
+        {RTO_FILE_VB_DEPTH_UNORM24, 0, "vb_depth_unorm24.npy", "vb-depth-unorm24"},
+        {RTO_FILE_VB_ADMISSIBLE_OFFSETS, 0, "vb_admissible_offsets.npy", "vb-admissible-offsets"},
+        {RTO_FILE_VB_ADMISSIBLE, 0, "vb_admissible.npy", "vb-admissible"},
+        {RTO_FILE_VB_EDGE_MASK, 0, "vb_edge_mask.npy", "vb-edge-mask"},
+        {RTO_FILE_VB_IMAGE, 0, "vb_image.npy", "vb-image"},
+        {RTO_FILE_VB_BASE_COLORS, 0, "vb_base_colors.npy", "vb-base-colors"},
     };
     assert_int_equal(sizeof want / sizeof want[0], RTO_BUNDLE_FILE_COUNT);
     char name[RTO_BUNDLE_FILE_NAME_MAX];

@@ -227,6 +227,18 @@ static const struct {
     [RTO_FILE_ACCUM_EXR] = {"accum.exr", "accum-exr", 0},
     [RTO_FILE_IMAGE] = {"image.png", "image", 0},
     [RTO_FILE_NOT_COMPARABLE] = {"not_comparable.npy", "not-comparable", 0},
+    [RTO_FILE_VB_CAMERA] = {"vb_camera.npy", "vb-camera", 0},
+    [RTO_FILE_VB_VISIBILITY] = {"vb_visibility.npy", "vb-visibility", 0},
+    [RTO_FILE_VB_BARYCENTRIC] = {"vb_barycentric.npy", "vb-barycentric", 0},
+    [RTO_FILE_VB_NORMAL] = {"vb_normal.npy", "vb-normal", 0},
+    [RTO_FILE_VB_DERIVATIVES] = {"vb_derivatives.npy", "vb-derivatives", 0},
+    [RTO_FILE_VB_DEPTH] = {"vb_depth.npy", "vb-depth", 0},
+    [RTO_FILE_VB_DEPTH_UNORM24] = {"vb_depth_unorm24.npy", "vb-depth-unorm24", 0},
+    [RTO_FILE_VB_ADMISSIBLE_OFFSETS] = {"vb_admissible_offsets.npy", "vb-admissible-offsets", 0},
+    [RTO_FILE_VB_ADMISSIBLE] = {"vb_admissible.npy", "vb-admissible", 0},
+    [RTO_FILE_VB_EDGE_MASK] = {"vb_edge_mask.npy", "vb-edge-mask", 0},
+    [RTO_FILE_VB_IMAGE] = {"vb_image.npy", "vb-image", 0},
+    [RTO_FILE_VB_BASE_COLORS] = {"vb_base_colors.npy", "vb-base-colors", 0},
 };
 
 static int known_file(rto_bundle_file f) { return (unsigned)f < RTO_BUNDLE_FILE_COUNT; }

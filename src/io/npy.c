@@ -22,7 +22,8 @@ const unsigned char rto__npy_magic[6] = {0x93, 'N', 'U', 'M', 'P', 'Y'};
 
 const scalar_info rto__npy_scalars[RTO__NPY_SCALARS] = {
     {RTO_DTYPE_U8, "|u1", "uint8", 1},    {RTO_DTYPE_U32, "<u4", "uint32", 4}, {RTO_DTYPE_U64, "<u8", "uint64", 8},
-    {RTO_DTYPE_I32, "<i4", "int32", 4},   {RTO_DTYPE_F32, "<f4", "float32", 4},
+    {RTO_DTYPE_I32, "<i4", "int32", 4},   {RTO_DTYPE_F32, "<f4", "float32", 4}, {RTO_DTYPE_U16, "<u2", "uint16", 2},
+    {RTO_DTYPE_F16, "<f2", "float16", 2},
 };
 
 const scalar_info *rto__npy_scalar_find(rto_dtype t)

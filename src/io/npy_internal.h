@@ -30,7 +30,7 @@ typedef struct scalar_info {
 } scalar_info;
 
 /** The scalar dtypes, with numpy's descr and name. */
-#define RTO__NPY_SCALARS 5
+#define RTO__NPY_SCALARS 7
 extern const scalar_info rto__npy_scalars[RTO__NPY_SCALARS];
 /** The scalar dtype t, NULL if t is none (RTO_DTYPE_STRUCT included). */
 const scalar_info *rto__npy_scalar_find(rto_dtype t);
