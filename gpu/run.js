@@ -14,7 +14,9 @@ import {DEFAULT_RTORACLE, usage} from './lib/oracle.js';
 import {writeHtml} from './lib/report.js';
 import {Timer} from './lib/timing.js';
 
-const FAMILIES = ['bitonic', 'bitonic-wg', 'radix', 'build', 'trace', 'frame'];
+const FAMILIES = ['bitonic', 'bitonic-wg', 'radix', 'build', 'trace', 'frame', 'vbuffer'];
+// Until rtoracle has the vbuffer command, vbuffer runs only when --families names it.
+const DEFAULT_FAMILIES = FAMILIES.filter((f) => f !== 'vbuffer');
 
 const HELP = `usage: gpu/run [--families LIST] [--subset ci|full] [--dists LIST] [--sizes LIST] [--scenes LIST]
                [--repeat K] [--timestamps] [--shrink] [--racy-scatter] [--drop-barrier PASS]
@@ -23,7 +25,7 @@ const HELP = `usage: gpu/run [--families LIST] [--subset ci|full] [--dists LIST]
 
 Runs the WGSL kernels under gpu/kernels on a WebGPU device (Dawn: Vulkan when a GPU is there, else Mesa llvmpipe
 through OpenGL in compatibility mode; RTO_GPU_BACKEND=vulkan|opengl forces one), dumps every buffer as .npy and
-validates each dump with rtoracle check-sort / check-bvh / check-hits / check-frame.
+validates each dump with rtoracle check-sort / check-bvh / check-hits / check-frame / check-vbuffer.
 
 Families (default: all):
   bitonic      the canonical network, one dispatch per (k, j) pass; every pass dumped and checked
@@ -32,11 +34,12 @@ Families (default: all):
   build        Morton keys, sort and the TLAS sweep tree of instances:DIST:N scenes (check-sort, check-bvh)
   trace        ordered traversal over TLAS and BLAS, 96-byte hit records (check-hits)
   frame        the wavefront chain with dispatchWorkgroupsIndirect: triangle and sun-shadow (check-frame)
+  vbuffer      the visibility buffer (seed 004): 1x/4x MSAA G-buffer, edge mask, material pass (check-vbuffer)
 
 options:
   --families LIST     comma-separated families to run
-  --subset S          ci: sorts of 1, 2, 255-257, 4096, 4097 keys, one build, one traced frame per program
-                      (default full)
+  --subset S          ci: sorts of 1, 2, 255-257, 4096, 4097 keys, one build, one traced frame per program,
+                      visibility buffers of triangle and rtstress:2 at 64x48 (default full)
   --dists LIST        sort / build distributions (default: every distribution of DESIGN.md §3)
   --sizes LIST        sort sizes, or instance counts of builds (default 1,2,3,255,256,257,4095,4096,4097,16384,65535)
   --scenes LIST       trace / frame scenes (default: the family's own list)
@@ -64,7 +67,7 @@ options:
 Exit status: 0 every case passes, 1 a case fails, 2 bad usage or setup.`;
 
 function parseArgs(argv) {
-  const o = {families: FAMILIES, subset: 'full', dists: null, sizes: null, scenes: null, repeat: 1,
+  const o = {families: DEFAULT_FAMILIES, subset: 'full', dists: null, sizes: null, scenes: null, repeat: 1,
     timestamps: false, shrink: false, racyScatter: false, dropBarrier: null, kernels: null,
     rtoracle: DEFAULT_RTORACLE, out: null, json: null, html: null, passDumpLimit: 65536};
   const flags = {'--timestamps': 'timestamps', '--shrink': 'shrink', '--racy-scatter': 'racyScatter',

@@ -31,7 +31,18 @@ export async function openDevice() {
     const adapter = await gpu.requestAdapter(backend === 'opengl' ? {featureLevel: 'compatibility'} : {});
     if (!adapter) continue;
     const features = adapter.features.has('timestamp-query') ? ['timestamp-query'] : [];
-    const device = await adapter.requestDevice({requiredFeatures: features});
+    // Compatibility mode's defaults give the vertex stage no storage buffers and a render pass 4 colour targets of 32
+    // bytes a sample; the vbuffer family pulls vertices from two storage buffers and splits its G-buffer over 7
+    // targets of 36 bytes at 4x there (llvmpipe's adapter offers 16, 8 and 128).
+    const limits = {};
+    const raise = (name, want) => {
+      const have = adapter.limits[name] ?? 0;
+      if (have > 0) limits[name] = Math.min(have, want);
+    };
+    raise('maxStorageBuffersInVertexStage', 4);
+    raise('maxColorAttachments', 8);
+    raise('maxColorAttachmentBytesPerSample', 64);
+    const device = await adapter.requestDevice({requiredFeatures: features, requiredLimits: limits});
     // Uncaptured errors: a kernel's WGSL or pipeline error is kept for takeShaderError (a setup error, reported once
     // by gpu/run, with no verdict); what follows from it ("invalid due to a previous error") is dropped; any other
     // error is printed as Dawn would.

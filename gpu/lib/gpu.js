@@ -65,12 +65,17 @@ export function wgsl(file, defines = {}) {
 /** The line origins of every module made by pipeline(), by label (the kernel's file name). */
 const origins = new Map();
 
+/** The shader module of kernels/FILE, labelled with the file name (its line origins kept for shaderError). */
+export function shaderModule(device, file, defines = {}) {
+  const {code, origin} = expandWgsl(file, defines);
+  origins.set(file, origin);
+  return device.createShaderModule({code, label: file});
+}
+
 /** A compute pipeline for kernels/FILE (entry point `entry`, layout 'auto'). A WGSL error surfaces as the device's
  * uncaptured error, which shaderError() turns into one line. */
 export function pipeline(device, file, {entry = 'main', defines = {}} = {}) {
-  const {code, origin} = expandWgsl(file, defines);
-  origins.set(file, origin);
-  const module = device.createShaderModule({code, label: file});
+  const module = shaderModule(device, file, defines);
   return device.createComputePipeline({layout: 'auto', compute: {module, entryPoint: entry},
     label: `${file}:${entry}`});
 }
@@ -78,7 +83,7 @@ export function pipeline(device, file, {entry = 'main', defines = {}} = {}) {
 /** Whether a device error is about a kernel's source or its pipeline (a setup error, not a data fault), and then one
  * line naming the file and line of the first WGSL error: "FILE:LINE:COL: error: ..."; null for other errors. */
 export function shaderError(message) {
-  const label = /(?:ShaderModuleDescriptor|ComputePipelineDescriptor) ""([^":]+)(?::[^"]*)?""/.exec(message);
+  const label = /(?:ShaderModuleDescriptor|ComputePipelineDescriptor|RenderPipelineDescriptor) ""([^":]+)(?::[^"]*)?""/.exec(message);
   const wgslErr = /(?:^|: ):(\d+):(\d+) (error: .*)$/m.exec(message);
   if (wgslErr) {
     const origin = label && origins.get(label[1]);
@@ -86,7 +91,7 @@ export function shaderError(message) {
     const where = at ? `${at[0]}:${at[1]}:${wgslErr[2]}` : `${label ? label[1] : 'a kernel'}:${wgslErr[1]}:${wgslErr[2]}`;
     return `${where}: ${wgslErr[3]}`;
   }
-  if (label || /CreateShaderModule|CreateComputePipeline|Invalid ShaderModule/.test(message))
+  if (label || /CreateShaderModule|CreateComputePipeline|CreateRenderPipeline|Invalid ShaderModule/.test(message))
     return `${label ? label[1] : 'a kernel'}: ${message.split('\n').find((l) => l.trim()) || 'invalid'}`;
   return null;
 }

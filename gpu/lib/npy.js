@@ -1,11 +1,12 @@
 // Reading and writing NumPy .npy files (format 1.0 / 2.0, little-endian) for GPU harnesses: plain arrays of
-// u8/u32/i32/f32/u64 and rtoracle's structured records (read as raw bytes plus the parsed descr). No dependencies;
+// u8/u16/f16 (raw bits)/u32/i32/f32/u64 and rtoracle's structured records (read as raw bytes plus the parsed descr). No dependencies;
 // lift this file into your own harness.
 import fs from 'node:fs';
 
 const MAGIC = Buffer.from([0x93, 0x4e, 0x55, 0x4d, 0x50, 0x59]);
-const TYPES = {'<u1': Uint8Array, '|u1': Uint8Array, '<u4': Uint32Array, '<i4': Int32Array, '<f4': Float32Array,
-               '<u8': BigUint64Array};
+// '<f2' is read and written as its raw bits (a Uint16Array): writeNpy needs descr '<f2' for binary16 data.
+const TYPES = {'<u1': Uint8Array, '|u1': Uint8Array, '<u2': Uint16Array, '<f2': Uint16Array, '<u4': Uint32Array,
+               '<i4': Int32Array, '<f4': Float32Array, '<u8': BigUint64Array};
 
 /** Reads a .npy file: {descr, shape, data} where data is a typed array for plain dtypes, a Uint8Array of the raw
  * records for structured ones (descr is then the header's list text). Throws with one line on anything malformed. */

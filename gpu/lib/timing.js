@@ -16,13 +16,17 @@ export class Timer {
   /** enc.beginComputePass(), with timestamp writes attributed to `label` while measuring. */
   pass(enc, label) {
     if (!this.on) return enc.beginComputePass({label});
+    return enc.beginComputePass({label, timestampWrites: this.writes(label)});
+  }
+
+  /** The timestampWrites of a pass (compute or render) attributed to `label`; only while measuring. */
+  writes(label) {
     const slot = this.labels.length % (SLOTS / 2);
     if (slot === 0) this.sets.push({set: this.device.createQuerySet({type: 'timestamp', count: SLOTS}), labels: []});
     const cur = this.sets[this.sets.length - 1];
     cur.labels.push(label);
     this.labels.push(label);
-    return enc.beginComputePass({label, timestampWrites: {querySet: cur.set, beginningOfPassWriteIndex: 2 * slot,
-      endOfPassWriteIndex: 2 * slot + 1}});
+    return {querySet: cur.set, beginningOfPassWriteIndex: 2 * slot, endOfPassWriteIndex: 2 * slot + 1};
   }
 
   /** Resolves every pending query (after the passes' work was submitted) into the per-label totals. */

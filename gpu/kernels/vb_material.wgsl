@@ -1,0 +1,122 @@
+// The material pass of seed 004 (DESIGN.md §11.5) on the visibility pass's planes (vb_dump.wgsl's word layout, N =
+// width · height · samples): the classifier marks edge pixels (mask 1), interior pixels shade once from sample 0,
+// edge pixels once per sample and average (a background sample shades to the clear colour 0). Materials: 0 normals
+// (n · 0.5 + 0.5, alpha 1), 1 lambert (base colour · (ambient + (1 - ambient) max(0, n·L)), the base colour's alpha;
+// the base colour is the instance's mesh's, vb_base_colors.npy). The image is RGBA16float as two pack2x16float words
+// per pixel, the mask one u32 per pixel. One invocation per pixel.
+
+struct Params {
+  inverse_projection: mat4x4<f32>,
+  sun: vec4<f32>,        // xyz: direction towards the light (normalised here), w: ambient
+  thresholds: vec4<f32>, // normal, depth, sample depth, unused
+  size: vec4<u32>,       // width, height, samples, N
+  material: vec4<u32>,   // x: 0 normals, 1 lambert
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> planes: array<u32>;
+@group(0) @binding(2) var<storage, read_write> image: array<u32>;
+@group(0) @binding(3) var<storage, read_write> mask: array<u32>;
+@group(0) @binding(4) var<storage, read> instance_records: array<u32>; // InstanceRecords as words
+@group(0) @binding(5) var<storage, read> base_colors: array<vec4<f32>>; // one per mesh
+
+const INSTANCE_WORDS = 32u;
+const INSTANCE_BLAS = 24u;
+
+const BACKGROUND = 0xFFFFFFFFu;
+
+fn instance_of(k: u32) -> u32 { return planes[2u * k + 1u]; }
+fn covered(k: u32) -> bool { return instance_of(k) != BACKGROUND; }
+fn depth_of(k: u32) -> f32 { return bitcast<f32>(planes[7u * params.size.w + k]); }
+
+// View depth at the pixel centre: (P⁻¹ · (ndc_x, ndc_y, d, 1)).z / .w.
+fn view_depth(x: u32, y: u32, d: f32) -> f32 {
+  let ndc = vec4<f32>((f32(x) + 0.5) / f32(params.size.x) * 2.0 - 1.0,
+                      1.0 - (f32(y) + 0.5) / f32(params.size.y) * 2.0, d, 1.0);
+  let v = params.inverse_projection * ndc;
+  return v.z / v.w;
+}
+
+fn sign_not_zero(v: vec2<f32>) -> vec2<f32> {
+  return select(vec2<f32>(-1.0), vec2<f32>(1.0), v >= vec2<f32>(0.0));
+}
+
+// The inverse of the visibility pass's octahedral encoding, normalised.
+fn normal_of(k: u32) -> vec3<f32> {
+  let e = unpack2x16float(planes[3u * params.size.w + 2u * k]);
+  var n = vec3<f32>(e, 1.0 - abs(e.x) - abs(e.y));
+  if (n.z < 0.0) { n = vec3<f32>((vec2<f32>(1.0) - abs(n.yx)) * sign_not_zero(n.xy), n.z); }
+  return normalize(n);
+}
+
+fn shade(k: u32) -> vec4<f32> {
+  if (!covered(k)) { return vec4<f32>(0.0); }
+  let n = normal_of(k);
+  if (params.material.x == 1u) {
+    let ambient = params.sun.w;
+    let light = ambient + (1.0 - ambient) * max(0.0, dot(n, normalize(params.sun.xyz)));
+    let base = base_colors[instance_records[instance_of(k) * INSTANCE_WORDS + INSTANCE_BLAS]];
+    return vec4<f32>(base.rgb * light, base.a);
+  }
+  return vec4<f32>(n * 0.5 + 0.5, 1.0);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+  let w = params.size.x;
+  let h = params.size.y;
+  let samples = params.size.z;
+  if (id.x >= w || id.y >= h) { return; }
+  let pixel = id.y * w + id.x;
+  let base = pixel * samples;
+  let t_normal = params.thresholds.x;
+  let t_depth = params.thresholds.y;
+  let t_sample = params.thresholds.z;
+
+  // Over the pixel's samples: how many are covered, their view-depth range, whether they span several instances.
+  var count = 0u;
+  var vmin = 0.0;
+  var vmax = 0.0;
+  var first = BACKGROUND;
+  var instances = false;
+  for (var s = 0u; s < samples; s++) {
+    if (!covered(base + s)) { continue; }
+    let vd = view_depth(id.x, id.y, depth_of(base + s));
+    if (count == 0u) {
+      vmin = vd;
+      vmax = vd;
+      first = instance_of(base + s);
+    } else {
+      vmin = min(vmin, vd);
+      vmax = max(vmax, vd);
+      instances = instances || instance_of(base + s) != first;
+    }
+    count++;
+  }
+  let c0 = covered(base);
+  var edge = (!c0 && count > 0u) || instances || (count >= 2u && vmax - vmin > t_sample * abs(0.5 * (vmin + vmax)));
+  if (c0) {
+    let vd0 = view_depth(id.x, id.y, depth_of(base));
+    let n0 = normal_of(base);
+    let offsets = array<vec2<i32>, 4>(vec2<i32>(-1, 0), vec2<i32>(1, 0), vec2<i32>(0, -1), vec2<i32>(0, 1));
+    for (var i = 0u; i < 4u; i++) {
+      let q = vec2<i32>(id.xy) + offsets[i];
+      if (q.x < 0 || q.y < 0 || q.x >= i32(w) || q.y >= i32(h)) { continue; }
+      let kb = (u32(q.y) * w + u32(q.x)) * samples;
+      if (!covered(kb) || dot(n0, normal_of(kb)) < t_normal ||
+          abs(vd0 - view_depth(u32(q.x), u32(q.y), depth_of(kb))) > t_depth * abs(vd0)) {
+        edge = true;
+      }
+    }
+  }
+
+  var color = shade(base);
+  if (edge) {
+    var sum = vec4<f32>(0.0);
+    for (var s = 0u; s < samples; s++) { sum += shade(base + s); }
+    color = sum / f32(samples);
+  }
+  image[2u * pixel] = pack2x16float(color.xy);
+  image[2u * pixel + 1u] = pack2x16float(color.zw);
+  mask[pixel] = select(0u, 1u, edge);
+}
