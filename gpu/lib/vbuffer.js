@@ -66,10 +66,18 @@ export function fineDerivatives(device) {
   return device.features.has('core-features-and-limits');
 }
 
-/** The parameters of a vbuffer bundle's manifest section. */
+/** The parameters of a vbuffer bundle's manifest section (width, height, samples, material, threshold_normal,
+ * threshold_depth, threshold_sample_depth, sun_x, sun_y, sun_z, ambient) as {width, height, samples, material,
+ * thresholds: {normal, depth, sample_depth}, sun: [x, y, z], ambient}. */
 export function vbufferParams(bundle) {
-  const v = bundle.manifest.vbuffer;
-  if (!v) throw new Error(`${bundle.dir}: the manifest has no vbuffer section`);
+  const m = bundle.manifest.vbuffer;
+  if (!m) throw new Error(`${bundle.dir}: the manifest has no vbuffer section`);
+  const v = {width: m.width, height: m.height, samples: m.samples, material: m.material, ambient: m.ambient,
+    thresholds: {normal: m.threshold_normal, depth: m.threshold_depth, sample_depth: m.threshold_sample_depth},
+    sun: [m.sun_x, m.sun_y, m.sun_z]};
+  const missing = Object.entries({...v, ...v.thresholds, sun: v.sun[0] ?? v.sun[1] ?? v.sun[2]})
+    .filter(([, x]) => x === undefined).map(([k]) => k);
+  if (missing.length) throw new Error(`${bundle.dir}: the manifest's vbuffer section lacks ${missing.join(', ')}`);
   if (!(v.material in MATERIALS))
     throw new Error(`${bundle.dir}: material '${v.material}' (the GPU pass has ${Object.keys(MATERIALS).join(', ')})`);
   if (v.samples !== 1 && v.samples !== 4) throw new Error(`${bundle.dir}: ${v.samples} samples (1 or 4)`);
