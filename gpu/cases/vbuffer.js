@@ -31,6 +31,12 @@
 //     gpu/lib/device.js requests up to 4 for the vertex pulling.
 //   - draw(..., firstInstance = i) reaches @builtin(instance_index) as i (IDs agree with the trace family's primary
 //     hits at every pixel centre at 1x).
+// What check-vbuffer says of llvmpipe (so the family is not in gpu/run's default families, nor in the ci subset):
+//   - f16-rounding: llvmpipe writes RG16float / RGBA16float targets rounded toward zero (the truncation in ~97 % of
+//     the values where it differs from nearest-even). With --any-f16-rounding, triangle passes every plane at 1x and 4x.
+//   - barycentric: on rtstress:2 a b1 2 binary16 ulps below the admissible interval (instance 6 primitive 7, pixel
+//     (23, 16)): llvmpipe interpolates attributes from the unsnapped binary32 window positions (b1 = 0.244024 there,
+//     0.244296 from positions snapped to 8 bits); §11.3's intervals cover snapped positions only.
 import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
 import {check, checkScenes, rtoracle, scenePath} from '../lib/oracle.js';
@@ -71,9 +77,6 @@ export async function dump(ctx) {
 }
 
 export function validate(ctx) {
-  const r = check(ctx.rtoracle, 'check-vbuffer', ['--expected', path.join(ctx.dir, 'expected'), '--gpu', ctx.dumpDir]);
-  // DEVELOPMENT ONLY (remove once rtoracle has check-vbuffer): its absence is the one failure tolerated.
-  if (!r.pass && /unknown command 'check-vbuffer'/.test(r.diagnosis))
-    return {pass: true, check: 'check-vbuffer', diagnosis: 'not checked: rtoracle has no check-vbuffer yet'};
-  return {...r, check: 'check-vbuffer'};
+  return {...check(ctx.rtoracle, 'check-vbuffer', ['--expected', path.join(ctx.dir, 'expected'), '--gpu', ctx.dumpDir]),
+    check: 'check-vbuffer'};
 }

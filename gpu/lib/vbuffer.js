@@ -217,6 +217,6 @@ export function writeVbufferDump(dir, vb) {
   writeNpy(path.join(dir, 'vb_normal.npy'), halves(3 * n, 2 * n), [h, w, s, 4], '<f2');
   writeNpy(path.join(dir, 'vb_derivatives.npy'), halves(5 * n, 2 * n), [h, w, s, 4], '<f2');
   writeNpy(path.join(dir, 'vb_depth.npy'), new Float32Array(planes.buffer, 7 * n * 4, n), [h, w, s]);
-  writeNpy(path.join(dir, 'vb_edge_mask.npy'), Uint8Array.from(vb.mask), [h, w]);
+  writeNpy(path.join(dir, 'vb_edge_mask.npy'), Uint8Array.from(vb.mask), [h, w], '|u1'); // NumPy's name for u8
   writeNpy(path.join(dir, 'vb_image.npy'), new Uint16Array(vb.image.buffer, 0, w * h * 4), [h, w, 4], '<f2');
 }
