@@ -28,7 +28,7 @@ Runs the WGSL kernels under gpu/kernels on a WebGPU device (Dawn: Vulkan when a 
 through OpenGL in compatibility mode; RTO_GPU_BACKEND=vulkan|opengl forces one), dumps every buffer as .npy and
 validates each dump with rtoracle check-sort / check-bvh / check-hits / check-frame / check-vbuffer.
 
-Families (default: all):
+Families (default: all but vbuffer):
   bitonic      the canonical network, one dispatch per (k, j) pass; every pass dumped and checked
   bitonic-wg   one workgroup, barriers between passes, up to 16384 keys; every pass dumped and checked
   radix        LSD radix, 4-bit digits, per-tile histograms, prefix and stable scatter; every pass checked
@@ -39,8 +39,8 @@ Families (default: all):
 
 options:
   --families LIST     comma-separated families to run
-  --subset S          ci: sorts of 1, 2, 255-257, 4096, 4097 keys, one build, one traced frame per program,
-                      visibility buffers of triangle and rtstress:2 at 64x48 (default full)
+  --subset S          ci: sorts of 1, 2, 255-257, 4096, 4097 keys, one build, one traced frame per program
+                      (vbuffer: triangle and rtstress:2 at 64x48) (default full)
   --dists LIST        sort / build distributions (default: every distribution of DESIGN.md §3)
   --sizes LIST        sort sizes, or instance counts of builds (default 1,2,3,255,256,257,4095,4096,4097,16384,65535)
   --scenes LIST       trace / frame scenes (default: the family's own list)
