@@ -15,11 +15,13 @@
 #include "raster_setup.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define BAND_ROWS 16u
 #define NO_TRI UINT32_MAX
+#define BG_FLAG 0x80000000u /* on a sample's count while a band waits for its offsets: background is admissible */
 
 typedef struct cand {
     uint32_t k, t;
@@ -27,7 +29,7 @@ typedef struct cand {
 } cand;
 
 typedef struct band {
-    uint32_t *rec; /* (sample within the band, triangle or NO_TRI for background) pairs, in draw order */
+    uint32_t *rec; /* (sample within the band, triangle) pairs, in draw order */
     size_t n, cap;
     uint64_t total, base;
     rto_vbuffer_stats st;
@@ -99,6 +101,8 @@ static rto_status raster_new(const rto_vbuffer_geometry *g, const rto_vbuffer_ca
     rto_raster *r = calloc(1, sizeof *r);
     if (!r)
         return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "vbuffer: out of memory");
+    static atomic_uint_fast64_t next_id = 1;
+    r->id = atomic_fetch_add(&next_id, 1);
     r->width = d->width;
     r->height = d->height;
     r->samples = d->samples;
@@ -330,13 +334,12 @@ static int band_run(job *j, scratch *sc, uint32_t bi)
             count[c->k]++;
         }
     }
-    for (size_t k = 0; k < n; k++)
-        if (sc->bound[k] >= 1.0) {
-            if (!push_rec(bd, (uint32_t)k, NO_TRI))
-                return 0;
-            count[k]++;
-        }
     bd->total = bd->n;
+    for (size_t k = 0; k < n; k++)
+        if (sc->bound[k] >= 1.0) { /* background, last of the set (band_scatter): a flag, not a record */
+            count[k] = (count[k] + 1) | BG_FLAG;
+            bd->total++;
+        }
     /* The reference planes and the statistics. */
     rto_vbuffer_stats *st = &bd->st;
     memset(st, 0, sizeof *st);
@@ -350,7 +353,7 @@ static int band_run(job *j, scratch *sc, uint32_t bi)
             for (uint32_t s = 0; s < S; s++) {
                 const size_t k = ((size_t)(y - ya) * W + x) * S + s;
                 const uint32_t t = sc->rtri[k];
-                const uint32_t m = count[k];
+                const uint32_t m = count[k] & ~BG_FLAG;
                 st->max_set = m > st->max_set ? m : st->max_set;
                 if (m) /* never 0: the triangle that sets the bound is admitted, else background is */
                     st->set_sizes[(m < 5 ? m : 5) - 1]++;
@@ -410,24 +413,28 @@ static void band_scatter(job *j, uint32_t bi)
     const uint32_t ya = bi * BAND_ROWS, yb = ya + BAND_ROWS < j->H ? ya + BAND_ROWS : j->H;
     const size_t n = (size_t)(yb - ya) * j->W * j->S, k0 = (size_t)ya * j->W * j->S;
     uint32_t *off = j->vb->admissible_offset + k0 + 1, *adm = j->vb->admissible;
-    uint64_t at = bd->base;
-    for (size_t k = 0; k < n; k++) { /* off[k]: the start of sample k, advanced as it fills to its end */
-        const uint32_t c = off[k];
-        off[k] = (uint32_t)at;
+    uint64_t at = bd->base; /* below 2^31 (vb_worker): the top bit keeps the background flag meanwhile */
+    for (size_t k = 0; k < n; k++) { /* off[k]: the start of sample k, advanced as it fills */
+        const uint32_t c = off[k] & ~BG_FLAG;
+        off[k] = (uint32_t)at | (off[k] & BG_FLAG);
         at += c;
     }
+    uint32_t inst = 0;
     for (size_t i = 0; i < bd->n; i++) {
         const uint32_t k = bd->rec[2 * i], t = bd->rec[2 * i + 1];
-        const uint32_t pos = off[k]++;
-        if (t == NO_TRI) {
+        const uint32_t pos = off[k]++ & ~BG_FLAG;
+        if (t < j->r->tri_base[inst] || t >= j->r->tri_base[inst + 1])
+            inst = rto__rs_instance_of(j->r, t);
+        adm[2 * (size_t)pos] = inst;
+        adm[2 * (size_t)pos + 1] = t - j->r->tri_base[inst];
+    }
+    for (size_t k = 0; k < n; k++) /* background last; off[k] becomes the set's end */
+        if (off[k] & BG_FLAG) {
+            const uint32_t pos = off[k] & ~BG_FLAG;
             adm[2 * (size_t)pos] = RTO_VB_BACKGROUND;
             adm[2 * (size_t)pos + 1] = RTO_VB_BACKGROUND;
-        } else {
-            const uint32_t inst = rto__rs_instance_of(j->r, t);
-            adm[2 * (size_t)pos] = inst;
-            adm[2 * (size_t)pos + 1] = t - j->r->tri_base[inst];
+            off[k] = pos + 1;
         }
-    }
     free(bd->rec);
     bd->rec = NULL;
 }
@@ -454,11 +461,11 @@ static void vb_worker(void *arg, rto__team *team, uint32_t w, uint32_t nw)
             at += j->bands[i].total;
         }
         j->total = at;
-        if (!failed && at <= UINT32_MAX) {
+        if (!failed && at <= INT32_MAX) {
             j->vb->admissible = rto__alloc_large(2 * (size_t)at, sizeof(uint32_t));
             failed = !j->vb->admissible;
         }
-        j->alloc_failed = failed || at > UINT32_MAX;
+        j->alloc_failed = failed || at > INT32_MAX;
     }
     rto__team_sync(team);
     if (j->alloc_failed)
@@ -544,8 +551,8 @@ rto_status rto_vbuffer_make(const rto_vbuffer_geometry *geometry, const rto_vbuf
     if (failed) {
         free(j.bands);
         rto_vbuffer_free(out);
-        if (j.total > UINT32_MAX)
-            return rto__fail(msg, RTO_ERR_UNSUPPORTED, "vbuffer: %llu admissible entries (at most 2^32 - 1)",
+        if (j.total > INT32_MAX)
+            return rto__fail(msg, RTO_ERR_UNSUPPORTED, "vbuffer: %llu admissible entries (at most 2^31 - 1)",
                              (unsigned long long)j.total);
         return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "vbuffer: out of memory");
     }

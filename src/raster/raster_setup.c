@@ -342,11 +342,10 @@ void rto__rs_setup(const rto_raster *r, uint32_t instance, uint32_t t, int full,
         tri->kind = RS_NONE;
         return;
     }
-    if (full) {
+    if (full && region) { /* rasterizing (evaluations need neither) */
         if (!tri->uniform)
             choice_hull(tri);
-        const rs_box whole = {0, 0, (int32_t)r->width - 1, (int32_t)r->height - 1};
-        snap_margins(tri, region ? region : &whole);
+        snap_margins(tri, region);
     }
 }
 
@@ -676,10 +675,18 @@ int rto__raster_eval(const rto_raster *r, uint32_t instance, uint32_t prim, uint
 {
     if (!r || instance >= r->instance_count || prim >= r->tri_base[instance + 1] - r->tri_base[instance])
         return 0;
-    rs_tri *t = malloc(sizeof *t);
-    if (!t)
-        return 0;
-    rto__rs_setup(r, instance, r->tri_base[instance] + prim, 1, NULL, t);
+    /* A validator evaluates the same triangle at neighbouring samples in turn: each thread keeps its last setup,
+     * keyed by the raster's process-unique id (a raster freed and another made at its address differ). */
+    static _Thread_local rs_tri cache;
+    static _Thread_local uint64_t cache_id;
+    static _Thread_local uint32_t cache_inst, cache_prim;
+    rs_tri *t = &cache;
+    if (cache_id != r->id || cache_inst != instance || cache_prim != prim) {
+        rto__rs_setup(r, instance, r->tri_base[instance] + prim, 1, NULL, t);
+        cache_id = r->id;
+        cache_inst = instance;
+        cache_prim = prim;
+    }
     const uint32_t s = r->samples == 4 ? sample % 4 : 0;
     const int64_t X = (int64_t)x * RS_SUB + (r->samples == 4 ? sample4[s][0] : RS_SUB / 2);
     const int64_t Y = (int64_t)y * RS_SUB + (r->samples == 4 ? sample4[s][1] : RS_SUB / 2);
@@ -737,14 +744,12 @@ int rto__raster_eval(const rto_raster *r, uint32_t instance, uint32_t prim, uint
         l[6] = zl;
         h[6] = zh;
     } else {
-        free(t);
         return 0;
     }
     if (t->kind == RS_SNAP) {
         double zl = l[6], zh = h[6];
         widen_depth(zl, zh, &l[6], &h[6]);
     }
-    free(t);
     for (int j = 0; j < 2; j++) {
         const double w = RS_WIDEN_B * fmax(1.0, fmax(fabs(l[j]), fabs(h[j])));
         l[j] -= w;

@@ -75,6 +75,7 @@ typedef struct rs_box {
 
 /** The raster's geometry: transformed vertices (binary32 world and clip positions) of every instance. */
 struct rto_raster {
+    uint64_t id; /* unique per raster made in this process: the key of rto__raster_eval's per-thread setup cache */
     uint32_t width, height, samples;
     float vp[16];
     uint32_t instance_count, mesh_count, tri_count;
@@ -90,8 +91,8 @@ struct rto_raster {
 /** The instance of triangle t (binary search of tri_base). */
 uint32_t rto__rs_instance_of(const rto_raster *r, uint32_t t);
 /** Sets up triangle t of instance `instance`: kind, vertices, choices. With full = 0 only the reference (ch[0]) and
- * the homogeneous functions; with full = 1 every choice and, over the pixel region box (when non-NULL), the fast-path
- * margins. */
+ * the homogeneous functions; with full = 1 every choice and, over the pixel region box when non-NULL, what
+ * rto__rs_classify and rto__rs_depth_coarse need (fast-path margins, hull, depth margin). */
 void rto__rs_setup(const rto_raster *r, uint32_t instance, uint32_t t, int full, const rs_box *region, rs_tri *tri);
 /** The pixel bounds of triangle t (conservative over every choice; clamped to the image) and its kind. */
 int rto__rs_bounds(const rto_raster *r, uint32_t instance, uint32_t t, rs_box *box);
