@@ -368,8 +368,8 @@ static void check_rows(void *ctx, uint32_t worker, size_t begin, size_t end)
                     set_text(e, k, sets, sizeof sets);
                     if (gpu_background && !background_ok)
                         note(&p->first[RTO_VB_COVERAGE], k, "visibility",
-                             "background, but a triangle covers this sample at every admissible sub-pixel precision "
-                             "(4 to 8 bits) and fill-rule choice: admissible %s",
+                             "background, but a triangle covers this sample under the top-left rule at every "
+                             "admissible sub-pixel precision (4 to 8 bits): admissible here %s",
                              sets);
                     else if (!gpu_background && n == 1 && background_ok)
                         note(&p->first[RTO_VB_COVERAGE], k, "visibility",
