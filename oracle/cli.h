@@ -187,5 +187,7 @@ int cmd_render(int argc, char **argv);
 int cmd_crosscheck(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_check_frame(int argc, char **argv);
+int cmd_vbuffer(int argc, char **argv);
+int cmd_check_vbuffer(int argc, char **argv);
 
 #endif

@@ -19,6 +19,8 @@ static const struct {
     {"check-hits", cmd_check_hits, "validate a GPU's hit records against a trace bundle (ties allowed)"},
     {"render", cmd_render, "render a wavefront frame (every queue, hit, counter, accum and image) into a bundle"},
     {"check-frame", cmd_check_frame, "validate a GPU's dump of a frame stage by stage against a frame bundle"},
+    {"vbuffer", cmd_vbuffer, "rasterize a visibility buffer (G-buffer per sample, edge mask, image) into a bundle"},
+    {"check-vbuffer", cmd_check_vbuffer, "validate a GPU's visibility buffer, edge mask and image against a vbuffer bundle"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
     {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
     {"compare", cmd_compare, "compare two images (PNG / OpenEXR) with idiff's thresholds and exit statuses"},

@@ -1019,6 +1019,8 @@ void rto_bundle_close(rto_bundle_reader *r);
 const char *rto_bundle_get_str(rto_bundle_reader *r, const char *section, const char *key);
 /** An integer field of the manifest: returns 1 and sets *value, or 0 if absent or not an integer. */
 int rto_bundle_get_int(rto_bundle_reader *r, const char *section, const char *key, int64_t *value);
+/** A number field (integer or real; not the strings "inf" and "nan" rto_bundle_set_real writes): 1 and *value, or 0. */
+int rto_bundle_get_real(rto_bundle_reader *r, const char *section, const char *key, double *value);
 /** Loads the file with the given role, after checking its sha256 against the manifest. RTO_ERR_IO if absent. */
 rto_status rto_bundle_read_role(rto_bundle_reader *r, const char *role, rto_npy *out, rto_msg *msg);
 /** Loads the file with the given name (e.g. "blas_3_nodes.npy"), after checking its sha256. */
@@ -2094,6 +2096,66 @@ typedef struct rto_vbuffer_check_result {
 /** Checks a GPU's G-buffer, edge mask and image (§11.6). RTO_OK with result->fault set; an error only for unusable
  * input (sizes that differ from expected's, NULL expected). */
 rto_status rto_vbuffer_check(const rto_vbuffer_check_desc *desc, rto_vbuffer_check_result *result, rto_msg *msg);
+
+/** What a visibility-buffer bundle holds (rtoracle vbuffer; src/raster/vbuffer_bundle.c). */
+typedef struct rto_vbuffer_bundle_desc {
+    const rto_accel *accel;            /* the build bundle's files and the scene (rto_accel_scene): geometry, base
+                                        * colours */
+    const rto_vbuffer *vbuffer;        /* planes, camera, admissible sets, statistics */
+    const rto_vbuffer_material_desc *material;
+    const char *material_name;         /* "normals", "lambert", "unlit" */
+    const uint8_t *mask;               /* width · height: the material pass's edge mask */
+    const uint16_t *image;             /* width · height · 4 binary16: its image */
+} rto_vbuffer_bundle_desc;
+
+/** Adds a vbuffer bundle's files: the build bundle's, the scene's geometry, vb_*.npy (rto_bundle_file) and the
+ * "vbuffer" manifest section (size, samples, material, thresholds, sun, ambient, admissible-set statistics). */
+rto_status rto_vbuffer_bundle_write(const rto_vbuffer_bundle_desc *desc, rto_bundle *bundle, rto_msg *msg);
+
+/** A vbuffer bundle read back: every array checked for dtype and shape, IDs and admissible sets in range. */
+typedef struct rto_vbuffer_bundle {
+    rto_scene_bundle scene;
+    rto_vbuffer_geometry geometry;     /* the scene's meshes (each its own material, by mesh index) and instances */
+    rto_vbuffer_camera camera;
+    rto_vbuffer_material_desc material; /* materials: one per mesh, the base colours of vb_base_colors.npy */
+    char material_name[16];
+    rto_vbuffer_planes planes;         /* the oracle's planes as stored */
+    const uint32_t *admissible_offset, *admissible;
+    const uint8_t *mask;
+    const uint16_t *image;
+    struct rto_vbuffer_bundle_data *data;
+} rto_vbuffer_bundle;
+
+rto_status rto_vbuffer_bundle_read(const char *dir, rto_vbuffer_bundle *out, rto_msg *msg);
+void rto_vbuffer_bundle_free(rto_vbuffer_bundle *bundle);
+/** A built-in material by name ("normals", "lambert", "unlit"): 1 and *out, or 0. */
+int rto_vb_material_parse(const char *name, rto_vb_material *out);
+const char *rto_vb_material_name(rto_vb_material material);
+
+/** The rasterizer beside the tracer (§11, DESIGN.md §6): what rto_vbuffer_crosscheck found. */
+typedef struct rto_vbuffer_crosscheck_result {
+    uint64_t samples;     /* rays traced: one through every sample position */
+    uint64_t agree;       /* the tracer's closest hit (or miss) is in the sample's admissible set */
+    uint64_t tie;         /* another triangle, at a t within 1e-5 relative of an admissible member's */
+    uint64_t clip_plane;  /* the tracer's hit lies within 1e-4 relative of the near or far plane */
+    uint64_t snap;        /* the tracer's triangle (or an admissible one) has an edge within 2^-5 pixel of the sample:
+                           * the tracer does not snap vertices, a rasterizer does */
+    uint64_t masked;      /* an admissible member's instance has mask 0: drawn by the visibility pass, never met by
+                           * a ray (cullMask 0xFF) */
+    uint64_t unexplained; /* none of these */
+    uint32_t x, y, sample; /* the first unexplained sample */
+    char first[256];       /* what the tracer and the rasterizer said there */
+} rto_vbuffer_crosscheck_result;
+
+/**
+ * Traces a primary ray through every sample position of vb (origin the eye, direction through the sample's window
+ * position by the inverse camera matrices in binary64, rounded once; tMin and tMax on the near and far planes) with
+ * the reference tracer and compares each closest hit with the sample's admissible set. The two are independent
+ * references for each other: accel must be built from the geometry vb was rasterized from, camera the one behind
+ * vb's camera block.
+ */
+rto_status rto_vbuffer_crosscheck(const rto_vbuffer *vb, const rto_accel *accel, const rto_camera *camera,
+                                  uint32_t threads, rto_vbuffer_crosscheck_result *out, rto_msg *msg);
 
 #ifdef __cplusplus
 }

@@ -26,7 +26,8 @@ const INSTANCE_BLAS = 24u;
 const BACKGROUND = 0xFFFFFFFFu;
 
 fn instance_of(k: u32) -> u32 { return planes[2u * k + 1u]; }
-fn covered(k: u32) -> bool { return instance_of(k) != BACKGROUND; }
+// Covered: the triangle ID is not background (the seed's sampleCovered; material.c reads the same words).
+fn covered(k: u32) -> bool { return planes[2u * k] != BACKGROUND; }
 fn depth_of(k: u32) -> f32 { return bitcast<f32>(planes[7u * params.size.w + k]); }
 
 // View depth at the pixel centre: (P⁻¹ · (ndc_x, ndc_y, d, 1)).z / .w.

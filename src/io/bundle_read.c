@@ -210,6 +210,16 @@ int rto_bundle_get_int(rto_bundle_reader *r, const char *section, const char *ke
     return 1;
 }
 
+int rto_bundle_get_real(rto_bundle_reader *r, const char *section, const char *key, double *value)
+{
+    json_t *o = r ? rto__bundle_section(r->root, section, 0) : NULL;
+    json_t *v = o ? json_object_get(o, key) : NULL;
+    if (!json_is_number(v))
+        return 0;
+    *value = json_number_value(v);
+    return 1;
+}
+
 /* The path of the first manifest entry whose field `key` equals `value` (malloc'ed), after checking its sha256. */
 static rto_status checked_path(rto_bundle_reader *r, const char *key, const char *value, char **out, rto_msg *msg)
 {

@@ -9,8 +9,9 @@
  * One pass over a band's triangles keeps, per sample, the reference winner (its binary32 depth) and the bound B: the
  * smallest depth-interval end among the triangles that certainly cover the sample (1, the clear value, when none
  * does), and collects each possibly covering triangle whose interval starts at or below B so far (B only falls, so
- * one above it is never admissible); the survivors of the final B, with background where B is 1, are the sample's
- * admissible set. Depth intervals are first bounded from the setup's margins and computed over every choice only
+ * one above it is never admissible), and ORs the precisions at which each triangle drawn before 1.0 covers the sample
+ * under every midpoint variant; the survivors of the final B, with background where B is 1 and some precision is
+ * missing from that OR, are the sample's admissible set. Depth intervals are first bounded from the setup's margins and computed over every choice only
  * where that bound cannot decide. */
 #include "raster_setup.h"
 
@@ -198,6 +199,7 @@ typedef struct scratch {
     uint32_t *rtri;
     float *rdepth;
     double *bound;
+    uint8_t *pcov; /* RS_PCOV bits >> RS_PCOV_SHIFT, ORed over the triangles drawn at the sample before 1.0 */
     cand *cands;
     size_t ncand, capcand;
 } scratch;
@@ -274,6 +276,7 @@ static int band_run(job *j, scratch *sc, uint32_t bi)
         sc->rtri[k] = NO_TRI;
         sc->rdepth[k] = 1.0f;
         sc->bound[k] = 1.0;
+        sc->pcov[k] = 0;
     }
     sc->ncand = 0;
     int64_t ox[4], oy[4];
@@ -318,11 +321,16 @@ static int band_run(job *j, scratch *sc, uint32_t bi)
                     rto__rs_depth_exact(tr, X, Y, &lo, &hi);
                     if ((c & RS_CERTAIN) && hi < sc->bound[k])
                         sc->bound[k] = hi;
+                    if (hi < 1.0) /* drawn over the clear depth at every choice: covering at the precisions it covers */
+                        sc->pcov[k] |= (uint8_t)((c & RS_PCOV_ALL) >> RS_PCOV_SHIFT);
                     if (lo < 1.0 && lo <= sc->bound[k] && !push_cand(sc, k, t, lo))
                         return 0;
                 }
     }
-    /* The admissible sets: candidates at or below the final bound, background where no triangle certainly draws. */
+    /* The admissible sets: candidates at or below the final bound; background where no triangle certainly draws and
+     * some precision p leaves the sample to the clear value (no triangle drawn before 1.0 covers it under every
+     * midpoint variant at p): a shared edge that each of its two triangles covers at some precisions only is covered
+     * at all of them, a crack is not admissible. */
     uint32_t *count = j->vb->admissible_offset + k0 + 1;
     memset(count, 0, n * sizeof *count);
     bd->n = 0;
@@ -336,7 +344,8 @@ static int band_run(job *j, scratch *sc, uint32_t bi)
     }
     bd->total = bd->n;
     for (size_t k = 0; k < n; k++)
-        if (sc->bound[k] >= 1.0) { /* background, last of the set (band_scatter): a flag, not a record */
+        if (sc->bound[k] >= 1.0 && sc->pcov[k] != RS_PCOV_ALL >> RS_PCOV_SHIFT) {
+            /* background, last of the set (band_scatter): a flag, not a record */
             count[k] = (count[k] + 1) | BG_FLAG;
             bd->total++;
         }
@@ -355,7 +364,8 @@ static int band_run(job *j, scratch *sc, uint32_t bi)
                 const uint32_t t = sc->rtri[k];
                 const uint32_t m = count[k] & ~BG_FLAG;
                 st->max_set = m > st->max_set ? m : st->max_set;
-                if (m) /* never 0: the triangle that sets the bound is admitted, else background is */
+                if (m) /* never 0: the triangle that sets the bound is admitted, else background is, else the
+                        * triangles that cover at every precision are (their intervals start below 1) */
                     st->set_sizes[(m < 5 ? m : 5) - 1]++;
                 if (m == 1)
                     st->certain++;
@@ -393,7 +403,8 @@ static void bands_run(job *j, uint32_t w, uint32_t nw)
     sc.rtri = rto__alloc(n, sizeof *sc.rtri);
     sc.rdepth = rto__alloc(n, sizeof *sc.rdepth);
     sc.bound = rto__alloc(n, sizeof *sc.bound);
-    if (!sc.tri || !sc.ref || !sc.rtri || !sc.rdepth || !sc.bound)
+    sc.pcov = rto__alloc(n, sizeof *sc.pcov);
+    if (!sc.tri || !sc.ref || !sc.rtri || !sc.rdepth || !sc.bound || !sc.pcov)
         j->failed[w] = 1;
     for (uint32_t b = w; b < j->nbands && !j->failed[w]; b += nw)
         if (!band_run(j, &sc, b))
@@ -403,6 +414,7 @@ static void bands_run(job *j, uint32_t w, uint32_t nw)
     free(sc.rtri);
     free(sc.rdepth);
     free(sc.bound);
+    free(sc.pcov);
     free(sc.cands);
 }
 

@@ -87,6 +87,7 @@ static void choice_make(rs_choice *c, const int64_t vx[3], const int64_t vy[3], 
     memcpy(c->vx, vx, sizeof c->vx);
     memcpy(c->vy, vy, sizeof c->vy);
     c->p = p;
+    c->pmask = RS_PCOV(p);
     c->area = (vx[1] - vx[0]) * (vy[2] - vy[0]) - (vx[2] - vx[0]) * (vy[1] - vy[0]);
     c->sgn = (c->area > 0) - (c->area < 0);
     for (int e = 0; e < 3; e++) {
@@ -143,8 +144,10 @@ static int snap_candidates(double px, int p, int64_t out[2])
 static void add_choice(rs_tri *t, const int64_t vx[3], const int64_t vy[3], int p)
 {
     for (int i = 0; i < t->n; i++)
-        if (!memcmp(t->ch[i].vx, vx, sizeof t->ch[i].vx) && !memcmp(t->ch[i].vy, vy, sizeof t->ch[i].vy))
+        if (!memcmp(t->ch[i].vx, vx, sizeof t->ch[i].vx) && !memcmp(t->ch[i].vy, vy, sizeof t->ch[i].vy)) {
+            t->ch[i].pmask |= RS_PCOV(p);
             return;
+        }
     if (t->n < RS_MAX_CHOICES)
         choice_make(&t->ch[t->n++], vx, vy, p);
 }
@@ -447,7 +450,7 @@ int rto__rs_classify(const rs_tri *t, int64_t X, int64_t Y)
             poss &= v >= -b;
             cert &= v > b;
         }
-        return (ref ? RS_REF : 0) | (poss ? RS_POSSIBLE : 0) | (cert ? RS_CERTAIN : 0);
+        return (ref ? RS_REF : 0) | (poss ? RS_POSSIBLE : 0) | (cert ? RS_CERTAIN | RS_PCOV_ALL : 0);
     }
     if (t->uniform) {
         const rs_choice *c = &t->ch[0];
@@ -455,7 +458,7 @@ int rto__rs_classify(const rs_tri *t, int64_t X, int64_t Y)
         for (int e = 0; e < 3; e++)
             m[e] = c->sgn * edge_at(c, e, X, Y);
         if (m[0] > t->margin[0] && m[1] > t->margin[1] && m[2] > t->margin[2])
-            return RS_REF | RS_POSSIBLE | RS_CERTAIN;
+            return RS_REF | RS_POSSIBLE | RS_CERTAIN | RS_PCOV_ALL;
         if (m[0] < -t->margin[0] || m[1] < -t->margin[1] || m[2] < -t->margin[2])
             return 0;
     } else {
@@ -463,15 +466,17 @@ int rto__rs_classify(const rs_tri *t, int64_t X, int64_t Y)
             if (t->ha[i] * X + t->hb[i] * Y + t->hc[i] < 0)
                 return 0;
     }
-    int poss = 0, cert = 1, ref = 0;
+    int poss = 0, cert = 1, ref = 0, pcov = RS_PCOV_ALL;
     for (int i = 0; i < t->n; i++) {
         const int c = choice_covers(&t->ch[i], X, Y);
         poss |= c;
         cert &= c;
+        if (!c) /* a precision with a midpoint variant that misses does not cover */
+            pcov &= ~t->ch[i].pmask;
         if (i == 0)
             ref = c;
     }
-    return (ref ? RS_REF : 0) | (poss ? RS_POSSIBLE : 0) | (cert ? RS_CERTAIN : 0);
+    return (ref ? RS_REF : 0) | (poss ? RS_POSSIBLE : 0) | (cert ? RS_CERTAIN : 0) | pcov;
 }
 
 double rto__rs_ref_depth(const rs_tri *t, int64_t X, int64_t Y)

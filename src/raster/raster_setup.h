@@ -32,8 +32,14 @@
 #define RS_WIDEN_Z 0x1p-22
 
 enum { RS_NONE = 0, RS_SNAP = 1, RS_HOMOG = 2 };
-/* classify's answer bits. */
+/* classify's answer bits: the reference covers, some choice does, every choice does; and RS_PCOV(p), p = 4..8: every
+ * choice at precision p covers (a homogeneous triangle: where it certainly covers). A GPU's precision is global, so
+ * a sample whose bits, ORed over the triangles that draw there, hold every p is covered whatever the precision
+ * (§11.3's background rule), though no one triangle may cover it at every precision (a shared edge). */
 enum { RS_REF = 1, RS_POSSIBLE = 2, RS_CERTAIN = 4 };
+#define RS_PCOV_SHIFT 8
+#define RS_PCOV(p) (1 << (RS_PCOV_SHIFT + (p) - RS_P_MIN))
+#define RS_PCOV_ALL (((1 << (RS_P_REF - RS_P_MIN + 1)) - 1) << RS_PCOV_SHIFT)
 
 /** One snapped triangle: a choice of §11.3 (the reference is p = 8, each coordinate rounded to nearest even). */
 typedef struct rs_choice {
@@ -42,7 +48,8 @@ typedef struct rs_choice {
     int64_t ea[3], eb[3], ec[3]; /* edge e, opposite vertex e: E_e(X, Y) = ea X + eb Y + ec; lambda_e = E_e / area */
     int64_t bias[3];      /* inside: sgn E_e >= bias_e (0 on a top or left edge, 1 otherwise) */
     int sgn;              /* sign of area */
-    int p;                /* its precision */
+    int p;                /* its precision (the highest that gives it) */
+    int pmask;            /* RS_PCOV(p) of every precision that gives it */
 } rs_choice;
 
 /** One triangle, set up. */
@@ -96,7 +103,7 @@ uint32_t rto__rs_instance_of(const rto_raster *r, uint32_t t);
 void rto__rs_setup(const rto_raster *r, uint32_t instance, uint32_t t, int full, const rs_box *region, rs_tri *tri);
 /** The pixel bounds of triangle t (conservative over every choice; clamped to the image) and its kind. */
 int rto__rs_bounds(const rto_raster *r, uint32_t instance, uint32_t t, rs_box *box);
-/** RS_REF | RS_POSSIBLE | RS_CERTAIN bits at sample position (X, Y) (RS_SUB units), of a full setup. */
+/** RS_REF | RS_POSSIBLE | RS_CERTAIN | RS_PCOV(p) bits at sample position (X, Y) (RS_SUB units), of a full setup. */
 int rto__rs_classify(const rs_tri *t, int64_t X, int64_t Y);
 /** Depth of the reference at (X, Y): in [0, 1], binary64 (ch[0] or the homogeneous functions). */
 double rto__rs_ref_depth(const rs_tri *t, int64_t X, int64_t Y);
