@@ -2,8 +2,9 @@
 # The main job: install what is missing, build everything, and write the golden bundles to out/goldens/.
 #   bash scripts/main.sh [--full] [extra arguments for `rtoracle suite sort`]
 # By default the lean goldens (under 150 MB): the sort matrix's tiny and tile size classes (every n a tile boundary
-# makes interesting, up to 4,097), traces at 128x96 and frames as lean goldens (image, accum, counters). --full: every
-# size class up to 65,536 keys, traces at 320x240 and every frame's per-bounce queues, hits and payloads too.
+# makes interesting, up to 4,097), traces at 128x96, frames as lean goldens (image, accum, counters) and visibility
+# buffers at 128x96. --full: every size class up to 65,536 keys, traces and visibility buffers at 320x240 and every
+# frame's per-bounce queues, hits and payloads too.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/deps.sh
@@ -99,4 +100,17 @@ frame triangle --program triangle -o "$out/frame/triangle"
 frame rtstress:16 --program sun-shadow -o "$out/frame/rtstress-16-sun-shadow"
 frame stage2 --program normals -o "$out/frame/stage2"
 family_done frame "$out/frame"
+
+# Visibility-buffer bundles (seed 004): the G-buffer per sample of 4x MSAA, each sample's admissible set, the edge mask
+# and the lambert image, at 128x96 (with --full 320x240), of every fixture scene and the procedural ones.
+mkdir -p "$out/vbuffer"
+vsize=(--width 128 --height 96)
+[ $full = 0 ] || vsize=(--width 320 --height 240)
+while IFS= read -r f; do
+    golden vbuffer vbuffer "$f" --material lambert "${vsize[@]}" -o "$out/vbuffer/$(basename "${f%.*}")"
+done < <(fixture_scenes)
+for spec in triangle rtstress:16; do
+    golden vbuffer vbuffer "$spec" --material lambert "${vsize[@]}" -o "$out/vbuffer/${spec//:/-}"
+done
+family_done vbuffer "$out/vbuffer"
 rto_say "built $rto; golden bundles in $out/ ($(du -sh "$out" | cut -f1)B)"
