@@ -540,6 +540,165 @@ static void test_admissible_unsnapped(void **state)
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
+/* Cracks: a GPU's precision is global (§11.3)                                                                        */
+
+/* Does x round unambiguously at every precision p = 4..8 (more than 2^-11 px from each midpoint: the oracle's 2^-12
+ * and the binary32 rounding of the test's vertex stage far inside)? */
+static int snaps_cleanly(double x)
+{
+    for (int p = 4; p <= 8; p++) {
+        const double v = ldexp(x, p), f = v - floor(v);
+        if (fabs(f - 0.5) <= ldexp(0x1p-11, p))
+            return 0;
+    }
+    return 1;
+}
+
+static int has_background(const rto_vbuffer *vb, size_t k)
+{
+    return in_set(vb, k, RTO_VB_BACKGROUND, RTO_VB_BACKGROUND);
+}
+
+static void test_shared_edge_no_crack(void **state)
+{
+    (void)state;
+    tscene *s = malloc(sizeof *s);
+    assert_non_null(s);
+    const uint32_t w = 128, h = 128;
+    /* Two triangles sharing the edge P0-P1, vertices off the 1/16 px grid (each snaps differently at each p) and
+     * halfway between the 2^-9 px points where the midpoints of every p lie, one depth: every sample near the shared
+     * edge is the one's or the other's at any global precision. */
+    const double P[4][2] = {{10539.5 / 512, 5355.5 / 512}, {51991.5 / 512, 41531.5 / 512},
+                            {8333.5 / 512, 57243.5 / 512}, {59823.5 / 512, 12633.5 / 512}};
+    const double z[3] = {0.5, 0.5, 0.5};
+    const double A[6] = {P[0][0], P[0][1], P[1][0], P[1][1], P[2][0], P[2][1]};
+    const double B[6] = {P[0][0], P[0][1], P[3][0], P[3][1], P[1][0], P[1][1]};
+    rto_vbuffer vab, va, vbb;
+    scene_init(s);
+    add_win(s, w, h, A, z);
+    add_win(s, w, h, B, z);
+    make(s, w, h, 4, 2, &vab);
+    check_sets(&vab);
+    tvert v[4];
+    v[0] = vertex(s, 0, 0, w, h);
+    v[1] = vertex(s, 0, 1, w, h);
+    for (int k = 0; k < 2; k++) {
+        assert_true(snaps_cleanly(v[k].xw) && snaps_cleanly(v[k].yw));
+        assert_true(fabs(v[k].xw - ldexp(rint(ldexp(v[k].xw, 4)), -4)) > 0x1p-8); /* well off the 1/16 grid */
+        assert_true(fabs(v[k].yw - ldexp(rint(ldexp(v[k].yw, 4)), -4)) > 0x1p-8);
+    }
+    scene_init(s);
+    add_win(s, w, h, A, z);
+    make(s, w, h, 4, 1, &va);
+    scene_init(s);
+    add_win(s, w, h, B, z);
+    make(s, w, h, 4, 1, &vbb);
+    size_t near = 0, both = 0;
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++)
+            for (uint32_t si = 0; si < 4; si++) {
+                long long ox, oy;
+                sample_units(4, si, &ox, &oy);
+                const double px = x + ox / 256.0, py = y + oy / 256.0;
+                const size_t k = ((size_t)y * w + x) * 4 + si;
+                const double d = seg_dist(px, py, v[0].xw, v[0].yw, v[1].xw, v[1].yw);
+                if (!(d < 0.03) || hypot(px - v[0].xw, py - v[0].yw) < 1.0 || hypot(px - v[1].xw, py - v[1].yw) < 1.0)
+                    continue;
+                near++;
+                /* Drawn together: no crack, whatever each triangle does alone. */
+                assert_false(has_background(&vab, k));
+                const uint32_t size = vab.admissible_offset[k + 1] - vab.admissible_offset[k];
+                assert_true(size >= 1 && size <= 2);
+                assert_true(in_set(&vab, k, 0, 0) || in_set(&vab, k, 0, 1));
+                if (!(in_set(&vab, k, 0, 0) && in_set(&vab, k, 0, 1)))
+                    continue;
+                both++;
+                /* The set is {A, B}: neither covers at every precision, so either drawn alone may leave it clear. */
+                assert_int_equal(size, 2);
+                assert_true(has_background(&va, k) && in_set(&va, k, 0, 0));
+                assert_true(has_background(&vbb, k) && in_set(&vbb, k, 0, 0));
+            }
+    fprintf(stderr, "  shared edge: %zu samples within 0.03 px, %zu with the set {A, B}\n", near, both);
+    assert_true(near >= 10);
+    assert_true(both >= 3);
+    rto_vbuffer_free(&vab);
+    rto_vbuffer_free(&va);
+    rto_vbuffer_free(&vbb);
+    free(s);
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Attributes from unsnapped positions (§11.3: llvmpipe snaps for coverage only)                                      */
+
+static void test_unsnapped_attributes(void **state)
+{
+    (void)state;
+    tscene *s = malloc(sizeof *s);
+    assert_non_null(s);
+    size_t checked = 0, outside_snapped = 0;
+    for (uint32_t seed = 300; seed < 306; seed++) {
+        rng_state = seed;
+        const uint32_t w = 80, h = 60, S = seed % 2 ? 4 : 1;
+        perspective_scene(s, w, h, 60, 1.0);
+        rto_vbuffer vb;
+        make(s, w, h, S, 2, &vb);
+        for (uint32_t t = 0; t < s->ntri; t++) {
+            tvert v[3];
+            for (int k = 0; k < 3; k++)
+                v[k] = vertex(s, 0, s->idx[3 * t + k], w, h);
+            int skip = 0;
+            for (int k = 0; k < 3; k++) /* the snapped rasterization (§11.2) only */
+                skip |= !(v[k].clip[2] >= 0.0f && v[k].clip[2] <= v[k].clip[3]);
+            /* The unsnapped barycentrics, independently: long double edge functions of the binary64 window
+             * positions, perspective division by the binary32 clip w. */
+            const long double area = ((long double)v[1].xw - v[0].xw) * ((long double)v[2].yw - v[0].yw) -
+                                     ((long double)v[2].xw - v[0].xw) * ((long double)v[1].yw - v[0].yw);
+            if (skip || fabsl(area) < 4.0L)
+                continue;
+            double x0 = w, x1 = 0, y0 = h, y1 = 0;
+            for (int k = 0; k < 3; k++) {
+                x0 = fmin(x0, v[k].xw), x1 = fmax(x1, v[k].xw);
+                y0 = fmin(y0, v[k].yw), y1 = fmax(y1, v[k].yw);
+            }
+            x0 = fmax(x0, 0.0), x1 = fmin(x1, w - 1.0), y0 = fmax(y0, 0.0), y1 = fmin(y1, h - 1.0);
+            for (int i = 0; i < 8 && x0 <= x1 && y0 <= y1; i++) { /* pixels of the triangle's box */
+                const uint32_t x = (uint32_t)(x0 + urand() * (x1 - x0)), y = (uint32_t)(y0 + urand() * (y1 - y0));
+                const long double px = x + 0.5L, py = y + 0.5L;
+                long double l[3], q[3];
+                for (int e = 0; e < 3; e++) {
+                    const tvert *a = &v[(e + 1) % 3], *b = &v[(e + 2) % 3];
+                    l[e] = (((long double)b->xw - a->xw) * (py - a->yw) - ((long double)b->yw - a->yw) * (px - a->xw)) /
+                           area;
+                }
+                if (!(l[0] > -0.5L && l[1] > -0.5L && l[2] > -0.5L)) /* near the triangle: the plane stays finite */
+                    continue;
+                for (int e = 0; e < 3; e++)
+                    q[e] = l[e] / v[e].clip[3];
+                const long double qs = q[0] + q[1] + q[2];
+                const long double b1 = q[1] / qs, b2 = q[2] / qs;
+                rto__vb_attr ref, lo, hi;
+                const uint32_t si = (uint32_t)(urand() * S);
+                assert_int_equal(rto__raster_eval(vb.raster, 0, t, x, y, si, &ref, &lo, &hi), 1);
+                if (!(lo.b[0] <= b1 && b1 <= hi.b[0] && lo.b[1] <= b2 && b2 <= hi.b[1]))
+                    fprintf(stderr, "seed %u triangle %u pixel (%u, %u): unsnapped (%.9Lf, %.9Lf), interval "
+                                    "[%.9f, %.9f] x [%.9f, %.9f]\n", seed, t, x, y, b1, b2, lo.b[0], hi.b[0],
+                            lo.b[1], hi.b[1]);
+                assert_true(lo.b[0] <= b1 && b1 <= hi.b[0]);
+                assert_true(lo.b[1] <= b2 && b2 <= hi.b[1]);
+                /* The widening alone (2^-21 max(1, |b|)) around the p = 8 reference would not always hold it. */
+                const long double wb = 0x1p-21L * fmaxl(1.0L, fabsl(b1));
+                outside_snapped += fabsl(b1 - ref.b[0]) > 2 * wb;
+                checked++;
+            }
+        }
+        rto_vbuffer_free(&vb);
+    }
+    assert_true(checked > 500);
+    assert_true(outside_snapped > checked / 4);
+    free(s);
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
 /* Perspective-correct barycentrics, derivatives                                                                      */
 
 static int invert4(const double m[16], double o[16])
@@ -931,6 +1090,8 @@ int main(void)
         cmocka_unit_test(test_brute_force_perspective),
         cmocka_unit_test(test_watertight_top_left),
         cmocka_unit_test(test_admissible_unsnapped),
+        cmocka_unit_test(test_shared_edge_no_crack),
+        cmocka_unit_test(test_unsnapped_attributes),
         cmocka_unit_test(test_perspective_barycentrics),
         cmocka_unit_test(test_depth_unorm24),
         cmocka_unit_test(test_threads_identical),

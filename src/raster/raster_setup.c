@@ -3,7 +3,8 @@
  * rounding midpoint snapped both ways), coverage by exact 64-bit edge functions with the top-left rule, or, for a
  * triangle that crosses the near or far plane or reaches beyond +-2^16 px, Olano and Greer's homogeneous edge
  * functions (1997) in binary64 with a 2^-4 px band; the reference's attributes and the intervals a GPU's may lie in
- * (rto__raster_eval). */
+ * (rto__raster_eval: every snapped choice and the unsnapped window positions, which devices that snap for coverage
+ * only interpolate from). */
 #include "raster_setup.h"
 
 #include <math.h>
@@ -571,6 +572,59 @@ static void snap_attr(const rs_tri *t, const rs_choice *c, uint32_t x, uint32_t 
     *babs = m;
 }
 
+/* The unsnapped choice (§11.3): devices that snap positions for coverage only (Mesa's llvmpipe) interpolate from the
+ * binary64 window positions of the binary32 clip values. Edge e runs from vertex a to b, as choice_make's. Returns 0
+ * when the unsnapped triangle has no area. */
+static int unsnap_lambda(const rs_tri *t, double px, double py, double l[3])
+{
+    const double area =
+        (t->xw[1] - t->xw[0]) * (t->yw[2] - t->yw[0]) - (t->xw[2] - t->xw[0]) * (t->yw[1] - t->yw[0]);
+    if (!(area != 0.0) || !isfinite(area))
+        return 0;
+    for (int e = 0; e < 3; e++) {
+        const int a = (e + 1) % 3, b = (e + 2) % 3;
+        l[e] = ((t->xw[b] - t->xw[a]) * (py - t->yw[a]) - (t->yw[b] - t->yw[a]) * (px - t->xw[a])) / area;
+    }
+    return 1;
+}
+
+static void unsnap_bary(const rs_tri *t, double px, double py, double b[2])
+{
+    double l[3];
+    unsnap_lambda(t, px, py, l);
+    const double q0 = l[0] / t->w[0], q1 = l[1] / t->w[1], q2 = l[2] / t->w[2];
+    const double s = (q0 + q1) + q2;
+    b[0] = q1 / s;
+    b[1] = q2 / s;
+}
+
+/* a[7] of the unsnapped choice, as snap_attr's; 0 when it has no area. */
+static int unsnap_attr(const rs_tri *t, uint32_t x, uint32_t y, int64_t X, int64_t Y, double a[7], double *babs)
+{
+    double l[3];
+    if (!unsnap_lambda(t, (double)X / RS_SUB, (double)Y / RS_SUB, l))
+        return 0;
+    const double cx = x + 0.5, cy = y + 0.5;
+    double b[2], bx1[2], bx0[2], by1[2], by0[2];
+    unsnap_bary(t, cx, cy, b);
+    unsnap_bary(t, (x | 1u) + 0.5, cy, bx1);
+    unsnap_bary(t, (x & ~1u) + 0.5, cy, bx0);
+    unsnap_bary(t, cx, (y | 1u) + 0.5, by1);
+    unsnap_bary(t, cx, (y & ~1u) + 0.5, by0);
+    a[0] = b[0];
+    a[1] = b[1];
+    a[2] = bx1[0] - bx0[0];
+    a[3] = bx1[1] - bx0[1];
+    a[4] = by1[0] - by0[0];
+    a[5] = by1[1] - by0[1];
+    a[6] = clamp01((l[0] * t->z[0] + l[1] * t->z[1]) + l[2] * t->z[2]);
+    double m = 0.0;
+    for (int j = 0; j < 2; j++)
+        m = fmax(m, fmax(fmax(fabs(bx1[j]), fabs(bx0[j])), fmax(fabs(by1[j]), fabs(by0[j]))));
+    *babs = m;
+    return 1;
+}
+
 static void homog_attr(const rs_tri *t, uint32_t x, uint32_t y, int64_t X, int64_t Y, double a[7], double *babs)
 {
     const double cx = x + 0.5, cy = y + 0.5, x1 = (x | 1u) + 0.5, x0 = (x & ~1u) + 0.5, y1 = (y | 1u) + 0.5,
@@ -709,6 +763,10 @@ int rto__raster_eval(const rto_raster *r, uint32_t instance, uint32_t prim, uint
                 if (i == t->anchor)
                     memcpy(rv, a, sizeof rv);
             }
+        if (unsnap_attr(t, x, y, X, Y, a, &m)) { /* one more choice for attributes and depth, not for coverage */
+            range_add(l, h, a);
+            babs = fmax(babs, m);
+        }
     } else if (t->kind == RS_HOMOG) {
         /* The band: the functions at the point moved by up to 2^-4 px along each axis. A linear-fractional function
          * takes its extremes over a box at the box's corners (where its denominator keeps its sign); the
