@@ -15,9 +15,7 @@ import {writeHtml} from './lib/report.js';
 import {Timer} from './lib/timing.js';
 
 const FAMILIES = ['bitonic', 'bitonic-wg', 'radix', 'build', 'trace', 'frame', 'vbuffer'];
-// vbuffer runs only when --families names it: on llvmpipe check-vbuffer fails it (binary16 rounded toward zero,
-// barycentrics from unsnapped positions; gpu/cases/vbuffer.js says more).
-const DEFAULT_FAMILIES = FAMILIES.filter((f) => f !== 'vbuffer');
+const DEFAULT_FAMILIES = FAMILIES;
 
 const HELP = `usage: gpu/run [--families LIST] [--subset ci|full] [--dists LIST] [--sizes LIST] [--scenes LIST]
                [--repeat K] [--timestamps] [--shrink] [--racy-scatter] [--drop-barrier PASS]
@@ -28,7 +26,7 @@ Runs the WGSL kernels under gpu/kernels on a WebGPU device (Dawn: Vulkan when a 
 through OpenGL in compatibility mode; RTO_GPU_BACKEND=vulkan|opengl forces one), dumps every buffer as .npy and
 validates each dump with rtoracle check-sort / check-bvh / check-hits / check-frame / check-vbuffer.
 
-Families (default: all but vbuffer):
+Families (default: all):
   bitonic      the canonical network, one dispatch per (k, j) pass; every pass dumped and checked
   bitonic-wg   one workgroup, barriers between passes, up to 16384 keys; every pass dumped and checked
   radix        LSD radix, 4-bit digits, per-tile histograms, prefix and stable scatter; every pass checked

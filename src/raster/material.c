@@ -32,27 +32,36 @@ static void normal_of(const rto_vbuffer_planes *p, size_t k, float n[3])
     rto__oct_decode(e, n);
 }
 
-/* View-space depth of a stored depth d at the centre of pixel (x, y): (P^-1 (ndc, d, 1)).z / .w, in binary64. */
-static double view_depth(const rto_vbuffer_planes *p, const rto_vbuffer_camera *cam, uint32_t x, uint32_t y, float d)
+/* View-space depth of a stored depth d at the centre of pixel (x, y): (P^-1 (ndc, d, 1)).z / .w, in binary64, and in
+ * *err a bound on how far a binary32 evaluation (the GPU's: the seed computes it in WGSL) may be from it: the two
+ * four-term dot products, fused or not, within 8 binary32 ulps of the sum of their terms' magnitudes (ndc's own
+ * rounding included), the division within 2. Near the far plane .w is a difference of nearly equal terms, and the
+ * bound grows with it. */
+static double view_depth(const rto_vbuffer_planes *p, const rto_vbuffer_camera *cam, uint32_t x, uint32_t y, float d,
+                         double *err)
 {
     const double nx = ((double)x + 0.5) / p->width * 2.0 - 1.0, ny = 1.0 - ((double)y + 0.5) / p->height * 2.0;
     const double v[4] = {nx, ny, d, 1.0};
     const float *m = cam->inverse_projection;
-    double z = 0.0, w = 0.0;
+    double z = 0.0, w = 0.0, sz = 0.0, sw = 0.0;
     for (int c = 0; c < 4; c++) {
         z += (double)m[4 * c + 2] * v[c];
         w += (double)m[4 * c + 3] * v[c];
+        sz += fabs((double)m[4 * c + 2] * v[c]);
+        sw += fabs((double)m[4 * c + 3] * v[c]);
     }
-    return z / w;
+    const double vd = z / w, g = 8.0 * 0x1p-24;
+    *err = (g * sz + fabs(vd) * g * sw) / fabs(w) + 2.0 * 0x1p-24 * fabs(vd);
+    return vd;
 }
 
 /* Three-valued logic for comparisons taken both ways within a margin: 0 false, 1 true, 2 either. */
 enum { NO = 0, YES = 1, EITHER = 2 };
 
-/* a > b, where |a - b| <= margin |b| may go either way. */
-static int greater(double a, double b, double margin)
+/* a > b, where |a - b| <= tol may go either way (tol 0: the plain comparison). */
+static int greater(double a, double b, double tol)
 {
-    if (margin > 0.0 && fabs(a - b) <= margin * fabs(b))
+    if (tol > 0.0 && fabs(a - b) <= tol)
         return EITHER;
     return a > b ? YES : NO;
 }
@@ -77,24 +86,38 @@ int rto__vbuffer_classify_pixel(const rto_vbuffer_planes *p, const rto_vbuffer_c
     }
     int edge = NO;
     /* the samples: view-depth range over the covered ones, and more than one instance among them */
+    /* With margin > 0 every comparison may go either way within the binary32 error of its terms (view_depth's
+     * bound; 2^-20 for a dot product of two normals decoded and normalised in binary32) plus margin times the
+     * threshold's side. */
+    const int loose = margin > 0.0;
     uint32_t n = 0;
-    double dmin = 0.0, dmax = 0.0;
+    double dmin = 0.0, dmax = 0.0, emin = 0.0, emax = 0.0, e;
     for (uint32_t s = 0; s < S; s++) {
         if (!covered(p, k0 + s))
             continue;
-        const double vd = view_depth(p, cam, x, y, p->depth[k0 + s]);
-        dmin = n == 0 || vd < dmin ? vd : dmin;
-        dmax = n == 0 || vd > dmax ? vd : dmax;
+        const double vd = view_depth(p, cam, x, y, p->depth[k0 + s], &e);
+        if (n == 0 || vd < dmin) {
+            dmin = vd;
+            emin = e;
+        }
+        if (n == 0 || vd > dmax) {
+            dmax = vd;
+            emax = e;
+        }
         if (instance_of(p, k0 + s) != instance_of(p, k0))
             return RTO__VB_EDGE;
         n++;
     }
-    if (n >= 2)
-        edge = or3(edge, greater(fabs(dmax - dmin), (double)t->sample_depth * fabs((dmax + dmin) * 0.5), margin));
+    if (n >= 2) {
+        const double rhs = (double)t->sample_depth * fabs((dmax + dmin) * 0.5);
+        const double tol = loose ? (emin + emax) * (1.0 + (double)t->sample_depth) + margin * rhs : 0.0;
+        edge = or3(edge, greater(fabs(dmax - dmin), rhs, tol));
+    }
     /* the 4-neighbours inside the image: background, a normal turned by more than the threshold, a depth step */
     float nc[3];
     normal_of(p, k0, nc);
-    const double vc = view_depth(p, cam, x, y, p->depth[k0]);
+    double ec;
+    const double vc = view_depth(p, cam, x, y, p->depth[k0], &ec);
     const int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
     for (int i = 0; i < 4 && edge != YES; i++) {
         const int64_t nx = (int64_t)x + dx[i], ny = (int64_t)y + dy[i];
@@ -106,9 +129,12 @@ int rto__vbuffer_classify_pixel(const rto_vbuffer_planes *p, const rto_vbuffer_c
         float nn[3];
         normal_of(p, kn, nn);
         const double dot = ((double)nc[0] * nn[0] + (double)nc[1] * nn[1]) + (double)nc[2] * nn[2];
-        edge = or3(edge, greater((double)t->normal, dot, margin)); /* dot < threshold */
-        const double vn = view_depth(p, cam, (uint32_t)nx, (uint32_t)ny, p->depth[kn]);
-        edge = or3(edge, greater(fabs(vc - vn), (double)t->depth * fabs(vc), margin));
+        /* dot < threshold */
+        edge = or3(edge, greater((double)t->normal, dot, loose ? 0x1p-20 + margin * fabs((double)t->normal) : 0.0));
+        double en;
+        const double vn = view_depth(p, cam, (uint32_t)nx, (uint32_t)ny, p->depth[kn], &en);
+        const double rhs = (double)t->depth * fabs(vc);
+        edge = or3(edge, greater(fabs(vc - vn), rhs, loose ? ec + en + (double)t->depth * ec + margin * rhs : 0.0));
     }
     return edge == YES ? RTO__VB_EDGE : edge == NO ? RTO__VB_INTERIOR : RTO__VB_EITHER;
 }

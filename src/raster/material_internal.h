@@ -14,11 +14,13 @@
 /** The classifier's decisions for one pixel (rto__vbuffer_classify_pixel). */
 #define RTO__VB_INTERIOR 0
 #define RTO__VB_EDGE 1
-#define RTO__VB_EITHER 2 /* the decision turns on a comparison within `margin` of its threshold */
+#define RTO__VB_EITHER 2 /* the decision turns on a comparison within its tolerance (below) of its threshold */
 
 /**
  * The classifier of §11.5 at pixel (x, y) of planes (visibility, normal and depth are read; planes must hold them),
- * every threshold comparison `a > t·b` (or `dot < t`) taken both ways where |a − t·b| <= margin·|t·b|: returns
+ * every threshold comparison `a > t·b` (or `dot < t`) taken both ways where |a − t·b| is within the binary32 error of
+ * evaluating its terms (a GPU's classifier runs in binary32; view depth near the far plane loses most of its digits)
+ * plus margin·|t·b|: returns
  * RTO__VB_EDGE when the pixel is an edge whichever way those comparisons go, RTO__VB_INTERIOR when it is interior
  * whichever way they go, RTO__VB_EITHER otherwise. With margin 0 it is rto_vbuffer_classify's decision (never
  * RTO__VB_EITHER). check-vbuffer passes 2^-10.

@@ -812,6 +812,15 @@ int rto__raster_eval(const rto_raster *r, uint32_t instance, uint32_t prim, uint
     if (t->kind == RS_SNAP) {
         double zl = l[6], zh = h[6];
         widen_depth(zl, zh, &l[6], &h[6]);
+        /* A device may build the attribute planes from a mix of snapped and unsnapped positions (Mesa's llvmpipe at
+         * 4x MSAA: gradients of one, origin of the other), which is the plane of one choice evaluated at a point up
+         * to half an 8-bit step (2^-9 px) from the pixel centre: the barycentrics move by at most that times their
+         * x and y derivatives' magnitudes. */
+        for (int j = 0; j < 2; j++) {
+            const double g = fmax(fabs(l[2 + j]), fabs(h[2 + j])) + fmax(fabs(l[4 + j]), fabs(h[4 + j]));
+            l[j] -= 0x1p-9 * g;
+            h[j] += 0x1p-9 * g;
+        }
     }
     for (int j = 0; j < 2; j++) {
         const double w = RS_WIDEN_B * fmax(1.0, fmax(fabs(l[j]), fabs(h[j])));
