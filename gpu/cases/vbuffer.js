@@ -54,7 +54,7 @@ const vbCase = (scene, samples, material, width = 64, height = 48) => ({family, 
   material, id: `vbuffer/${sceneName(scene)}/${width}x${height}/${samples}x/${material}`});
 
 /** ci: triangle and rtstress:2 at 64x48, 1x and 4x, normals and lambert. full: also rtstress:4 and sphere:3, a clustered
- * instance set and a 160x90 frame. --scenes: each scene named at 64x48, 1x and 4x, both materials. */
+ * instance set, and rtstress:4 and the Duck fixture at 160x90. --scenes: each scene named at 64x48, 1x and 4x, both materials. */
 export function list(opts) {
   const each = (scenes, w, h) => scenes.flatMap((s) => [1, 4].flatMap((n) => MATERIALS.map((m) => vbCase(s, n, m, w,
     h))));
@@ -64,7 +64,7 @@ export function list(opts) {
   }
   const ci = each(['triangle', 'rtstress:2']);
   if (opts.subset === 'ci') return ci;
-  return [...ci, ...each(['rtstress:4', 'sphere:3', 'instances:clustered:257']), ...each(['rtstress:4'], 160, 90)];
+  return [...ci, ...each(['rtstress:4', 'sphere:3', 'instances:clustered:257']), ...each(['rtstress:4', 'fixtures/Duck/glTF/Duck.gltf'], 160, 90)];
 }
 
 /** The oracle's vbuffer bundle: the GPU's inputs and the planes, mask and image it expects. */
