@@ -247,7 +247,47 @@ def bvh_area():
             "sections": bench_rows("bvh", "`bench_bvh`", "docs/bvh.md, \"Benchmark\",")}
 
 
-AREAS = {"gpu": gpu_area, "trace": trace_area, "frame": frame_area, "sort": sort_area, "bvh": bvh_area}
+def vbuffer_area():
+    sections = []
+    if exists("vbuffer-crosscheck.json"):
+        vc = load_module("tests/tools/vbuffer_crosscheck.py", "vbuffer_crosscheck")
+        src = f"{RESULTS}/vbuffer-crosscheck.json"
+        sections.append((
+            "The rasterizer beside the tracer",
+            para("Every sample's ray traced by the reference tracer and its closest hit compared with the sample's "
+                 "admissible set (docs/vbuffer.md, \"The rasterizer beside the tracer\"), with the sizes of the "
+                 "admissible sets (`tests/tools/vbuffer_crosscheck.py`).") + "\n\n" + block("vbuffer-crosscheck"),
+            [lambda doc, src=src: vc.table(src, doc)]))
+    runs = [f"{RESULTS}/{n}" for n in ("h100-vbuffer.json", "llvmpipe-vbuffer.json") if exists(n)]
+    if runs:
+        gpu_results = load_module("gpu/results.py", "gpu_results")
+
+        def fill(doc):
+            gpu_results.table(types.SimpleNamespace(runs=runs, doc=doc))
+        sections.append((
+            "The `vbuffer` family on GPUs and on llvmpipe",
+            para("`gpu/run --families vbuffer` per run (docs/gpu.md): every case, the runs it passed, what "
+                 "`check-vbuffer` said besides its verdict and the GPU time per run where the device has timestamp "
+                 "queries (`gpu/results.py table`).") + "\n\n" + block("gpu-results"), [fill]))
+    sections += bench_rows("vbuffer", "`bench_vbuffer`", "docs/vbuffer.md, \"Benchmark\",")
+    if exists("bench-vbuffer.json"):
+        d = load("bench-vbuffer.json")
+        lines = ["| scene | threads | vbuffer ms | trace ms | vbuffer peak RSS MiB | trace peak RSS MiB |",
+                 "|---|---:|---:|---:|---:|---:|"]
+        for r in d["detail"]:
+            lines.append(f"| {r['scene']} | {r['threads']} | {r['vbuffer_ms']:.1f} | {r['trace_ms']:.1f} | "
+                         f"{r['vbuffer_rss_kib'] / 1024:.0f} | {r['trace_rss_kib'] / 1024:.0f} |")
+        sections.append(("`bench_vbuffer`: time and memory", para(
+            "The same run's detail: the peak RSS of a child process that loads the scene, builds its trees and makes "
+            "the 1920×1080 4× visibility buffer (or traces the 8,294,400 primary rays), each once on every thread.")
+            + "\n\n" + "\n".join(lines), []))
+    return {"title": "Results: the visibility buffer", "intro": "The rasterizer held to the tracer, the `vbuffer` "
+            "family on GPUs, and what `bench_vbuffer` measured.", "bench": "vbuffer",
+            "doc": "[docs/vbuffer.md](../vbuffer.md)", "sections": sections}
+
+
+AREAS = {"gpu": gpu_area, "trace": trace_area, "frame": frame_area, "sort": sort_area, "bvh": bvh_area,
+         "vbuffer": vbuffer_area}
 
 
 def render(area):
