@@ -13,7 +13,7 @@
 
 static const char check_vbuffer_usage[] =
     "usage: rtoracle check-vbuffer --expected OUTDIR --gpu DUMPDIR [--f16-rounding any|nearest] [--json]\n"
-    "                              [--no-artifacts] [--threads N]\n\n"
+    "                              [--material LIB.so] [--no-artifacts] [--threads N]\n\n"
     "Compares what a GPU's visibility and material passes wrote (DUMPDIR) with the vbuffer bundle written by\n"
     "`rtoracle vbuffer`. DUMPDIR holds the bundle's file names, each optional but vb_visibility.npy:\n"
     "  vb_visibility.npy   u16 or u32 (H, W, S, 4)     vb_barycentric.npy  f16 or u16 (H, W, S, 2)\n"
@@ -28,7 +28,8 @@ static const char check_vbuffer_usage[] =
     "depth offset, and with --f16-rounding nearest binary16 rounded toward zero (Vulkan leaves the rounding of\n"
     "float conversions to the device, so by default either is accepted). The edge mask must equal the classifier\n"
     "run on the GPU's own planes (a pixel within 2^-10 of a threshold may go either way); the image the material\n"
-    "pass run on the GPU's planes and mask, within 2 binary16 ulps + 2^-12.\n";
+    "pass run on the GPU's planes and mask, within 2 binary16 ulps + 2^-12. A bundle written with a material\n"
+    "plugin needs the same plugin (--material LIB.so, its name checked) to shade the GPU's planes.\n";
 
 static const char check_vbuffer_epilog[] =
     "Fault classes, in the order they are reported: coverage, id, barycentric, normal, derivative, depth,\n"
@@ -138,8 +139,8 @@ static void fill_report(rto_report *r, const rto_vbuffer_check_result *res, cons
 {
     memset(r, 0, sizeof *r);
     snprintf(r->validator, sizeof r->validator, "check-vbuffer");
-    snprintf(r->what, sizeof r->what, "%ux%u x%u %s", vb->planes.width, vb->planes.height, vb->planes.samples,
-             vb->material_name);
+    snprintf(r->what, sizeof r->what, "%ux%u x%u %.64s", vb->planes.width, vb->planes.height, vb->planes.samples,
+             vb->material.material == RTO_VB_PLUGIN ? vb->plugin_name : vb->material_name);
     snprintf(r->context, sizeof r->context, "%" PRIu64 " samples compared, %" PRIu64
              " with another admissible triangle than the reference's", res->compared, res->other_admissible);
     r->code = (int)res->fault;
@@ -184,7 +185,7 @@ static void fill_report(rto_report *r, const rto_vbuffer_check_result *res, cons
 
 int cmd_check_vbuffer(int argc, char **argv)
 {
-    const char *expected = NULL, *gpu = NULL;
+    const char *expected = NULL, *gpu = NULL, *material_arg = NULL;
     bool json = false, no_artifacts = false;
     unsigned nearest = 0;
     static const opt_name rounding_names[] = {{"any", 0}, {"nearest", 1}, {NULL, 0}};
@@ -194,6 +195,7 @@ int cmd_check_vbuffer(int argc, char **argv)
         OPT_PATH("gpu", 0, &gpu, "DUMPDIR", "the GPU's planes, mask and image (vb_*.npy)"),
         OPT_ENUM("f16-rounding", &nearest, rounding_names, "R",
                  "binary16 stores: any (nearest or toward zero, as Vulkan allows) or nearest (even)", "any"),
+        OPT_PATH("material", 0, &material_arg, "LIB.so", "the material plugin the bundle was written with"),
         OPT_UINT("threads", &threads, 0, 256, "N", "threads recomputing the bundle (0: one per CPU)", "0"),
         OPT_FLAG("json", &json, "print the report as JSON"),
         OPT_FLAG("no-artifacts", &no_artifacts, "do not write check-vbuffer.json into DUMPDIR"),
@@ -216,6 +218,23 @@ int cmd_check_vbuffer(int argc, char **argv)
         return cli_fail("check-vbuffer", "--expected %s", msg.text);
     const uint32_t W = vb.planes.width, H = vb.planes.height, S = vb.planes.samples;
     rc = EXIT_PASS;
+    rto_material_plugin *plugin = NULL;
+    if (vb.material.material == RTO_VB_PLUGIN) {
+        rto_msg pm = {{0}};
+        if (!material_arg)
+            rc = cli_fail("check-vbuffer", "--expected %s: shaded with the material plugin '%s': pass it with "
+                          "--material LIB.so", expected, vb.plugin_name);
+        else if (rto_material_plugin_load(material_arg, &plugin, &pm))
+            rc = cli_fail("check-vbuffer", "--material %s", pm.text);
+        else if (strcmp(rto_material_plugin_def(plugin)->name, vb.plugin_name) != 0)
+            rc = cli_fail("check-vbuffer", "--material %s: its material is '%s', the bundle's '%s'", material_arg,
+                          rto_material_plugin_def(plugin)->name, vb.plugin_name);
+        else
+            vb.material.custom = rto_material_plugin_def(plugin);
+    } else if (material_arg) {
+        rc = cli_fail("check-vbuffer", "--material %s: the bundle's material is the built-in %s", material_arg,
+                      vb.material_name);
+    }
     for (int k = 0; k < P_N && rc == EXIT_PASS; k++) {
         const int got = load_plane(gpu, k, W, H, S, &g[k]);
         if (got < 0)
@@ -250,5 +269,6 @@ int cmd_check_vbuffer(int argc, char **argv)
         free(g[k]);
     rto_vbuffer_free(&re);
     rto_vbuffer_bundle_free(&vb);
+    rto_material_plugin_unload(plugin);
     return rc;
 }

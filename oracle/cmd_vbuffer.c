@@ -9,7 +9,7 @@
 #include <string.h>
 
 static const char vbuffer_usage[] =
-    "usage: rtoracle vbuffer SCENE [--width W --height H] [--msaa 1|4] [--material normals|lambert|unlit]\n"
+    "usage: rtoracle vbuffer SCENE [--width W --height H] [--msaa 1|4] [--material normals|lambert|unlit|LIB.so]\n"
     "                        [--camera scene|auto|N|EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY] [--sun X,Y,Z] [--ambient A]\n"
     "                        [--threshold-normal T] [--threshold-depth T] [--threshold-sample-depth T]\n"
     "                        [--crosscheck] [--threads N] [--force] -o OUTDIR\n\n"
@@ -18,7 +18,8 @@ static const char vbuffer_usage[] =
     "depth 0..1, test 'less'), WebGPU's standard sample positions, the top-left rule at 8 sub-pixel bits; each\n"
     "sample's admissible set holds every triangle a device with 4 to 8 sub-pixel bits may write there. The\n"
     "material pass: the seed's edge classifier (thresholds below), interior pixels shaded once from sample 0,\n"
-    "edge pixels per sample and averaged. DESIGN.md §11 states every rule.\n"
+    "edge pixels per sample and averaged. DESIGN.md §11 states every rule. --material LIB.so shades with a\n"
+    "material plugin: a user's material ported to C (rtoracle.h, \"Material plugins\"; examples/plugin/toon.c).\n"
     "Writes a bundle (atomically): the build bundle's files (rtoracle build --help), the scene's geometry\n"
     "(mesh_M_positions.npy, mesh_M_indices.npy), and\n"
     "  vb_camera.npy              f32 (36,): viewProj, the inverse projection (column-major), the eye, 0\n"
@@ -43,8 +44,6 @@ static const char vbuffer_usage[] =
 /* Most samples a bundle holds: 1920 x 1080 x 4 and room beyond (the planes take 36 bytes a sample). */
 #define VBUFFER_MAX_SAMPLES (UINT64_C(1) << 25)
 
-static const opt_name material_names[] = {{"normals", RTO_VB_NORMALS}, {"lambert", RTO_VB_LAMBERT},
-                                          {"unlit", RTO_VB_UNLIT}, {NULL, 0}};
 
 /* image.png: the RGBA16float image clamped to [0, 1] and rounded to 8 bits. */
 static rto_status add_png(rto_bundle *b, const uint16_t *image, uint32_t w, uint32_t h, rto_msg *msg)
@@ -75,7 +74,7 @@ int cmd_vbuffer(int argc, char **argv)
 {
     const char *out = NULL, *camera_arg = NULL, *sun_arg = NULL;
     uint64_t width = 160, height = 120, msaa = 4, threads = 0, budget_mb = 0;
-    unsigned material = RTO_VB_NORMALS;
+    const char *material_arg = "normals";
     double ambient = 0.15, t_normal = 0.95, t_depth = 0.02, t_sample = 0.02;
     bool force = false, crosscheck = false;
     static const opt_name msaa_values[] = {{"1", 1}, {"4", 4}, {NULL, 0}};
@@ -83,7 +82,8 @@ int cmd_vbuffer(int argc, char **argv)
         OPT_UINT("width", &width, 1, 16384, "W", "image width", "160"),
         OPT_UINT("height", &height, 1, 16384, "H", "image height", "120"),
         OPT_CHOICE("msaa", &msaa, msaa_values, "S", "samples a pixel (1 or 4)", "4"),
-        OPT_ENUM("material", &material, material_names, "NAME", "the material pass's built-in material", "normals"),
+        OPT_STRING("material", &material_arg, "M",
+                   "normals, lambert, unlit, or a material plugin (a .so exporting rto_material_entry_v1)"),
         OPT_STRING("camera", &camera_arg, "CAM", "scene, auto, a camera index, or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY"),
         OPT_STRING("sun", &sun_arg, "X,Y,Z", "lambert: direction towards the sun (default 0.3,1,0.2)"),
         OPT_REAL("ambient", &ambient, 1.0, "A", "lambert: the ambient term", "0.15"),
@@ -116,26 +116,39 @@ int cmd_vbuffer(int argc, char **argv)
                         ": more than %" PRIu64 " samples", width, height, msaa, VBUFFER_MAX_SAMPLES);
     rto_vbuffer_material_desc md;
     memset(&md, 0, sizeof md);
-    md.material = (rto_vb_material)material;
+    rto_material_plugin *plugin = NULL;
+    if (!rto_vb_material_parse(material_arg, &md.material)) {
+        if (!strchr(material_arg, '/') && !strstr(material_arg, ".so"))
+            return cli_fail("vbuffer", "--material %s: expected normals, lambert, unlit or a plugin LIB.so",
+                            material_arg);
+        rto_msg pm = {{0}};
+        if (rto_material_plugin_load(material_arg, &plugin, &pm))
+            return cli_fail("vbuffer", "--material %s", pm.text);
+        md.material = RTO_VB_PLUGIN;
+        md.custom = rto_material_plugin_def(plugin);
+    }
     md.thresholds = (rto_vb_thresholds){(float)t_normal, (float)t_depth, (float)t_sample};
     md.sun[0] = 0.3f;
     md.sun[1] = 1.0f;
     md.sun[2] = 0.2f;
     md.ambient = (float)ambient;
-    if (sun_arg && !cli_parse_floats(sun_arg, md.sun, 3))
-        return cli_fail("vbuffer", "--sun %s: expected three numbers X,Y,Z", sun_arg);
-    if (md.sun[0] == 0.0f && md.sun[1] == 0.0f && md.sun[2] == 0.0f)
-        return cli_fail("vbuffer", "--sun %s: the direction is zero", sun_arg);
+    if ((sun_arg && !cli_parse_floats(sun_arg, md.sun, 3)) ||
+        (md.sun[0] == 0.0f && md.sun[1] == 0.0f && md.sun[2] == 0.0f)) {
+        rto_material_plugin_unload(plugin);
+        return cli_fail("vbuffer", "--sun %s: expected three numbers X,Y,Z, not all 0", sun_arg);
+    }
     static const char *const not_inputs[] = {"output", "force", "threads", "crosscheck", NULL};
     char *request = opts_request(&cmd, &args, not_inputs);
     if (!crosscheck && cli_up_to_date("vbuffer", out, request, force)) {
         free(request);
+        rto_material_plugin_unload(plugin);
         return EXIT_PASS;
     }
     cli_traced_scene ts;
     if ((rc = cli_load_traced_scene("vbuffer", args.arg[0], budget_mb, camera_arg, (uint32_t)width, (uint32_t)height,
                                     0, (uint32_t)threads, &ts))) {
         free(request);
+        rto_material_plugin_unload(plugin);
         return rc;
     }
     const rto_scene *sc = ts.scene;
@@ -164,8 +177,9 @@ int cmd_vbuffer(int argc, char **argv)
     if (!s)
         s = rto_bundle_begin(out, "vbuffer", &b, &msg);
     if (!s)
-        s = cli_set_request(b, request, sc, NULL, &msg);
-    const rto_vbuffer_bundle_desc bd = {ts.accel, &vb, &md, rto_vb_material_name(md.material), mask, image};
+        s = cli_set_request(b, request, sc, plugin ? material_arg : NULL, &msg);
+    const rto_vbuffer_bundle_desc bd = {ts.accel, &vb, &md, plugin ? md.custom->name : rto_vb_material_name(md.material),
+                                        mask, image};
     if (!s)
         s = rto_vbuffer_bundle_write(&bd, b, &msg);
     if (!s)
@@ -197,6 +211,7 @@ int cmd_vbuffer(int argc, char **argv)
     free(image);
     free(request);
     cli_traced_scene_free(&ts);
+    rto_material_plugin_unload(plugin);
     if (!s && crosscheck && cx.unexplained)
         return EXIT_MISMATCH;
     return cli_status("vbuffer", s, &msg);

@@ -2021,12 +2021,54 @@ uint16_t rto_f16_from_f32(float f);
 /** The binary32 value of binary16 bits (exact). */
 float rto_f16_to_f32(uint16_t h);
 
-/** The material pass's built-in materials (§11.5). */
+/** The material pass's built-in materials (§11.5), and a user's (RTO_VB_PLUGIN: rto_vbuffer_material_desc.custom). */
 typedef enum rto_vb_material {
     RTO_VB_NORMALS = 0, /* n · 0.5 + 0.5 */
     RTO_VB_LAMBERT = 1, /* base colour · (ambient + (1 - ambient) max(0, n·L)) */
-    RTO_VB_UNLIT = 2    /* base colour factor times its texture, level of detail from the derivatives */
+    RTO_VB_UNLIT = 2,   /* base colour factor times its texture, level of detail from the derivatives */
+    RTO_VB_PLUGIN = 3   /* a material plugin's shade callback (below) */
 } rto_vb_material;
+
+/*
+ * Material plugins: a user ports the WGSL of their own material to one C function, builds it as a shared library
+ * exporting RTO_MATERIAL_ENTRY_SYMBOL, and passes it to `rtoracle vbuffer --material lib.so` and `check-vbuffer
+ * --material lib.so`. The material pass calls shade once for every covered sample it shades (interior pixels: sample
+ * 0; edge pixels: every sample, averaged), from several threads at once: its output must depend on its argument only.
+ * Like a program plugin it needs this header alone.
+ */
+#define RTO_MATERIAL_ABI_VERSION 1
+/** The one symbol a material plugin exports: `const rto_material_def *rto_material_entry_v1(void)`. */
+#define RTO_MATERIAL_ENTRY_SYMBOL "rto_material_entry_v1"
+
+/** One covered G-buffer sample as a material reads it, decoded from the planes (binary16 widened exactly). */
+typedef struct rto_vb_sample {
+    uint32_t x, y, sample;
+    uint32_t instance, primitive;
+    float barycentric[2];    /* (b1, b2) */
+    float ddx[2], ddy[2];    /* the derivatives plane */
+    float normal[3];         /* the octahedral normal decoded and normalised in binary32 */
+    float depth;
+    float base_color[4];     /* the instance's mesh's base colour ((1, 1, 1, 1) without a material) */
+    const float *sun;        /* the pass's sun direction (normalised) and ambient: sun[0..2], sun[3] */
+} rto_vb_sample;
+
+typedef struct rto_material_def {
+    uint32_t abi_version;    /* RTO_MATERIAL_ABI_VERSION */
+    const char *name;        /* [a-z0-9-]+, recorded in the bundle */
+    const char *description; /* one line */
+    /* Required: the RGBA colour of one covered sample (written as RGBA16float, rounded to nearest even). */
+    void (*shade)(const rto_vb_sample *sample, float rgba[4]);
+} rto_material_def;
+
+typedef const rto_material_def *(*rto_material_entry_fn)(void);
+
+typedef struct rto_material_plugin rto_material_plugin;
+/** Loads a material plugin (dlopen, RTLD_LOCAL) and checks its table: ABI version, name, shade. RTO_ERR_IO /
+ * RTO_ERR_UNSUPPORTED with one line in msg otherwise. */
+rto_status rto_material_plugin_load(const char *path, rto_material_plugin **out, rto_msg *msg);
+const rto_material_def *rto_material_plugin_def(const rto_material_plugin *plugin);
+/** Unloads it. NULL is fine. */
+void rto_material_plugin_unload(rto_material_plugin *plugin);
 
 /** The classifier's thresholds (§11.5); RTO_VB_THRESHOLDS_DEFAULT gives the seed's public implementation's. */
 typedef struct rto_vb_thresholds {
@@ -2045,6 +2087,7 @@ typedef struct rto_vbuffer_material_desc {
     uint32_t material_count;
     const rto_texture *textures;
     uint32_t texture_count;
+    const rto_material_def *custom; /* RTO_VB_PLUGIN: the plugin's material */
 } rto_vbuffer_material_desc;
 
 /** The classifier (§11.5) on planes: mask[y · width + x] = 1 for an edge pixel, 0 otherwise. */
@@ -2103,7 +2146,7 @@ typedef struct rto_vbuffer_bundle_desc {
                                         * colours */
     const rto_vbuffer *vbuffer;        /* planes, camera, admissible sets, statistics */
     const rto_vbuffer_material_desc *material;
-    const char *material_name;         /* "normals", "lambert", "unlit" */
+    const char *material_name;         /* "normals", "lambert", "unlit", or for RTO_VB_PLUGIN the plugin's name */
     const uint8_t *mask;               /* width · height: the material pass's edge mask */
     const uint16_t *image;             /* width · height · 4 binary16: its image */
 } rto_vbuffer_bundle_desc;
@@ -2117,8 +2160,10 @@ typedef struct rto_vbuffer_bundle {
     rto_scene_bundle scene;
     rto_vbuffer_geometry geometry;     /* the scene's meshes (each its own material, by mesh index) and instances */
     rto_vbuffer_camera camera;
-    rto_vbuffer_material_desc material; /* materials: one per mesh, the base colours of vb_base_colors.npy */
-    char material_name[16];
+    rto_vbuffer_material_desc material; /* materials: one per mesh, the base colours of vb_base_colors.npy; for
+                                         * RTO_VB_PLUGIN custom is NULL: the caller loads the plugin */
+    char material_name[16];             /* "normals", "lambert", "unlit" or "plugin" */
+    char plugin_name[64];               /* RTO_VB_PLUGIN: the plugin material's name as recorded */
     rto_vbuffer_planes planes;         /* the oracle's planes as stored */
     const uint32_t *admissible_offset, *admissible;
     const uint8_t *mask;

@@ -11,6 +11,8 @@ RTO=$1
 MUT=$2
 FIX=$3
 EDIT=$4
+TOON=$5     # examples/plugin/toon.c: a material plugin
+DEPTH=$6    # examples/plugin/depth.c: a program plugin, not a material one
 . "$(dirname "$0")/cli_lib.sh"
 
 run 0 "$RTO" vbuffer --help && has "usage: rtoracle vbuffer SCENE" out && has "vb_visibility.npy" out
@@ -99,4 +101,17 @@ run 2 "$RTO" check-vbuffer --expected "$T/missing" --gpu "$T/g"
 run 2 "$RTO" check-vbuffer --expected "$B"
 for f in "$T"/err; do [ "$(wc -l <"$f")" -le 1 ] || fail "more than one stderr line: $(cat "$f")"; done
 
-finish "vbuffer and check-vbuffer: bundles, the tracer beside the rasterizer, controls, mutations and bad input"
+# a material plugin: the bundle records it by name, check-vbuffer shades the GPU's planes with it and needs it
+run 0 "$RTO" vbuffer rtstress:2 --width 48 --height 32 --material "$TOON" -o "$T/toon" &&
+    grep -q '"material_plugin": "toon"' "$T/toon/manifest.json" || fail "no material_plugin in the manifest"
+rm -rf "$T/g" && "$MUT" copy "$T/toon" "$T/g" >/dev/null
+run 0 "$RTO" check-vbuffer --expected "$T/toon" --gpu "$T/g" --material "$TOON" && has "^PASS ok: " out
+rm -rf "$T/g" && w=$("$MUT" image "$T/toon" "$T/g")
+run 1 "$RTO" check-vbuffer --expected "$T/toon" --gpu "$T/g" --material "$TOON" --json && has '"fault": "shading"' out
+run 2 "$RTO" check-vbuffer --expected "$T/toon" --gpu "$T/g" && has "material plugin 'toon': pass it" err
+run 2 "$RTO" check-vbuffer --expected "$T/toon" --gpu "$T/g" --material "$DEPTH" && has "no rto_material_entry_v1" err
+run 2 "$RTO" check-vbuffer --expected "$B" --gpu "$T/g" --material "$TOON" && has "the built-in" err
+run 2 "$RTO" vbuffer rtstress:2 --material "$DEPTH" -o "$T/x" && [ ! -e "$T/x" ] || fail "a bad plugin left output"
+run 2 "$RTO" vbuffer rtstress:2 --material toon -o "$T/x"
+
+finish "vbuffer and check-vbuffer: bundles, the tracer beside the rasterizer, controls, mutations, a material plugin and bad input"

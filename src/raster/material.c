@@ -183,6 +183,28 @@ static void shade_sample(const rto_vbuffer_planes *p, size_t k, const rto_vbuffe
     }
     float n[3];
     normal_of(p, k, n);
+    if (d->material == RTO_VB_PLUGIN) { /* a user's material: the sample decoded, one call */
+        rto_vb_sample v;
+        memset(&v, 0, sizeof v);
+        const size_t px = k / p->samples;
+        v.x = (uint32_t)(px % p->width);
+        v.y = (uint32_t)(px / p->width);
+        v.sample = (uint32_t)(k % p->samples);
+        v.instance = instance_of(p, k);
+        v.primitive = (uint32_t)p->visibility[4 * k] | (uint32_t)p->visibility[4 * k + 1] << 16;
+        for (int a = 0; a < 2; a++) {
+            v.barycentric[a] = p->barycentric ? rto_f16_to_f32(p->barycentric[2 * k + (size_t)a]) : 0.0f;
+            v.ddx[a] = p->derivatives ? rto_f16_to_f32(p->derivatives[4 * k + (size_t)a]) : 0.0f;
+            v.ddy[a] = p->derivatives ? rto_f16_to_f32(p->derivatives[4 * k + 2 + (size_t)a]) : 0.0f;
+        }
+        memcpy(v.normal, n, sizeof v.normal);
+        v.depth = p->depth ? p->depth[k] : 1.0f;
+        base_color(g, d, v.instance, v.base_color);
+        const float sun4[4] = {sun[0], sun[1], sun[2], d->ambient};
+        v.sun = sun4;
+        d->custom->shade(&v, c);
+        return;
+    }
     switch (d->material) {
     case RTO_VB_NORMALS:
         for (int a = 0; a < 3; a++)
@@ -211,8 +233,9 @@ rto_status rto_vbuffer_shade(const rto_vbuffer_planes *planes, const uint8_t *ma
     if (!planes || !planes->visibility || !planes->normal || !mask || !desc || !image || planes->width == 0 ||
         planes->height == 0 || (planes->samples != 1 && planes->samples != 4))
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shade: NULL argument, or planes without visibility or normal");
-    if (desc->material > RTO_VB_UNLIT)
-        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shade: unknown material %d", (int)desc->material);
+    if (desc->material > RTO_VB_PLUGIN || (desc->material == RTO_VB_PLUGIN && (!desc->custom || !desc->custom->shade)))
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shade: unknown material %d, or a plugin material without "
+                         "its table", (int)desc->material);
     float sun[3] = {desc->sun[0], desc->sun[1], desc->sun[2]};
     const float sl = sqrtf((sun[0] * sun[0] + sun[1] * sun[1]) + sun[2] * sun[2]);
     if (desc->material == RTO_VB_LAMBERT && !(sl > 0.0f && isfinite(sl)))

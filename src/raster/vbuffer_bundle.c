@@ -107,7 +107,12 @@ rto_status rto_vbuffer_bundle_write(const rto_vbuffer_bundle_desc *d, rto_bundle
     rto_bundle_set_int(b, "vbuffer", "width", (int64_t)W);
     rto_bundle_set_int(b, "vbuffer", "height", (int64_t)H);
     rto_bundle_set_int(b, "vbuffer", "samples", (int64_t)S);
-    rto_bundle_set_str(b, "vbuffer", "material", d->material_name);
+    if (m->material == RTO_VB_PLUGIN) {
+        rto_bundle_set_str(b, "vbuffer", "material", "plugin");
+        rto_bundle_set_str(b, "vbuffer", "material_plugin", d->material_name);
+    } else {
+        rto_bundle_set_str(b, "vbuffer", "material", d->material_name);
+    }
     rto_bundle_set_real(b, "vbuffer", "threshold_normal", (double)m->thresholds.normal);
     rto_bundle_set_real(b, "vbuffer", "threshold_depth", (double)m->thresholds.depth);
     rto_bundle_set_real(b, "vbuffer", "threshold_sample_depth", (double)m->thresholds.sample_depth);
@@ -245,8 +250,16 @@ rto_status rto_vbuffer_bundle_read(const char *dir, rto_vbuffer_bundle *vb, rto_
                                W, H, S);
     rto_vbuffer_material_desc *m = &vb->material;
     const char *mname = s ? NULL : rto_bundle_get_str(in.r, "vbuffer", "material");
-    if (!s && !rto_vb_material_parse(mname, &m->material))
-        s = rto__bundle_refuse(&in, "manifest.json", "vbuffer.material is not normals, lambert or unlit");
+    if (!s && mname && strcmp(mname, "plugin") == 0) {
+        const char *pname = rto_bundle_get_str(in.r, "vbuffer", "material_plugin");
+        m->material = RTO_VB_PLUGIN;
+        if (!pname || !*pname || strlen(pname) >= sizeof vb->plugin_name)
+            s = rto__bundle_refuse(&in, "manifest.json", "vbuffer.material_plugin is missing or too long");
+        else
+            snprintf(vb->plugin_name, sizeof vb->plugin_name, "%s", pname);
+    } else if (!s && !rto_vb_material_parse(mname, &m->material)) {
+        s = rto__bundle_refuse(&in, "manifest.json", "vbuffer.material is not normals, lambert, unlit or plugin");
+    }
     if (!s)
         snprintf(vb->material_name, sizeof vb->material_name, "%s", mname);
     if (!s && !(s = read_real(&in, "threshold_normal", &m->thresholds.normal)) &&
