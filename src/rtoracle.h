@@ -1071,9 +1071,15 @@ typedef enum rto_bundle_file {
     RTO_FILE_VB_ADMISSIBLE = 34,   /* vb_admissible.npy       role "vb-admissible"    u32 (n, 2): (instance, prim) */
     RTO_FILE_VB_EDGE_MASK = 35,    /* vb_edge_mask.npy        role "vb-edge-mask"     u8 (H, W) */
     RTO_FILE_VB_IMAGE = 36,        /* vb_image.npy            role "vb-image"         f16 (H, W, 4) */
-    RTO_FILE_VB_BASE_COLORS = 37   /* vb_base_colors.npy      role "vb-base-colors"   f32 (meshes, 4) */
+    RTO_FILE_VB_BASE_COLORS = 37,  /* vb_base_colors.npy      role "vb-base-colors"   f32 (meshes, 4) */
+    /* unlit's textures (§11.5; written for --material unlit): UVs of the meshes that sample one, which texture each
+     * mesh samples, and each texture's mip chain as the oracle defines it. */
+    RTO_FILE_MESH_UVS = 38,        /* mesh_M_uvs.npy          role "mesh-uvs"         f32 (vertices, 2) */
+    RTO_FILE_VB_MESH_TEXTURES = 39, /* vb_mesh_textures.npy   role "vb-mesh-textures" i32 (meshes,): T or -1 */
+    RTO_FILE_VB_TEXTURES = 40,     /* vb_textures.npy         role "vb-textures"      u32 (T, 3): width, height, levels */
+    RTO_FILE_VB_TEXTURE = 41       /* vb_texture_T.npy        role "vb-texture"       f16 (texels of every level, 4) */
 } rto_bundle_file;
-#define RTO_BUNDLE_FILE_COUNT 38
+#define RTO_BUNDLE_FILE_COUNT 42
 /** Room for any bundle file name, NUL included. */
 #define RTO_BUNDLE_FILE_NAME_MAX 64
 

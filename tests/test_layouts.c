@@ -259,6 +259,10 @@ static void test_bundle_file_names(void **state)
         {RTO_FILE_VB_EDGE_MASK, 0, "vb_edge_mask.npy", "vb-edge-mask"},
         {RTO_FILE_VB_IMAGE, 0, "vb_image.npy", "vb-image"},
         {RTO_FILE_VB_BASE_COLORS, 0, "vb_base_colors.npy", "vb-base-colors"},
+        {RTO_FILE_MESH_UVS, 3, "mesh_3_uvs.npy", "mesh-uvs"},
+        {RTO_FILE_VB_MESH_TEXTURES, 0, "vb_mesh_textures.npy", "vb-mesh-textures"},
+        {RTO_FILE_VB_TEXTURES, 0, "vb_textures.npy", "vb-textures"},
+        {RTO_FILE_VB_TEXTURE, 2, "vb_texture_2.npy", "vb-texture"},
     };
     assert_int_equal(sizeof want / sizeof want[0], RTO_BUNDLE_FILE_COUNT);
     char name[RTO_BUNDLE_FILE_NAME_MAX];

@@ -239,6 +239,10 @@ static const struct {
     [RTO_FILE_VB_EDGE_MASK] = {"vb_edge_mask.npy", "vb-edge-mask", 0},
     [RTO_FILE_VB_IMAGE] = {"vb_image.npy", "vb-image", 0},
     [RTO_FILE_VB_BASE_COLORS] = {"vb_base_colors.npy", "vb-base-colors", 0},
+    [RTO_FILE_MESH_UVS] = {"mesh_%u_uvs.npy", "mesh-uvs", 1},
+    [RTO_FILE_VB_MESH_TEXTURES] = {"vb_mesh_textures.npy", "vb-mesh-textures", 0},
+    [RTO_FILE_VB_TEXTURES] = {"vb_textures.npy", "vb-textures", 0},
+    [RTO_FILE_VB_TEXTURE] = {"vb_texture_%u.npy", "vb-texture", 1},
 };
 
 static int known_file(rto_bundle_file f) { return (unsigned)f < RTO_BUNDLE_FILE_COUNT; }

@@ -581,6 +581,17 @@ rto_status rto_vbuffer_check(const rto_vbuffer_check_desc *desc, rto_vbuffer_che
             st = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "rto_vbuffer_check: out of memory");
         if (st == RTO_OK)
             st = rto_vbuffer_shade(&own, use_mask, desc->geometry, mat, image, msg);
+        /* unlit's textured pixels: within the hull of what a GPU's filtering may read (§11.6) */
+        float *lo = NULL, *hi = NULL;
+        uint8_t *textured = NULL;
+        if (st == RTO_OK && mat->material == RTO_VB_UNLIT) {
+            lo = malloc(pixels * 4 * sizeof *lo + 1);
+            hi = malloc(pixels * 4 * sizeof *hi + 1);
+            textured = malloc(pixels + 1);
+            st = lo && hi && textured ? rto__vbuffer_shade_bounds(&own, use_mask, desc->geometry, mat, lo, hi,
+                                                                  textured, msg)
+                                      : rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "rto_vbuffer_check: out of memory");
+        }
         static const char channels[4] = {'R', 'G', 'B', 'A'};
         for (size_t px = 0; st == RTO_OK && px < pixels && !first[RTO_VB_SHADING].set; px++)
             for (int ch = 0; ch < 4; ch++) {
@@ -588,6 +599,19 @@ rto_status rto_vbuffer_check(const rto_vbuffer_check_desc *desc, rto_vbuffer_che
                 const double r = f16_value(hr), v = f16_value(hg);
                 if (hr == hg || (isnan(r) && isnan(v)))
                     continue;
+                if (textured && textured[px]) {
+                    const double l = lo[4 * px + (size_t)ch], h = hi[4 * px + (size_t)ch];
+                    const double tl = IMAGE_ULPS * f16_ulp(fabs(l)) + IMAGE_ABS;
+                    const double th = IMAGE_ULPS * f16_ulp(fabs(h)) + IMAGE_ABS;
+                    if (v >= l - tl && v <= h + th)
+                        continue;
+                    note(&first[RTO_VB_SHADING], px * c.samples, "image",
+                         "%c = %.9g (0x%04x), outside [%.9g, %.9g]: the base colour factor times the texels a GPU's "
+                         "trilinear filtering may read at the lod and uv of the GPU's own planes (lod +-2^-6, uv +-2^-16 "
+                         "+ 1/32 texel; the oracle's value %.9g, an %s pixel), widened by 2 binary16 ulps + 2^-12",
+                         channels[ch], v, hg, l, h, r, edge_word(use_mask[px] != 0));
+                    break;
+                }
                 const double tol = IMAGE_ULPS * f16_ulp(fabs(r)) + IMAGE_ABS;
                 if (fabs(v - r) <= tol)
                     continue;
@@ -599,6 +623,9 @@ rto_status rto_vbuffer_check(const rto_vbuffer_check_desc *desc, rto_vbuffer_che
             }
         free(mask);
         free(image);
+        free(lo);
+        free(hi);
+        free(textured);
     }
     if (st != RTO_OK)
         return st;

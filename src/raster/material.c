@@ -5,6 +5,7 @@
 #include "internal.h"
 #include "raster/material_internal.h"
 #include "raster/raster_internal.h"
+#include "raster/texture_sample.h"
 
 #include <math.h>
 #include <string.h>
@@ -175,7 +176,8 @@ static void base_color(const rto_vbuffer_geometry *g, const rto_vbuffer_material
 
 /* One sample's colour (§11.5). */
 static void shade_sample(const rto_vbuffer_planes *p, size_t k, const rto_vbuffer_geometry *g,
-                         const rto_vbuffer_material_desc *d, const float sun[3], float c[4])
+                         const rto_vbuffer_material_desc *d, const rto__vb_texture_set *ts, const float sun[3],
+                         float c[4])
 {
     if (!covered(p, k)) {
         c[0] = c[1] = c[2] = c[3] = 0.0f;
@@ -220,9 +222,18 @@ static void shade_sample(const rto_vbuffer_planes *p, size_t k, const rto_vbuffe
         return;
     }
     case RTO_VB_UNLIT:
-    default:
+    default: {
+        /* the base colour factor times its texture at uv, trilinear at the derivatives' level of detail */
         base_color(g, d, instance_of(p, k), c);
+        float uv[2], dx[2], dy[2], t[4];
+        const rto__vb_mips *m = rto__vb_texcoord(p, k, g, d, ts, uv, dx, dy);
+        if (!m)
+            return;
+        rto__vb_texture_sample(m, uv, rto__vb_texture_lod(m, dx, dy), t);
+        for (int a = 0; a < 4; a++)
+            c[a] = c[a] * t[a];
         return;
+    }
     }
 }
 
@@ -242,16 +253,22 @@ rto_status rto_vbuffer_shade(const rto_vbuffer_planes *planes, const uint8_t *ma
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shade: the sun direction is zero or not finite");
     for (int a = 0; a < 3 && sl > 0.0f; a++)
         sun[a] = sun[a] / sl;
+    rto__vb_texture_set ts = {NULL, 0};
+    if (desc->material == RTO_VB_UNLIT) {
+        rto_status st = rto__vb_texture_set_make(geometry, desc, &ts, msg);
+        if (st)
+            return st;
+    }
     const uint32_t S = planes->samples;
     for (uint32_t y = 0; y < planes->height; y++)
         for (uint32_t x = 0; x < planes->width; x++) {
             const size_t px = (size_t)y * planes->width + x, k0 = px * S;
             float c[4];
-            shade_sample(planes, k0, geometry, desc, sun, c);
+            shade_sample(planes, k0, geometry, desc, &ts, sun, c);
             if (mask[px]) {
                 for (uint32_t s = 1; s < S; s++) {
                     float cs[4];
-                    shade_sample(planes, k0 + s, geometry, desc, sun, cs);
+                    shade_sample(planes, k0 + s, geometry, desc, &ts, sun, cs);
                     for (int a = 0; a < 4; a++)
                         c[a] = c[a] + cs[a];
                 }
@@ -261,5 +278,68 @@ rto_status rto_vbuffer_shade(const rto_vbuffer_planes *planes, const uint8_t *ma
             for (int a = 0; a < 4; a++)
                 image[4 * px + (size_t)a] = rto_f16_from_f32(c[a]);
         }
+    rto__vb_texture_set_free(&ts);
+    return RTO_OK;
+}
+
+/* One unlit sample's bounds (§11.6): the base colour factor times the hull of the texels a GPU's filtering may read;
+ * returns 1 for a textured sample, 0 for one shaded exactly (lo = hi: background, or the factor alone). */
+static int unlit_bounds(const rto_vbuffer_planes *p, size_t k, const rto_vbuffer_geometry *g,
+                        const rto_vbuffer_material_desc *d, const rto__vb_texture_set *ts, float lo[4], float hi[4])
+{
+    float c[4] = {0.0f, 0.0f, 0.0f, 0.0f}, uv[2], dx[2], dy[2], tl[4], th[4];
+    const rto__vb_mips *m = NULL;
+    if (covered(p, k)) {
+        base_color(g, d, instance_of(p, k), c);
+        m = rto__vb_texcoord(p, k, g, d, ts, uv, dx, dy);
+    }
+    if (!m) {
+        memcpy(lo, c, sizeof c);
+        memcpy(hi, c, sizeof c);
+        return 0;
+    }
+    rto__vb_texture_hull(m, uv, rto__vb_texture_lod(m, dx, dy), tl, th);
+    for (int a = 0; a < 4; a++) {
+        const float x = c[a] * tl[a], y = c[a] * th[a];
+        lo[a] = x < y ? x : y;
+        hi[a] = x < y ? y : x;
+    }
+    return 1;
+}
+
+rto_status rto__vbuffer_shade_bounds(const rto_vbuffer_planes *planes, const uint8_t *mask,
+                                     const rto_vbuffer_geometry *geometry, const rto_vbuffer_material_desc *desc,
+                                     float *lo, float *hi, uint8_t *textured, rto_msg *msg)
+{
+    const size_t pixels = (size_t)planes->width * planes->height;
+    memset(textured, 0, pixels);
+    if (desc->material != RTO_VB_UNLIT)
+        return RTO_OK;
+    rto__vb_texture_set ts;
+    rto_status st = rto__vb_texture_set_make(geometry, desc, &ts, msg);
+    if (st || !ts.mips)
+        return st;
+    const uint32_t S = planes->samples;
+    for (size_t px = 0; px < pixels; px++) {
+        const size_t k0 = px * S;
+        float *l = lo + 4 * px, *h = hi + 4 * px;
+        int any = unlit_bounds(planes, k0, geometry, desc, &ts, l, h);
+        if (mask[px]) {
+            for (uint32_t s = 1; s < S; s++) {
+                float ls[4], hs[4];
+                any |= unlit_bounds(planes, k0 + s, geometry, desc, &ts, ls, hs);
+                for (int a = 0; a < 4; a++) {
+                    l[a] = l[a] + ls[a];
+                    h[a] = h[a] + hs[a];
+                }
+            }
+            for (int a = 0; a < 4; a++) {
+                l[a] = l[a] / (float)S;
+                h[a] = h[a] / (float)S;
+            }
+        }
+        textured[px] = (uint8_t)any;
+    }
+    rto__vb_texture_set_free(&ts);
     return RTO_OK;
 }

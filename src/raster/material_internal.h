@@ -28,6 +28,17 @@
 int rto__vbuffer_classify_pixel(const rto_vbuffer_planes *planes, const rto_vbuffer_camera *camera,
                                 const rto_vb_thresholds *thresholds, uint32_t x, uint32_t y, double margin);
 
+/**
+ * The bounds check-vbuffer accepts for the `unlit` image (§11.6), per pixel and channel, resolved like
+ * rto_vbuffer_shade (sample 0, or every sample averaged where mask is set): a textured sample contributes its base
+ * colour factor times the hull of the texels a conforming GPU's filtering may read (rto__vb_texture_hull), any other
+ * sample its exact colour. textured[px] = 1 where some shaded sample of the pixel is textured (lo and hi then hold
+ * its bounds, before binary16 rounding); 0 elsewhere, where the exact rule applies. Other materials: all 0.
+ */
+rto_status rto__vbuffer_shade_bounds(const rto_vbuffer_planes *planes, const uint8_t *mask,
+                                     const rto_vbuffer_geometry *geometry, const rto_vbuffer_material_desc *desc,
+                                     float *lo, float *hi, uint8_t *textured, rto_msg *msg);
+
 #if defined(__GNUC__)
 #pragma GCC visibility pop
 #endif

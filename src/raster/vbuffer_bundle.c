@@ -5,6 +5,7 @@
 #include "internal.h"
 #include "io/bundle_in.h"
 #include "raster/raster_internal.h"
+#include "raster/texture_sample.h"
 
 #include <inttypes.h>
 #include <math.h>
@@ -45,6 +46,79 @@ static rto_status add(rto_bundle *b, rto_bundle_file f, const rto_npy_desc *d, c
     return rto_bundle_add_npy(b, rto__bundle_name(f, 0, name), rto_bundle_file_role(f), NULL, d, data, msg);
 }
 
+/* The texture mesh m's material samples for unlit (the scene's index), or -1: none, or a mesh without UVs. */
+static int32_t scene_mesh_texture(const rto_scene *sc, uint32_t m)
+{
+    const int32_t mat = sc->meshes[m].material;
+    if (mat < 0 || (uint32_t)mat >= sc->material_count || !sc->meshes[m].uvs)
+        return -1;
+    const int32_t t = sc->materials[mat].base_color_texture;
+    return t >= 0 && (uint32_t)t < sc->texture_count ? t : -1;
+}
+
+/* unlit's inputs (§11.5): which texture each mesh samples (the bundle's numbering: the textures some mesh samples, in
+ * order of first use), those meshes' UVs and each texture's sizes and mip chain as binary16 (what a GPU uploads). */
+static rto_status write_textures(const rto_scene *sc, rto_bundle *b, rto_msg *msg)
+{
+    char name[RTO_BUNDLE_FILE_NAME_MAX];
+    const uint32_t nm = sc->mesh_count;
+    int32_t *mesh_tex = malloc((size_t)(nm ? nm : 1) * sizeof *mesh_tex);
+    int32_t *bundle_of = malloc((size_t)(sc->texture_count ? sc->texture_count : 1) * sizeof *bundle_of);
+    uint32_t *scene_of = malloc((size_t)(sc->texture_count ? sc->texture_count : 1) * sizeof *scene_of);
+    uint32_t *sizes = malloc((size_t)(sc->texture_count ? sc->texture_count : 1) * 3 * sizeof *sizes);
+    rto_status s = mesh_tex && bundle_of && scene_of && sizes ? RTO_OK
+                                                             : rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    uint32_t used = 0;
+    for (uint32_t t = 0; !s && t < sc->texture_count; t++)
+        bundle_of[t] = -1;
+    for (uint32_t m = 0; !s && m < nm; m++) {
+        const int32_t t = scene_mesh_texture(sc, m);
+        if (t >= 0 && bundle_of[t] < 0) {
+            scene_of[used] = (uint32_t)t;
+            bundle_of[t] = (int32_t)used++;
+        }
+        mesh_tex[m] = t >= 0 ? bundle_of[t] : -1;
+    }
+    rto_npy_desc nd = rto_npy_desc_array(RTO_DTYPE_I32, 1, nm, 0, 0);
+    if (!s)
+        s = add(b, RTO_FILE_VB_MESH_TEXTURES, &nd, mesh_tex, msg);
+    for (uint32_t m = 0; !s && m < nm; m++) {
+        if (mesh_tex[m] < 0)
+            continue;
+        nd = rto_npy_desc_array(RTO_DTYPE_F32, 2, sc->meshes[m].vertex_count, 2, 0);
+        s = rto_bundle_add_npy(b, rto__bundle_name(RTO_FILE_MESH_UVS, m, name), rto_bundle_file_role(RTO_FILE_MESH_UVS),
+                               NULL, &nd, sc->meshes[m].uvs, msg);
+    }
+    for (uint32_t t = 0; !s && t < used; t++) {
+        rto__vb_mips mips;
+        s = rto__vb_mips_make(&sc->textures[scene_of[t]], &mips, msg);
+        if (s)
+            break;
+        sizes[3 * t] = mips.width[0];
+        sizes[3 * t + 1] = mips.height[0];
+        sizes[3 * t + 2] = mips.levels;
+        uint16_t *h = malloc(4 * mips.texels * sizeof *h);
+        if (!h)
+            s = rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        for (size_t i = 0; !s && i < 4 * mips.texels; i++)
+            h[i] = rto_f16_from_f32(mips.rgba[i]); /* exact: the chain holds binary16 values */
+        nd = rto_npy_desc_array(RTO_DTYPE_F16, 2, mips.texels, 4, 0);
+        if (!s)
+            s = rto_bundle_add_npy(b, rto__bundle_name(RTO_FILE_VB_TEXTURE, t, name),
+                                   rto_bundle_file_role(RTO_FILE_VB_TEXTURE), NULL, &nd, h, msg);
+        free(h);
+        rto__vb_mips_free(&mips);
+    }
+    nd = rto_npy_desc_array(RTO_DTYPE_U32, 2, used, 3, 0);
+    if (!s)
+        s = add(b, RTO_FILE_VB_TEXTURES, &nd, sizes, msg);
+    free(mesh_tex);
+    free(bundle_of);
+    free(scene_of);
+    free(sizes);
+    return s;
+}
+
 rto_status rto_vbuffer_bundle_write(const rto_vbuffer_bundle_desc *d, rto_bundle *b, rto_msg *msg)
 {
     if (!d || !b || !d->accel || !d->vbuffer || !d->material || !d->material_name || !d->mask || !d->image)
@@ -71,6 +145,8 @@ rto_status rto_vbuffer_bundle_write(const rto_vbuffer_bundle_desc *d, rto_bundle
     if (!s)
         s = add(b, RTO_FILE_VB_BASE_COLORS, &nd, colors, msg);
     free(colors);
+    if (!s && d->material->material == RTO_VB_UNLIT)
+        s = write_textures(sc, b, msg);
     nd = array4(RTO_DTYPE_U16, 4, H, W, S, 4);
     if (!s)
         s = add(b, RTO_FILE_VB_VISIBILITY, &nd, p->visibility, msg);
@@ -145,6 +221,10 @@ struct rto_vbuffer_bundle_data {
     rto_npy arrays[A_N];
     rto_mesh *meshes;
     rto_material *materials;
+    rto_npy mesh_textures; /* unlit: vb_mesh_textures.npy */
+    rto_npy *uvs;          /* unlit: mesh_M_uvs.npy of the meshes that sample a texture (one slot a mesh) */
+    rto_texture *textures; /* unlit: each texture's level 0 as RGBA8 */
+    uint32_t texture_count;
 };
 
 static rto_status read_real(const rto__bundle_in *in, const char *key, float *out)
@@ -231,6 +311,101 @@ static rto_status read_arrays(const rto__bundle_in *in, rto_vbuffer_bundle *vb, 
     return s;
 }
 
+/* unlit's textures (write_textures): the mesh → texture table in range, each sampling mesh's UVs (V, 2) finite, each
+ * texture's chain of the sizes vb_textures.npy gives, its level 0 the binary16 of an 8-bit value / 255 and every
+ * level the box filter of the one before (rto__vb_mips_make on level 0 gives the file back bit for bit). The
+ * meshes' uvs and one material each (base_color_texture) point into what this reads. */
+static rto_status read_textures(const rto__bundle_in *in, rto_vbuffer_bundle *vb, struct rto_vbuffer_bundle_data *a)
+{
+    char name[RTO_BUNDLE_FILE_NAME_MAX];
+    const uint32_t nm = vb->geometry.mesh_count;
+    rto_npy sizes;
+    memset(&sizes, 0, sizeof sizes);
+    rto_npy_desc want = rto_npy_desc_array(RTO_DTYPE_I32, 1, nm, 0, 0);
+    rto_status s = rto__bundle_load(in, rto__bundle_name(RTO_FILE_VB_MESH_TEXTURES, 0, name), &want, NULL,
+                                    &a->mesh_textures);
+    want = rto_npy_desc_array(RTO_DTYPE_U32, 2, UINT64_MAX, 3, 0);
+    if (!s)
+        s = rto__bundle_load(in, rto__bundle_name(RTO_FILE_VB_TEXTURES, 0, name), &want, NULL, &sizes);
+    if (s)
+        return s;
+    const uint64_t T = sizes.desc.shape[0];
+    const uint32_t *sz = sizes.data;
+    const int32_t *mt = a->mesh_textures.data;
+    if (T > 65536)
+        s = rto__bundle_refuse(in, "vb_textures.npy", "%" PRIu64 " textures (at most 65536)", T);
+    for (uint32_t m = 0; !s && m < nm; m++)
+        if (mt[m] < -1 || (mt[m] >= 0 && (uint64_t)mt[m] >= T))
+            s = rto__bundle_refuse(in, "vb_mesh_textures.npy", "mesh %" PRIu32 " samples texture %" PRId32
+                                   " of %" PRIu64, m, mt[m], T);
+    for (uint64_t t = 0; !s && t < T; t++)
+        if (sz[3 * t] == 0 || sz[3 * t + 1] == 0 || sz[3 * t] > 16384 || sz[3 * t + 1] > 16384 ||
+            sz[3 * t + 2] != rto__vb_mip_levels(sz[3 * t], sz[3 * t + 1]))
+            s = rto__bundle_refuse(in, "vb_textures.npy", "texture %" PRIu64 ": %" PRIu32 "x%" PRIu32 " with %" PRIu32
+                                   " levels (sides 1 to 16384, floor(log2(max side)) + 1 levels)", t, sz[3 * t],
+                                   sz[3 * t + 1], sz[3 * t + 2]);
+    a->uvs = s ? NULL : calloc(nm ? nm : 1, sizeof *a->uvs);
+    a->textures = s ? NULL : calloc(T ? T : 1, sizeof *a->textures);
+    if (!s && (!a->uvs || !a->textures))
+        s = rto__fail(in->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+    for (uint32_t m = 0; !s && m < nm; m++) {
+        if (mt[m] < 0)
+            continue;
+        want = rto_npy_desc_array(RTO_DTYPE_F32, 2, a->meshes[m].vertex_count, 2, 0);
+        s = rto__bundle_load(in, rto__bundle_name(RTO_FILE_MESH_UVS, m, name), &want, NULL, &a->uvs[m]);
+        if (!s && !rto__all_finite(a->uvs[m].data, 2 * (size_t)a->meshes[m].vertex_count))
+            s = rto__bundle_refuse(in, name, "a texture coordinate is not finite");
+        if (!s)
+            a->meshes[m].uvs = a->uvs[m].data;
+    }
+    for (uint64_t t = 0; !s && t < T; t++) {
+        rto_texture *tx = &a->textures[t];
+        tx->width = sz[3 * t];
+        tx->height = sz[3 * t + 1];
+        snprintf(tx->name, sizeof tx->name, "vb_texture_%" PRIu64, t);
+        const size_t n0 = (size_t)tx->width * tx->height;
+        size_t texels = 0;
+        for (uint32_t l = 0; l < sz[3 * t + 2]; l++)
+            texels += (size_t)(tx->width >> l ? tx->width >> l : 1) * (tx->height >> l ? tx->height >> l : 1);
+        rto_npy lv;
+        want = rto_npy_desc_array(RTO_DTYPE_F16, 2, texels, 4, 0);
+        s = rto__bundle_load(in, rto__bundle_name(RTO_FILE_VB_TEXTURE, (uint32_t)t, name), &want, NULL, &lv);
+        if (s)
+            break;
+        a->texture_count = (uint32_t)t + 1;
+        const uint16_t *h = lv.data;
+        tx->rgba = malloc(4 * n0);
+        if (!tx->rgba)
+            s = rto__fail(in->msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
+        for (size_t i = 0; !s && i < 4 * n0; i++) {
+            const float v = rto_f16_to_f32(h[i]);
+            const float q = v * 255.0f;
+            const int byte = v >= 0.0f && v <= 1.0f ? (int)lrintf(q) : -1;
+            if (byte < 0 || rto_f16_from_f32((float)byte / 255.0f) != h[i])
+                s = rto__bundle_refuse(in, name, "level 0, texel %zu channel %zu holds %.9g (0x%04x), not the binary16 "
+                                       "of an 8-bit value / 255", i / 4, i % 4, (double)v, h[i]);
+            else
+                tx->rgba[i] = (uint8_t)byte;
+        }
+        rto__vb_mips mips;
+        if (!s && !(s = rto__vb_mips_make(tx, &mips, in->msg))) {
+            for (size_t i = 4 * n0; !s && i < 4 * texels; i++)
+                if (rto_f16_from_f32(mips.rgba[i]) != h[i]) {
+                    uint32_t l = 0;
+                    while (l + 1 < mips.levels && mips.offset[l + 1] <= i / 4)
+                        l++;
+                    s = rto__bundle_refuse(in, name, "level %" PRIu32 ", texel %zu channel %zu holds %.9g, but the 2x2 "
+                                           "box filter of level %" PRIu32 " gives %.9g", l, i / 4 - mips.offset[l],
+                                           i % 4, (double)rto_f16_to_f32(h[i]), l - 1, (double)mips.rgba[i]);
+                }
+            rto__vb_mips_free(&mips);
+        }
+        rto_npy_free(&lv);
+    }
+    rto_npy_free(&sizes);
+    return s;
+}
+
 rto_status rto_vbuffer_bundle_read(const char *dir, rto_vbuffer_bundle *vb, rto_msg *msg)
 {
     if (!vb)
@@ -284,6 +459,8 @@ rto_status rto_vbuffer_bundle_read(const char *dir, rto_vbuffer_bundle *vb, rto_
     }
     if (!s)
         s = read_arrays(&in, vb, a, H, W, S);
+    if (!s && m->material == RTO_VB_UNLIT)
+        s = read_textures(&in, vb, a);
     rto__bundle_in_close(&in);
     if (s) {
         rto_vbuffer_bundle_free(vb);
@@ -294,10 +471,12 @@ rto_status rto_vbuffer_bundle_read(const char *dir, rto_vbuffer_bundle *vb, rto_
     for (uint32_t k = 0; k < vb->geometry.mesh_count; k++) {
         memset(&a->materials[k], 0, sizeof a->materials[k]);
         memcpy(a->materials[k].base_color, colors + 4 * (size_t)k, 4 * sizeof *colors);
-        a->materials[k].base_color_texture = -1;
+        a->materials[k].base_color_texture = a->mesh_textures.data ? ((const int32_t *)a->mesh_textures.data)[k] : -1;
     }
     m->materials = a->materials;
     m->material_count = vb->geometry.mesh_count;
+    m->textures = a->textures;
+    m->texture_count = a->texture_count;
     vb->planes = (rto_vbuffer_planes){(uint32_t)W,           (uint32_t)H,           (uint32_t)S,
                                       a->arrays[A_VIS].data, a->arrays[A_BARY].data, a->arrays[A_NORMAL].data,
                                       a->arrays[A_DERIV].data, a->arrays[A_DEPTH].data, a->arrays[A_U24].data};
@@ -318,6 +497,13 @@ void rto_vbuffer_bundle_free(rto_vbuffer_bundle *vb)
             rto_npy_free(&a->arrays[k]);
         free(a->meshes);
         free(a->materials);
+        rto_npy_free(&a->mesh_textures);
+        for (uint32_t k = 0; a->uvs && k < vb->scene.mesh_count; k++)
+            rto_npy_free(&a->uvs[k]);
+        free(a->uvs);
+        for (uint32_t t = 0; a->textures && t < a->texture_count; t++)
+            free(a->textures[t].rgba);
+        free(a->textures);
         free(a);
     }
     rto_scene_bundle_free(&vb->scene);
