@@ -101,6 +101,18 @@ run 2 "$RTO" check-vbuffer --expected "$T/missing" --gpu "$T/g"
 run 2 "$RTO" check-vbuffer --expected "$B"
 for f in "$T"/err; do [ "$(wc -l <"$f")" -le 1 ] || fail "more than one stderr line: $(cat "$f")"; done
 
+# unlit on a textured fixture: the bundle holds the UVs, the mesh's texture and its mip chain; its own planes pass,
+# and a changed textured pixel fails as shading (outside the hull of the texels a GPU's filtering may read)
+run 0 "$RTO" vbuffer "$FIX/Duck/glTF/Duck.gltf" --width 64 --height 48 --material unlit -o "$T/duck"
+for f in mesh_0_uvs.npy vb_mesh_textures.npy vb_textures.npy vb_texture_0.npy; do
+    [ -f "$T/duck/$f" ] || fail "the unlit Duck bundle lacks $f"
+done
+rm -rf "$T/g" && "$MUT" copy "$T/duck" "$T/g" >/dev/null
+run 0 "$RTO" check-vbuffer --expected "$T/duck" --gpu "$T/g" && has "^PASS ok: " out
+rm -rf "$T/g" && w=$("$MUT" image "$T/duck" "$T/g")
+run 1 "$RTO" check-vbuffer --expected "$T/duck" --gpu "$T/g" --json && has '"fault": "shading"' out &&
+    has "the texels a GPU's trilinear filtering may read" out
+
 # a material plugin: the bundle records it by name, check-vbuffer shades the GPU's planes with it and needs it
 run 0 "$RTO" vbuffer rtstress:2 --width 48 --height 32 --material "$TOON" -o "$T/toon" &&
     grep -q '"material_plugin": "toon"' "$T/toon/manifest.json" || fail "no material_plugin in the manifest"

@@ -53,8 +53,9 @@ const sceneName = (s) => (s.includes('/') ? path.basename(s) : s);
 const vbCase = (scene, samples, material, width = 64, height = 48) => ({family, scene, width, height, samples,
   material, id: `vbuffer/${sceneName(scene)}/${width}x${height}/${samples}x/${material}`});
 
-/** ci: triangle and rtstress:2 at 64x48, 1x and 4x, normals and lambert. full: also rtstress:4 and sphere:3, a clustered
- * instance set, and rtstress:4 and the Duck fixture at 160x90. --scenes: each scene named at 64x48, 1x and 4x, both materials. */
+/** ci: triangle and rtstress:2 at 64x48, 1x and 4x, normals and lambert, and the Duck fixture at 64x48 4x unlit
+ * (texture sampling). full: also rtstress:4 and sphere:3, a clustered instance set, rtstress:4 and the Duck fixture at
+ * 160x90, and the Duck unlit at 160x90, 1x and 4x. --scenes: each scene named at 64x48, 1x and 4x, both materials. */
 export function list(opts) {
   const each = (scenes, w, h) => scenes.flatMap((s) => [1, 4].flatMap((n) => MATERIALS.map((m) => vbCase(s, n, m, w,
     h))));
@@ -62,9 +63,11 @@ export function list(opts) {
     checkScenes(opts.rtoracle, opts.scenes);
     return each(opts.scenes);
   }
-  const ci = each(['triangle', 'rtstress:2']);
+  const duck = 'fixtures/Duck/glTF/Duck.gltf'; // textured: unlit samples its base-colour texture (§11.5)
+  const ci = [...each(['triangle', 'rtstress:2']), vbCase(duck, 4, 'unlit')];
   if (opts.subset === 'ci') return ci;
-  return [...ci, ...each(['rtstress:4', 'sphere:3', 'instances:clustered:257']), ...each(['rtstress:4', 'fixtures/Duck/glTF/Duck.gltf'], 160, 90)];
+  return [...ci, ...each(['rtstress:4', 'sphere:3', 'instances:clustered:257']), ...each(['rtstress:4', duck], 160, 90),
+    ...[1, 4].map((n) => vbCase(duck, n, 'unlit', 160, 90))];
 }
 
 /** The oracle's vbuffer bundle: the GPU's inputs and the planes, mask and image it expects. */

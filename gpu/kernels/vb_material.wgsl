@@ -2,15 +2,18 @@
 // width · height · samples): the classifier marks edge pixels (mask 1), interior pixels shade once from sample 0,
 // edge pixels once per sample and average (a background sample shades to the clear colour 0). Materials: 0 normals
 // (n · 0.5 + 0.5, alpha 1), 1 lambert (base colour · (ambient + (1 - ambient) max(0, n·L)), the base colour's alpha;
-// the base colour is the instance's mesh's, vb_base_colors.npy). The image is RGBA16float as two pack2x16float words
-// per pixel, the mask one u32 per pixel. One invocation per pixel.
+// the base colour is the instance's mesh's, vb_base_colors.npy), 2 unlit (the base colour factor times the mesh's
+// texture, if it samples one: uv and its screen derivatives from the barycentrics, their derivatives and the mesh's
+// UVs, lod = log2(max(|dUV/dx ⊙ size|, |dUV/dy ⊙ size|)) clamped to the levels, textureSampleLevel with a trilinear,
+// repeat sampler; the levels are the bundle's vb_texture_T.npy, DESIGN.md §11.5). The image is RGBA16float as two
+// pack2x16float words per pixel, the mask one u32 per pixel. One invocation per pixel.
 
 struct Params {
   inverse_projection: mat4x4<f32>,
   sun: vec4<f32>,        // xyz: direction towards the light (normalised here), w: ambient
   thresholds: vec4<f32>, // normal, depth, sample depth, unused
   size: vec4<u32>,       // width, height, samples, N
-  material: vec4<u32>,   // x: 0 normals, 1 lambert
+  material: vec4<u32>,   // x: 0 normals, 1 lambert, 2 unlit
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -19,6 +22,13 @@ struct Params {
 @group(0) @binding(3) var<storage, read_write> mask: array<u32>;
 @group(0) @binding(4) var<storage, read> instance_records: array<u32>; // InstanceRecords as words
 @group(0) @binding(5) var<storage, read> base_colors: array<vec4<f32>>; // one per mesh
+// unlit: per mesh 4 words (texture slot or NONE, where its UVs start, where its indices start, 0), then those words
+@group(0) @binding(6) var<storage, read> tex_meshes: array<u32>;
+@group(0) @binding(7) var tex0: texture_2d<f32>;
+@group(0) @binding(8) var tex1: texture_2d<f32>;
+@group(0) @binding(9) var tex2: texture_2d<f32>;
+@group(0) @binding(10) var tex3: texture_2d<f32>;
+@group(0) @binding(11) var tex_sampler: sampler; // linear, linear, mipmap linear, repeat
 
 const INSTANCE_WORDS = 32u;
 const INSTANCE_BLAS = 24u;
@@ -50,6 +60,54 @@ fn normal_of(k: u32) -> vec3<f32> {
   return normalize(n);
 }
 
+fn texture_size(t: u32) -> vec3<u32> { // width, height, levels
+  switch t {
+    case 0u: { return vec3<u32>(textureDimensions(tex0), textureNumLevels(tex0)); }
+    case 1u: { return vec3<u32>(textureDimensions(tex1), textureNumLevels(tex1)); }
+    case 2u: { return vec3<u32>(textureDimensions(tex2), textureNumLevels(tex2)); }
+    default: { return vec3<u32>(textureDimensions(tex3), textureNumLevels(tex3)); }
+  }
+}
+
+// Trilinear at the isotropic level of detail of the footprint (dUV/dx, dUV/dy).
+fn sample_texture(t: u32, uv: vec2<f32>, dx: vec2<f32>, dy: vec2<f32>) -> vec4<f32> {
+  let sz = texture_size(t);
+  let size = vec2<f32>(sz.xy);
+  let rho = max(length(dx * size), length(dy * size));
+  var lod = 0.0;
+  if (rho > 0.0) { lod = clamp(log2(rho), 0.0, f32(sz.z - 1u)); }
+  switch t {
+    case 0u: { return textureSampleLevel(tex0, tex_sampler, uv, lod); }
+    case 1u: { return textureSampleLevel(tex1, tex_sampler, uv, lod); }
+    case 2u: { return textureSampleLevel(tex2, tex_sampler, uv, lod); }
+    default: { return textureSampleLevel(tex3, tex_sampler, uv, lod); }
+  }
+}
+
+fn mesh_uv(at: u32, v: u32) -> vec2<f32> {
+  return vec2<f32>(bitcast<f32>(tex_meshes[at + 2u * v]), bitcast<f32>(tex_meshes[at + 2u * v + 1u]));
+}
+
+// unlit: uv = b0·uv0 + b1·uv1 + b2·uv2, dUV/dx = ddx(b1)·(uv1 − uv0) + ddx(b2)·(uv2 − uv0), likewise y.
+fn unlit(k: u32, mesh: u32, base: vec4<f32>) -> vec4<f32> {
+  let t = tex_meshes[4u * mesh];
+  if (t == BACKGROUND) { return base; }
+  let uv_at = tex_meshes[4u * mesh + 1u];
+  let idx_at = tex_meshes[4u * mesh + 2u] + 3u * planes[2u * k];
+  let uv0 = mesh_uv(uv_at, tex_meshes[idx_at]);
+  let uv1 = mesh_uv(uv_at, tex_meshes[idx_at + 1u]);
+  let uv2 = mesh_uv(uv_at, tex_meshes[idx_at + 2u]);
+  let n = params.size.w;
+  let b = unpack2x16float(planes[2u * n + k]);
+  let b0 = 1.0 - b.x - b.y;
+  let uv = (b0 * uv0 + b.x * uv1) + b.y * uv2;
+  let ddx = unpack2x16float(planes[5u * n + 2u * k]);
+  let ddy = unpack2x16float(planes[5u * n + 2u * k + 1u]);
+  let e1 = uv1 - uv0;
+  let e2 = uv2 - uv0;
+  return base * sample_texture(t, uv, ddx.x * e1 + ddx.y * e2, ddy.x * e1 + ddy.y * e2);
+}
+
 fn shade(k: u32) -> vec4<f32> {
   if (!covered(k)) { return vec4<f32>(0.0); }
   let n = normal_of(k);
@@ -58,6 +116,10 @@ fn shade(k: u32) -> vec4<f32> {
     let light = ambient + (1.0 - ambient) * max(0.0, dot(n, normalize(params.sun.xyz)));
     let base = base_colors[instance_records[instance_of(k) * INSTANCE_WORDS + INSTANCE_BLAS]];
     return vec4<f32>(base.rgb * light, base.a);
+  }
+  if (params.material.x == 2u) {
+    let mesh = instance_records[instance_of(k) * INSTANCE_WORDS + INSTANCE_BLAS];
+    return unlit(k, mesh, base_colors[mesh]);
   }
   return vec4<f32>(n * 0.5 + 0.5, 1.0);
 }

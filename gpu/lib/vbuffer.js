@@ -8,7 +8,10 @@ import {writeNpy} from './npy.js';
 const INSTANCE_WORDS = 32;
 const INSTANCE_BLAS = 24;
 const MESH_WORDS = 4;
-export const MATERIALS = {normals: 0, lambert: 1};
+export const MATERIALS = {normals: 0, lambert: 1, unlit: 2};
+/** Texture slots of vb_material.wgsl (bindings 7 to 10). */
+const TEXTURE_SLOTS = 4;
+const NONE = 0xFFFFFFFF;
 const CLEAR0 = {r: 0, g: 0, b: 0, a: 0};
 /** The colour targets of the visibility pass, in location order, with their clear values: the G-buffer of §11.4, and
  * the split one of compatibility mode at 4x (vb_visibility.wgsl's fs_split: it multisamples neither rgba16uint nor
@@ -58,6 +61,55 @@ function packGeometry(bundle, meshes) {
   words.set(table, 0);
   for (const [off, w] of parts) words.set(w, off);
   return {words, triangles};
+}
+
+/** unlit's inputs (DESIGN.md §11.5): vb_material.wgsl's tex_meshes words (per mesh: texture slot or NONE, where its
+ * UVs start, where its indices start, 0; then each sampling mesh's mesh_M_uvs.npy and mesh_M_indices.npy words) and
+ * one rgba16float texture per vb_texture_T.npy, its levels uploaded as the bundle holds them (binary16, the oracle's
+ * box-filtered chain: the GPU generates no level itself). A bundle without vb_mesh_textures.npy samples none. */
+function unlitInputs(device, bundle, meshes) {
+  const table = new Uint32Array(4 * meshes).fill(0);
+  const parts = [];
+  let at = 4 * meshes;
+  const mt = bundle.has('vb_mesh_textures.npy') ? bundle.npy('vb_mesh_textures.npy').data : new Int32Array(meshes).fill(-1);
+  const sizes = bundle.has('vb_textures.npy') ? bundle.npy('vb_textures.npy').data : new Uint32Array(0);
+  const count = sizes.length / 3;
+  if (count > TEXTURE_SLOTS)
+    throw new Error(`${bundle.dir}: ${count} textures (vb_material.wgsl binds ${TEXTURE_SLOTS})`);
+  for (let m = 0; m < meshes; m++) {
+    if (mt[m] < 0) {
+      table.set([NONE, 0, 0, 0], 4 * m);
+      continue;
+    }
+    const uv = bundle.words(`mesh_${m}_uvs.npy`);
+    const idx = bundle.words(`mesh_${m}_indices.npy`);
+    table.set([mt[m], at, at + uv.length, 0], 4 * m);
+    parts.push([at, uv], [at + uv.length, idx]);
+    at += uv.length + idx.length;
+  }
+  const words = new Uint32Array(Math.max(at, 4));
+  words.set(table, 0);
+  for (const [off, w] of parts) words.set(w, off);
+  const textures = [];
+  for (let t = 0; t < TEXTURE_SLOTS; t++) {
+    const [w0, h0, levels] = t < count ? [sizes[3 * t], sizes[3 * t + 1], sizes[3 * t + 2]] : [1, 1, 1];
+    const tex = device.createTexture({size: [w0, h0], format: 'rgba16float', mipLevelCount: levels,
+      usage: GPUTextureUsage.TEXTURE_BINDING | GPUTextureUsage.COPY_DST, label: `texture ${t}`});
+    const bits = t < count ? bundle.npy(`vb_texture_${t}.npy`).data : new Uint16Array(4);
+    let off = 0;
+    for (let l = 0; l < levels; l++) {
+      const w = Math.max(1, w0 >> l), h = Math.max(1, h0 >> l);
+      device.queue.writeTexture({texture: tex, mipLevel: l}, bits.subarray(off, off + 4 * w * h),
+        {bytesPerRow: 8 * w, rowsPerImage: h}, [w, h]);
+      off += 4 * w * h;
+    }
+    if (off !== bits.length) throw new Error(`${bundle.dir}: vb_texture_${t}.npy holds ${bits.length / 4} texels, ` +
+      `its ${levels} levels ${off / 4}`);
+    textures.push(tex);
+  }
+  const sampler = device.createSampler({addressModeU: 'repeat', addressModeV: 'repeat', magFilter: 'linear',
+    minFilter: 'linear', mipmapFilter: 'linear'});
+  return {words, textures, sampler};
 }
 
 /** Whether the device has WGSL's fine derivative built-ins and multisamples rgba16uint and rgba16float: a core device
@@ -188,20 +240,25 @@ async function passes(device, bundle, v, mode, timer) {
     : new Float32Array(4 * meshes).fill(1);
   if (colors.length !== 4 * meshes) throw new Error(`${bundle.dir}: ${colors.length / 4} base colours, ${meshes} meshes`);
   const colorBuf = keep(buffer(device, colors.byteLength, {data: colors, label: 'base colours'}));
+  const tx = unlitInputs(device, bundle, meshes);
+  const texMeshBuf = keep(buffer(device, tx.words.byteLength, {data: tx.words, label: 'texture meshes'}));
   const matPipe = pipeline(device, 'vb_material.wgsl');
   const mp = timer ? timer.pass(enc, 'vb_material') : enc.beginComputePass({label: 'vb_material'});
   mp.setPipeline(matPipe);
   mp.setBindGroup(0, device.createBindGroup({layout: matPipe.getBindGroupLayout(0), entries: [
     {binding: 0, resource: {buffer: matParams}}, {binding: 1, resource: {buffer: planes}},
     {binding: 2, resource: {buffer: image}}, {binding: 3, resource: {buffer: mask}},
-    {binding: 4, resource: {buffer: instBuf}}, {binding: 5, resource: {buffer: colorBuf}}]}));
+    {binding: 4, resource: {buffer: instBuf}}, {binding: 5, resource: {buffer: colorBuf}},
+    {binding: 6, resource: {buffer: texMeshBuf}},
+    ...tx.textures.map((t, i) => ({binding: 7 + i, resource: t.createView()})),
+    {binding: 11, resource: tx.sampler}]}));
   mp.dispatchWorkgroups(...groups);
   mp.end();
 
   const [p, img, m] = await readBack(device, enc, [planes, image, mask], [8 * n * 4, width * height * 8,
     width * height * 4]);
   for (const b of bufs) b.destroy();
-  for (const t of [...textures, depth]) t.destroy();
+  for (const t of [...textures, depth, ...tx.textures]) t.destroy();
   return {width, height, samples, planes: new Uint32Array(p), image: new Uint32Array(img), mask: new Uint32Array(m)};
 }
 
