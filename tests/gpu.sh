@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The WebGPU backend's test: gpu/run's ci subset (every sort kernel over every distribution at 1, 2, 255-257, 4096
 # and 4097 keys, one TLAS build, one traced frame of triangle and of sun-shadow at 64x64 on rtstress:4, the
-# visibility buffer of triangle and rtstress:2 at 64x48, 1x and 4x MSAA, normals and lambert) must pass,
+# visibility buffer of triangle and rtstress:2 at 64x48, 1x and 4x MSAA, normals and lambert, and the Duck unlit at 4x,
+# its texture sampled) must pass,
 # and each planted fault must be reported by the oracle as the fault it is, where it starts.
 #   bash tests/gpu.sh RTORACLE OUTDIR
 set -euo pipefail
