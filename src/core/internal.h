@@ -25,6 +25,13 @@
 /** The library's name for rto_msg_set (public): writes a one-line reason into m (if non-NULL) and returns s. */
 #define rto__fail rto_msg_set
 
+/** A user's plugin opened (frame/plugin.c; program and material plugins): path must be a regular file, named as such
+ * (a bare name is not looked up on the library path), dlopen'ed RTLD_NOW | RTLD_LOCAL, and its entry symbol found.
+ * On success *handle and *entry are set; otherwise one line "PATH: why" and RTO_ERR_IO / RTO_ERR_UNSUPPORTED
+ * (`what` names the kind of plugin in the message when the symbol is missing). */
+rto_status rto__plugin_open(const char *path, const char *symbol, const char *what, void **handle, void **entry,
+                            rto_msg *msg);
+
 /** Key i of a u32 or u64 key array, widened to 64 bits. */
 static inline uint64_t rto__key_get(rto_key_format f, const void *keys, size_t i)
 {

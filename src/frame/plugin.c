@@ -14,11 +14,10 @@ struct rto_plugin {
     const rto_program *program;
 };
 
-rto_status rto_plugin_load(const char *path, rto_plugin **out, rto_msg *msg)
+rto_status rto__plugin_open(const char *path, const char *symbol, const char *what, void **handle, void **entry,
+                            rto_msg *msg)
 {
-    if (!path || !out)
-        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL plugin path or output");
-    *out = NULL;
+    *handle = *entry = NULL;
     struct stat st;
     if (stat(path, &st))
         return rto__fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
@@ -40,15 +39,30 @@ rto_status rto_plugin_load(const char *path, rto_plugin **out, rto_msg *msg)
         const char *e = dlerror();
         return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: cannot load: %s", path, e ? e : "dlopen failed");
     }
+    void *sym = dlsym(h, symbol);
+    if (!sym) {
+        dlclose(h);
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: no %s symbol (not an rtoracle %s, or another ABI)", path, symbol,
+                        what);
+    }
+    *handle = h;
+    *entry = sym;
+    return RTO_OK;
+}
+
+rto_status rto_plugin_load(const char *path, rto_plugin **out, rto_msg *msg)
+{
+    if (!path || !out)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL plugin path or output");
+    *out = NULL;
+    void *h;
     union {
         void *p;
         rto_program_entry_fn f;
-    } entry = {dlsym(h, RTO_PROGRAM_ENTRY_SYMBOL)};
-    if (!entry.p) {
-        dlclose(h);
-        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: no %s symbol (not an rtoracle program plugin, or another ABI)",
-                        path, RTO_PROGRAM_ENTRY_SYMBOL);
-    }
+    } entry;
+    rto_status s = rto__plugin_open(path, RTO_PROGRAM_ENTRY_SYMBOL, "program plugin", &h, &entry.p, msg);
+    if (s)
+        return s;
     const rto_program *prog = entry.f();
     rto_msg why = {{0}};
     if (rto_program_validate(prog, &why)) {

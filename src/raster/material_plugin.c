@@ -3,10 +3,8 @@
 #include "internal.h"
 
 #include <dlfcn.h>
-#include <errno.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 struct rto_material_plugin {
     void *handle;
@@ -28,28 +26,16 @@ rto_status rto_material_plugin_load(const char *path, rto_material_plugin **out,
     if (!path || !out)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL material plugin path or output");
     *out = NULL;
-    struct stat st;
-    if (stat(path, &st))
-        return rto__fail(msg, RTO_ERR_IO, "%s: %s", path, strerror(errno));
-    if (!S_ISREG(st.st_mode))
-        return rto__fail(msg, RTO_ERR_IO, "%s: not a regular file", path);
-    /* A name without a slash would make dlopen search the library path: always name the file itself. */
-    char local[4096];
-    snprintf(local, sizeof local, "%s%s", strchr(path, '/') ? "" : "./", path);
-    dlerror();
-    void *h = dlopen(local, RTLD_NOW | RTLD_LOCAL);
-    if (!h) {
-        const char *e = dlerror();
-        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "%s: cannot load: %s", path, e ? e : "dlopen failed");
-    }
+    void *h;
     union {
         void *p;
         rto_material_entry_fn f;
-    } entry = {dlsym(h, RTO_MATERIAL_ENTRY_SYMBOL)};
-    const rto_material_def *def = entry.p ? entry.f() : NULL;
-    const char *why = !entry.p                                     ? "no " RTO_MATERIAL_ENTRY_SYMBOL " symbol (not an "
-                                                                     "rtoracle material plugin, or another ABI)"
-                      : !def                                       ? "its entry returned no material"
+    } entry;
+    rto_status s = rto__plugin_open(path, RTO_MATERIAL_ENTRY_SYMBOL, "material plugin", &h, &entry.p, msg);
+    if (s)
+        return s;
+    const rto_material_def *def = entry.f();
+    const char *why = !def                                         ? "its entry returned no material"
                       : def->abi_version != RTO_MATERIAL_ABI_VERSION ? "another material ABI version"
                       : !name_ok(def->name)                        ? "its name is not 1-48 of [a-z0-9-]"
                       : !def->shade                                ? "it has no shade function"
