@@ -549,27 +549,39 @@ static void homog_bary(const rs_tri *t, double px, double py, double b[2])
     b[1] = lin(t->f[2], px, py) / s;
 }
 
-/* a[7] of one snapped choice; *babs: the largest |B| of the derivatives' terms. */
-static void snap_attr(const rs_tri *t, const rs_choice *c, uint32_t x, uint32_t y, int64_t X, int64_t Y, double a[7],
-                      double *babs)
+/* a[7] from one choice's barycentrics at the pixel centre and at the centres of the quad's row (x | 1, x & ~1) and
+ * column (y | 1, y & ~1), and its depth at the sample: (b1, b2), dpdxFine, dpdyFine, z; *babs the largest magnitude of
+ * the barycentrics the derivatives difference (their widening's scale). */
+static void quad_attr(const double b[2], const double bx1[2], const double bx0[2], const double by1[2],
+                      const double by0[2], double z, double a[7], double *babs)
 {
-    double b[2], bx1[2], bx0[2], by1[2], by0[2];
-    snap_bary(t, c, x, y, b);
-    snap_bary(t, c, x | 1u, y, bx1);
-    snap_bary(t, c, x & ~1u, y, bx0);
-    snap_bary(t, c, x, y | 1u, by1);
-    snap_bary(t, c, x, y & ~1u, by0);
     a[0] = b[0];
     a[1] = b[1];
     a[2] = bx1[0] - bx0[0];
     a[3] = bx1[1] - bx0[1];
     a[4] = by1[0] - by0[0];
     a[5] = by1[1] - by0[1];
-    a[6] = clamp01(choice_depth(t, c, X, Y));
+    a[6] = clamp01(z);
     double m = 0.0;
     for (int j = 0; j < 2; j++)
         m = fmax(m, fmax(fmax(fabs(bx1[j]), fabs(bx0[j])), fmax(fabs(by1[j]), fabs(by0[j]))));
     *babs = m;
+}
+
+/* a[7] of one snapped choice; *babs: the largest |B| of the derivatives' terms. coarse: WGSL's dpdx / dpdy may be
+ * coarse (compatibility mode has no dpdxFine), the quad's top row for ddx and left column for ddy in every pixel
+ * of the quad: one more admissible value of the derivatives (§11.6); the reference is fine. */
+static void snap_attr(const rs_tri *t, const rs_choice *c, uint32_t x, uint32_t y, int64_t X, int64_t Y, int coarse,
+                      double a[7], double *babs)
+{
+    const uint32_t ry = coarse ? y & ~1u : y, cx = coarse ? x & ~1u : x;
+    double b[2], bx1[2], bx0[2], by1[2], by0[2];
+    snap_bary(t, c, x, y, b);
+    snap_bary(t, c, x | 1u, ry, bx1);
+    snap_bary(t, c, x & ~1u, ry, bx0);
+    snap_bary(t, c, cx, y | 1u, by1);
+    snap_bary(t, c, cx, y & ~1u, by0);
+    quad_attr(b, bx1, bx0, by1, by0, choice_depth(t, c, X, Y), a, babs);
 }
 
 /* The unsnapped choice (§11.3): devices that snap positions for coverage only (Mesa's llvmpipe) interpolate from the
@@ -598,30 +610,23 @@ static void unsnap_bary(const rs_tri *t, double px, double py, double b[2])
     b[1] = q2 / s;
 }
 
-/* a[7] of the unsnapped choice, as snap_attr's; 0 when it has no area. */
-static int unsnap_attr(const rs_tri *t, uint32_t x, uint32_t y, int64_t X, int64_t Y, double a[7], double *babs)
+/* a[7] of the unsnapped choice, as snap_attr's (coarse too), its attribute points all moved by (ox, oy) pixels (a
+ * device mixing snapped and unsnapped positions, §11.6); 0 when it has no area. */
+static int unsnap_attr(const rs_tri *t, uint32_t x, uint32_t y, int64_t X, int64_t Y, int coarse, double ox, double oy,
+                       double a[7], double *babs)
 {
     double l[3];
     if (!unsnap_lambda(t, (double)X / RS_SUB, (double)Y / RS_SUB, l))
         return 0;
-    const double cx = x + 0.5, cy = y + 0.5;
+    const double cx = x + 0.5 + ox, cy = y + 0.5 + oy, ry = (coarse ? y & ~1u : y) + 0.5 + oy,
+                 rx = (coarse ? x & ~1u : x) + 0.5 + ox;
     double b[2], bx1[2], bx0[2], by1[2], by0[2];
     unsnap_bary(t, cx, cy, b);
-    unsnap_bary(t, (x | 1u) + 0.5, cy, bx1);
-    unsnap_bary(t, (x & ~1u) + 0.5, cy, bx0);
-    unsnap_bary(t, cx, (y | 1u) + 0.5, by1);
-    unsnap_bary(t, cx, (y & ~1u) + 0.5, by0);
-    a[0] = b[0];
-    a[1] = b[1];
-    a[2] = bx1[0] - bx0[0];
-    a[3] = bx1[1] - bx0[1];
-    a[4] = by1[0] - by0[0];
-    a[5] = by1[1] - by0[1];
-    a[6] = clamp01((l[0] * t->z[0] + l[1] * t->z[1]) + l[2] * t->z[2]);
-    double m = 0.0;
-    for (int j = 0; j < 2; j++)
-        m = fmax(m, fmax(fmax(fabs(bx1[j]), fabs(bx0[j])), fmax(fabs(by1[j]), fabs(by0[j]))));
-    *babs = m;
+    unsnap_bary(t, (x | 1u) + 0.5 + ox, ry, bx1);
+    unsnap_bary(t, (x & ~1u) + 0.5 + ox, ry, bx0);
+    unsnap_bary(t, rx, (y | 1u) + 0.5 + oy, by1);
+    unsnap_bary(t, rx, (y & ~1u) + 0.5 + oy, by0);
+    quad_attr(b, bx1, bx0, by1, by0, (l[0] * t->z[0] + l[1] * t->z[1]) + l[2] * t->z[2], a, babs);
     return 1;
 }
 
@@ -657,7 +662,7 @@ int rto__rs_ref_attr(const rs_tri *t, uint32_t x, uint32_t y, int64_t X, int64_t
     }
     if (t->kind != RS_SNAP || !t->ch[0].sgn)
         return 0;
-    snap_attr(t, &t->ch[0], x, y, X, Y, a, &m);
+    snap_attr(t, &t->ch[0], x, y, X, Y, 0, a, &m);
     return 1;
 }
 
@@ -687,6 +692,35 @@ void rto__raster_face_normal(const rto_raster *r, uint32_t instance, uint32_t pr
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
+/* How far a device's barycentrics at window point (px, py) may be from the unsnapped ones when it sets its attribute
+ * planes up in binary32 from window positions of its own, each coordinate within eps pixels of ours: each screen
+ * weight lambda_e = E_e(p) / A moves by at most eps (|p - a|_1 + |p - b|_1 + |b - a|_1 + |lambda_e| perimeter_1) / |A|
+ * (first order in eps), and the perspective quotient b = (lambda / w) / sum(lambda / w) by at most twice that times
+ * w_max / w_min. Negligible for a triangle of many pixels; for a triangle far under a pixel, evaluated at a pixel
+ * centre well outside it, it is what binary32 arithmetic leaves. */
+static double setup_slack(const rs_tri *t, double px, double py, double eps)
+{
+    const double A = fabs((t->xw[1] - t->xw[0]) * (t->yw[2] - t->yw[0]) - (t->xw[2] - t->xw[0]) * (t->yw[1] - t->yw[0]));
+    if (!(A > 0.0) || !isfinite(A))
+        return 0.0;
+    double per = 0.0, worst = 0.0, wmin = INFINITY, wmax = 0.0;
+    for (int e = 0; e < 3; e++) {
+        const int a = (e + 1) % 3, b = (e + 2) % 3;
+        per += fabs(t->xw[b] - t->xw[a]) + fabs(t->yw[b] - t->yw[a]);
+        wmin = fmin(wmin, fabs(t->w[e]));
+        wmax = fmax(wmax, fabs(t->w[e]));
+    }
+    for (int e = 0; e < 3; e++) {
+        const int a = (e + 1) % 3, b = (e + 2) % 3;
+        const double ex = t->xw[b] - t->xw[a], ey = t->yw[b] - t->yw[a];
+        const double lam = fabs(ex * (py - t->yw[a]) - ey * (px - t->xw[a])) / A;
+        const double d = fabs(px - t->xw[a]) + fabs(py - t->yw[a]) + fabs(px - t->xw[b]) + fabs(py - t->yw[b]) +
+                         fabs(ex) + fabs(ey);
+        worst = fmax(worst, eps * (d + lam * per) / A);
+    }
+    return wmin > 0.0 ? 2.0 * worst * (wmax / wmin) : 0.0;
+}
+
 /* Evaluation of a GPU's choice                                                                                        */
 
 static float f32_down(double v)
@@ -756,17 +790,26 @@ int rto__raster_eval(const rto_raster *r, uint32_t instance, uint32_t prim, uint
     }
     if (t->kind == RS_SNAP) {
         for (int i = 0; i < t->n; i++)
-            if (t->ch[i].sgn) {
-                snap_attr(t, &t->ch[i], x, y, X, Y, a, &m);
-                range_add(l, h, a);
-                babs = fmax(babs, m);
-                if (i == t->anchor)
-                    memcpy(rv, a, sizeof rv);
-            }
-        if (unsnap_attr(t, x, y, X, Y, a, &m)) { /* one more choice for attributes and depth, not for coverage */
-            range_add(l, h, a);
-            babs = fmax(babs, m);
-        }
+            if (t->ch[i].sgn)
+                for (int coarse = 0; coarse < 2; coarse++) {
+                    snap_attr(t, &t->ch[i], x, y, X, Y, coarse, a, &m);
+                    range_add(l, h, a);
+                    babs = fmax(babs, m);
+                    if (i == t->anchor && !coarse)
+                        memcpy(rv, a, sizeof rv);
+                }
+        /* one more choice for attributes and depth, not for coverage: unsnapped, and its attribute points moved by up
+         * to half an 8-bit step in x and y (the plane of a device that mixes snapped and unsnapped positions; the
+         * extremes of these smooth functions over so small a box are at or next to its corners) */
+        static const double shift[5][2] = {{0, 0}, {-0x1p-9, -0x1p-9}, {0x1p-9, -0x1p-9}, {-0x1p-9, 0x1p-9},
+                                           {0x1p-9, 0x1p-9}};
+        for (int q = 0; q < 5; q++)
+            for (int coarse = 0; coarse < 2; coarse++)
+                if (unsnap_attr(t, x, y, X, Y, coarse, shift[q][0], shift[q][1], a, &m)) {
+                    a[6] = q ? l[6] : a[6]; /* depth is per sample: not moved */
+                    range_add(l, h, a);
+                    babs = fmax(babs, m);
+                }
     } else if (t->kind == RS_HOMOG) {
         /* The band: the functions at the point moved by up to 2^-4 px along each axis. A linear-fractional function
          * takes its extremes over a box at the box's corners (where its denominator keeps its sign); the
@@ -820,6 +863,20 @@ int rto__raster_eval(const rto_raster *r, uint32_t instance, uint32_t prim, uint
             const double g = fmax(fabs(l[2 + j]), fabs(h[2 + j])) + fmax(fabs(l[4 + j]), fabs(h[4 + j]));
             l[j] -= 0x1p-9 * g;
             h[j] += 0x1p-9 * g;
+        }
+        /* A device's own binary32 window positions: each coordinate within 8 binary32 ulps of the image size. */
+        const double eps = 8.0 * 0x1p-24 * (double)(r->width > r->height ? r->width : r->height);
+        const double sb = setup_slack(t, x + 0.5, y + 0.5, eps);
+        double sd = 0.0;
+        for (int q = 0; q < 4; q++)
+            sd = fmax(sd, setup_slack(t, ((q & 1) ? x | 1u : x & ~1u) + 0.5, ((q & 2) ? y | 1u : y & ~1u) + 0.5, eps));
+        for (int j = 0; j < 2; j++) {
+            l[j] -= sb;
+            h[j] += sb;
+        }
+        for (int j = 2; j < 6; j++) {
+            l[j] -= 2.0 * sd;
+            h[j] += 2.0 * sd;
         }
     }
     for (int j = 0; j < 2; j++) {
