@@ -42,3 +42,6 @@ mapfile -t settings < <(rto_render_settings $cornell sun-shadow)
 "$rto" render $cornell --program sun-shadow --width 160 --height 120 "${settings[@]}" -o "$out/frame-CornellBox" \
     >/dev/null 2>&1
 "$rto" render stage2 --program normals --width 160 --height 120 -o "$out/frame-stage2" >/dev/null
+# Visibility buffers: rtstress:2 at 4x MSAA with the lambert material, the Box fixture at 1x with normals.
+"$rto" vbuffer rtstress:2 --width 32 --height 24 --material lambert -o "$out/vbuffer-rtstress-2" >/dev/null
+"$rto" vbuffer fixtures/Box/glTF/Box.gltf --width 32 --height 24 --msaa 1 -o "$out/vbuffer-Box" >/dev/null
