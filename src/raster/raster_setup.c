@@ -640,17 +640,7 @@ static void homog_attr(const rs_tri *t, uint32_t x, uint32_t y, int64_t X, int64
     homog_bary(t, x0, cy, bx0);
     homog_bary(t, cx, y1, by1);
     homog_bary(t, cx, y0, by0);
-    a[0] = b[0];
-    a[1] = b[1];
-    a[2] = bx1[0] - bx0[0];
-    a[3] = bx1[1] - bx0[1];
-    a[4] = by1[0] - by0[0];
-    a[5] = by1[1] - by0[1];
-    a[6] = clamp01(lin(t->f[3], (double)X / RS_SUB, (double)Y / RS_SUB));
-    double m = 0.0;
-    for (int j = 0; j < 2; j++)
-        m = fmax(m, fmax(fmax(fabs(bx1[j]), fabs(bx0[j])), fmax(fabs(by1[j]), fabs(by0[j]))));
-    *babs = m;
+    quad_attr(b, bx1, bx0, by1, by0, lin(t->f[3], (double)X / RS_SUB, (double)Y / RS_SUB), a, babs);
 }
 
 int rto__rs_ref_attr(const rs_tri *t, uint32_t x, uint32_t y, int64_t X, int64_t Y, double a[7])
