@@ -68,15 +68,28 @@ static int load_plane(const char *dir, int k, uint32_t w, uint32_t h, uint32_t s
         return -1;
     }
     const uint64_t n = (uint64_t)w * h * (planes[k].per_pixel ? 1 : s) * planes[k].channels;
-    uint64_t elems = 1;
-    for (uint32_t d = 0; d < a.desc.ndim; d++)
+    /* The plane's shape (H, W[, S][, C]) with its axes of size 1 dropped must be the array's with its axes of size 1
+     * dropped, or the array flat: a (W, H, ...) dump of the right size is refused, not compared pixel by pixel. */
+    const uint64_t want[4] = {h, w, planes[k].per_pixel ? 1 : s, planes[k].channels};
+    uint64_t ws[4], as[RTO_NPY_MAX_DIMS], elems = 1;
+    uint32_t nw = 0, na = 0;
+    for (int d = 0; d < 4; d++)
+        if (want[d] != 1)
+            ws[nw++] = want[d];
+    for (uint32_t d = 0; d < a.desc.ndim; d++) {
         elems *= a.desc.shape[d];
+        if (a.desc.shape[d] != 1)
+            as[na++] = a.desc.shape[d];
+    }
+    int same_shape = na <= 1 || na == nw;
+    for (uint32_t d = 0; same_shape && na > 1 && d < na; d++)
+        same_shape = as[d] == ws[d];
     const rto_dtype t = a.desc.dtype;
     const int ok_type = planes[k].f32 ? t == RTO_DTYPE_F32
                         : k == P_MASK ? (t == RTO_DTYPE_U8 || t == RTO_DTYPE_U32)
                         : k == P_VIS  ? (t == RTO_DTYPE_U16 || t == RTO_DTYPE_U32)
                                       : (t == RTO_DTYPE_F16 || t == RTO_DTYPE_U16);
-    if (!ok_type || elems != n) {
+    if (!ok_type || elems != n || !same_shape) {
         cli_fail("check-vbuffer", "--gpu %s: %s: expected %" PRIu64 " values of %s (%ux%u%s x %u), found %s", dir, name,
                  n, planes[k].f32 ? "float32" : k == P_MASK ? "uint8 or uint32" : k == P_VIS ? "uint16 or uint32"
                                                                                            : "float16 or uint16",
@@ -84,6 +97,16 @@ static int load_plane(const char *dir, int k, uint32_t w, uint32_t h, uint32_t s
                  rto_npy_desc_text(&a.desc, NULL, (char[160]){0}, 160));
         rto_npy_free(&a);
         return -1;
+    }
+    if (t == RTO_DTYPE_U8) { /* the mask: 0 or 1 */
+        const uint8_t *m = a.data;
+        for (uint64_t i = 0; i < n; i++)
+            if (m[i] > 1) {
+                cli_fail("check-vbuffer", "--gpu %s: %s: pixel %" PRIu64 " holds %u; the mask is 0 or 1", dir, name, i,
+                         m[i]);
+                rto_npy_free(&a);
+                return -1;
+            }
     }
     if (t == RTO_DTYPE_U32) { /* 32-bit words holding 16-bit values (or mask bytes), as a storage buffer gives them */
         const uint32_t *src = a.data;
@@ -196,7 +219,8 @@ int cmd_check_vbuffer(int argc, char **argv)
         OPT_ENUM("f16-rounding", &nearest, rounding_names, "R",
                  "binary16 stores: any (nearest or toward zero, as Vulkan allows) or nearest (even)", "any"),
         OPT_PATH("material", 0, &material_arg, "LIB.so", "the material plugin the bundle was written with"),
-        OPT_UINT("threads", &threads, 0, 256, "N", "threads recomputing the bundle (0: one per CPU)", "0"),
+        OPT_UINT("threads", &threads, 0, 256, "N",
+                 "threads recomputing the bundle (0: one per CPU; the check itself uses every CPU)", "0"),
         OPT_FLAG("json", &json, "print the report as JSON"),
         OPT_FLAG("no-artifacts", &no_artifacts, "do not write check-vbuffer.json into DUMPDIR"),
         OPT_END,
@@ -240,7 +264,8 @@ int cmd_check_vbuffer(int argc, char **argv)
         if (got < 0)
             rc = EXIT_BAD_INPUT;
         else if (got == 0 && k == P_VIS)
-            rc = cli_fail("check-vbuffer", "--gpu %s: no vb_visibility.npy: nothing to compare", gpu);
+            rc = cli_fail("check-vbuffer", "--gpu %s: %s", gpu,
+                          access(gpu, F_OK) ? "no such directory" : "no vb_visibility.npy: nothing to compare");
     }
     const rto_vbuffer_desc vd = {W, H, S, (uint32_t)threads};
     rto_status s = RTO_OK;

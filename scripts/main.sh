@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The main job: install what is missing, build everything, and write the golden bundles to out/goldens/.
 #   bash scripts/main.sh [--full] [extra arguments for `rtoracle suite sort`]
-# By default the lean goldens (under 150 MB): the sort matrix's tiny and tile size classes (every n a tile boundary
+# By default the lean goldens (under 200 MB): the sort matrix's tiny and tile size classes (every n a tile boundary
 # makes interesting, up to 4,097), traces at 128x96, frames as lean goldens (image, accum, counters) and visibility
 # buffers at 128x96. --full: every size class up to 65,536 keys, traces and visibility buffers at 320x240 and every
 # frame's per-bounce queues, hits and payloads too.

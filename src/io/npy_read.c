@@ -207,8 +207,11 @@ static rto_status scalar_from_token(parser *ps, const token *t, rto_dtype *type)
         }
     if (t->n > 0 && t->s[0] == '>')
         return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "big-endian dtype " TOK_FMT " is not supported", TOK_ARG(*t));
-    return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "unknown dtype " TOK_FMT " (supported: '|u1', '<u4', '<u8', "
-                    "'<i4', '<f4')", TOK_ARG(*t));
+    char list[128];
+    size_t used = 0;
+    for (size_t i = 0; i < sizeof rto__npy_scalars / sizeof rto__npy_scalars[0] && used < sizeof list; i++)
+        used += (size_t)snprintf(list + used, sizeof list - used, "%s'%s'", i ? ", " : "", rto__npy_scalars[i].descr);
+    return rto__fail(ps->msg, RTO_ERR_UNSUPPORTED, "unknown dtype " TOK_FMT " (supported: %s)", TOK_ARG(*t), list);
 }
 
 /* One ('name', 'type') or ('name', 'type', (n,)) entry; *offset advances past it. */

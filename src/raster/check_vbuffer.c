@@ -362,11 +362,19 @@ static void check_rows(void *ctx, uint32_t worker, size_t begin, size_t end)
                 p->compared++;
                 const int background_ok = n > 0 && set[2 * (n - 1)] == RTO_VB_BACKGROUND;
                 const int gpu_background = inst == RTO_VB_BACKGROUND && prim == RTO_VB_BACKGROUND;
+                const rto_vbuffer_geometry *geo = c->d->geometry;
+                const int exists = gpu_background || !geo ||
+                                   (inst < geo->instance_count && geo->instances[inst].blas < geo->mesh_count &&
+                                    prim < geo->meshes[geo->instances[inst].blas].triangle_count);
                 if (!admissible) {
                     char got[64], sets[320];
                     id_text(got, sizeof got, inst, prim);
                     set_text(e, k, sets, sizeof sets);
-                    if (gpu_background && !background_ok)
+                    if (!exists)
+                        note(&p->first[RTO_VB_ID], k, "visibility",
+                             "%s, which the scene does not have (the words hold no triangle ID): admissible here %s",
+                             got, sets);
+                    else if (gpu_background && !background_ok)
                         note(&p->first[RTO_VB_COVERAGE], k, "visibility",
                              "background, but a triangle covers this sample under the top-left rule at every "
                              "admissible sub-pixel precision (4 to 8 bits): admissible here %s",

@@ -247,12 +247,17 @@ rto_status rto_vbuffer_shade(const rto_vbuffer_planes *planes, const uint8_t *ma
     if (desc->material > RTO_VB_PLUGIN || (desc->material == RTO_VB_PLUGIN && (!desc->custom || !desc->custom->shade)))
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shade: unknown material %d, or a plugin material without "
                          "its table", (int)desc->material);
-    float sun[3] = {desc->sun[0], desc->sun[1], desc->sun[2]};
-    const float sl = sqrtf((sun[0] * sun[0] + sun[1] * sun[1]) + sun[2] * sun[2]);
-    if (desc->material == RTO_VB_LAMBERT && !(sl > 0.0f && isfinite(sl)))
+    /* The sun normalised in binary64 and rounded once: any finite, non-zero direction has a unit one (binary32
+     * squares would overflow from 2^64 and vanish under 2^-75). */
+    const double sx = desc->sun[0], sy = desc->sun[1], sz = desc->sun[2], sl = sqrt(sx * sx + sy * sy + sz * sz);
+    if (desc->material == RTO_VB_LAMBERT && !(sl > 0.0 && isfinite(sl)))
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "shade: the sun direction is zero or not finite");
-    for (int a = 0; a < 3 && sl > 0.0f; a++)
-        sun[a] = sun[a] / sl;
+    float sun[3] = {0.0f, 0.0f, 0.0f};
+    if (sl > 0.0 && isfinite(sl)) {
+        sun[0] = (float)(sx / sl);
+        sun[1] = (float)(sy / sl);
+        sun[2] = (float)(sz / sl);
+    }
     rto__vb_texture_set ts = {NULL, 0};
     if (desc->material == RTO_VB_UNLIT) {
         rto_status st = rto__vb_texture_set_make(geometry, desc, &ts, msg);

@@ -171,13 +171,16 @@ float rto__vb_texture_lod(const rto__vb_mips *m, const float duvdx[2], const flo
     return lod < 0.0f ? 0.0f : lod > top ? top : lod;
 }
 
-/* i mod n in [0, n) for any finite i (repeat wrap). */
+/* i mod n in [0, n) (repeat wrap); 0 for a coordinate beyond binary64's range or not finite (a GPU dump's
+ * barycentrics may reach 65504, and a scene's UVs may be huge: no such coordinate may reach the conversion). */
 static uint32_t wrap(double i, uint32_t n)
 {
+    if (!isfinite(i))
+        return 0;
     double r = fmod(i, (double)n);
     if (r < 0.0)
         r += (double)n;
-    const uint32_t q = (uint32_t)r;
+    const uint32_t q = r >= 0.0 && r < (double)n ? (uint32_t)r : 0;
     return q < n ? q : 0;
 }
 
@@ -190,7 +193,8 @@ static void bilinear(const rto__vb_mips *m, uint32_t level, const float uv[2], f
 {
     const uint32_t w = m->width[level], h = m->height[level];
     const float x = uv[0] * (float)w - 0.5f, y = uv[1] * (float)h - 0.5f;
-    const float fx = floorf(x), fy = floorf(y), ax = x - fx, ay = y - fy;
+    const float fx = floorf(x), fy = floorf(y);
+    const float ax = isfinite(x) ? x - fx : 0.0f, ay = isfinite(y) ? y - fy : 0.0f;
     const uint32_t i0 = wrap(fx, w), i1 = wrap((double)fx + 1.0, w), j0 = wrap(fy, h), j1 = wrap((double)fy + 1.0, h);
     const float *t00 = texel(m, level, i0, j0), *t10 = texel(m, level, i1, j0);
     const float *t01 = texel(m, level, i0, j1), *t11 = texel(m, level, i1, j1);

@@ -227,11 +227,12 @@ struct rto_vbuffer_bundle_data {
     uint32_t texture_count;
 };
 
-static rto_status read_real(const rto__bundle_in *in, const char *key, float *out)
+/* A number of the manifest's vbuffer section within [lo, hi] (what `rtoracle vbuffer` accepts for it). */
+static rto_status read_real(const rto__bundle_in *in, const char *key, double lo, double hi, float *out)
 {
     double v = 0.0;
-    if (!rto_bundle_get_real(in->r, "vbuffer", key, &v) || !isfinite(v) || fabs(v) > 1e30)
-        return rto__bundle_refuse(in, "manifest.json", "vbuffer.%s is missing or not a finite number", key);
+    if (!rto_bundle_get_real(in->r, "vbuffer", key, &v) || !(v >= lo && v <= hi))
+        return rto__bundle_refuse(in, "manifest.json", "vbuffer.%s is missing or outside [%g, %g]", key, lo, hi);
     *out = (float)v;
     return RTO_OK;
 }
@@ -437,12 +438,13 @@ rto_status rto_vbuffer_bundle_read(const char *dir, rto_vbuffer_bundle *vb, rto_
     }
     if (!s)
         snprintf(vb->material_name, sizeof vb->material_name, "%s", mname);
-    if (!s && !(s = read_real(&in, "threshold_normal", &m->thresholds.normal)) &&
-        !(s = read_real(&in, "threshold_depth", &m->thresholds.depth)) &&
-        !(s = read_real(&in, "threshold_sample_depth", &m->thresholds.sample_depth)) &&
-        !(s = read_real(&in, "sun_x", &m->sun[0])) && !(s = read_real(&in, "sun_y", &m->sun[1])) &&
-        !(s = read_real(&in, "sun_z", &m->sun[2])))
-        s = read_real(&in, "ambient", &m->ambient);
+    if (!s && !(s = read_real(&in, "threshold_normal", 0.0, 1.0, &m->thresholds.normal)) &&
+        !(s = read_real(&in, "threshold_depth", 0.0, 1e30, &m->thresholds.depth)) &&
+        !(s = read_real(&in, "threshold_sample_depth", 0.0, 1e30, &m->thresholds.sample_depth)) &&
+        !(s = read_real(&in, "sun_x", -1e30, 1e30, &m->sun[0])) &&
+        !(s = read_real(&in, "sun_y", -1e30, 1e30, &m->sun[1])) &&
+        !(s = read_real(&in, "sun_z", -1e30, 1e30, &m->sun[2])))
+        s = read_real(&in, "ambient", 0.0, 1.0, &m->ambient);
     if (!s)
         s = rto_scene_bundle_read(dir, &vb->scene, msg);
     if (!s) {

@@ -9,8 +9,8 @@
  *   flat          every plane as a flat array               bits      every binary16 plane as uint16 bit patterns
  *   unorm24       depth as depth24plus stores it: vb_depth_unorm24 / (2^24 - 1)
  *   coverage      the first certain covered sample (admissible set of one triangle) made background
- *   id            the same sample's primitive + 1 (mod the mesh's triangles)
- *   instance      the same sample's instance word made the next instance
+ *   id            the same sample's primitive with its lowest bit flipped (a neighbour in the mesh, or past its end)
+ *   instance      the same sample's instance with its lowest bit flipped
  *   bary          the same sample's b1 + 0.05
  *   normal-sign   the first covered sample whose octahedral x is not 0: x negated
  *   deriv         the first covered sample whose ddx b1 is over 1e-3 in magnitude: negated
@@ -104,10 +104,14 @@ int main(int argc, char **argv)
     } else if (!strcmp(m, "normal-sign")) {
         for (at = 0; at < n && (vis[4 * at] == 0xffff || (nrm[4 * at] & 0x7fffu) == 0); at++)
             ;
+        if (at == n)
+            die("no covered sample with a non-zero octahedral x", bundle);
         nrm[4 * at] ^= 0x8000u;
     } else if (!strcmp(m, "deriv")) {
         for (at = 0; at < n && (vis[4 * at] == 0xffff || fabsf(rto_f16_to_f32(der[4 * at])) <= 1e-3f); at++)
             ;
+        if (at == n)
+            die("no covered sample with |ddx b1| over 1e-3", bundle);
         der[4 * at] ^= 0x8000u;
     } else if (!strcmp(m, "depth")) {
         depth[at] += 1e-3f;
@@ -123,6 +127,8 @@ int main(int argc, char **argv)
         size_t p = 0;
         for (; p < (size_t)H * W && (mask[p] || vis[4 * p * S] == 0xffff); p++)
             ;
+        if (p == (size_t)H * W)
+            die("no interior covered pixel", bundle);
         mask[p] = 1;
         printf("x=%zu y=%zu\n", p % W, p / W);
         print_sample = 0;
