@@ -102,6 +102,11 @@ run 2 "$RTO" check-vbuffer --expected "$T/tampered" --gpu "$T/g"
 run 2 "$RTO" check-vbuffer --expected "$B" --gpu "$T/g" && has "vb_depth.npy: expected" err
 rm -f "$T/g/vb_visibility.npy"
 run 2 "$RTO" check-vbuffer --expected "$B" --gpu "$T/g" && has "no vb_visibility.npy" err
+rm -rf "$T/g2" && "$MUT" transposed "$B" "$T/g2" >/dev/null
+run 2 "$RTO" check-vbuffer --expected "$B" --gpu "$T/g2" && has "vb_visibility.npy: expected" err
+rm -rf "$T/g2" && "$MUT" copy "$B" "$T/g2" >/dev/null && "$EDIT" "$T/g2/vb_edge_mask.npy" set-u32 0 0x07070707 >/dev/null
+run 2 "$RTO" check-vbuffer --expected "$B" --gpu "$T/g2" && has "the mask is 0 or 1" err
+run 2 "$RTO" check-vbuffer --expected "$B" --gpu "$T/missing-dir" && has "no such directory" err
 mkfifo "$T/g/vb_visibility.npy"
 run 2 timeout 20 "$RTO" check-vbuffer --expected "$B" --gpu "$T/g"
 run 2 "$RTO" check-vbuffer --expected "$T/missing" --gpu "$T/g"

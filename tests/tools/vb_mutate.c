@@ -19,6 +19,7 @@
  *   mask          the first interior pixel whose sample 0 is covered, marked an edge   -> x= y=
  *   image         the middle pixel's red + 0.25                                          -> x= y=
  *   no-mask       vb_edge_mask.npy and vb_image.npy left out
+ *   transposed    vb_visibility.npy shaped (W, H, S, 4): the right size, the wrong shape
  */
 #include "rtoracle.h"
 
@@ -139,6 +140,10 @@ int main(int argc, char **argv)
         print_sample = 0;
     } else if (!strcmp(m, "no-mask")) {
         skip_mask = 1;
+        print_sample = 0;
+    } else if (!strcmp(m, "transposed")) {
+        a[VIS].desc.shape[0] = W;
+        a[VIS].desc.shape[1] = H;
         print_sample = 0;
     } else if (strcmp(m, "copy") && strcmp(m, "u32") && strcmp(m, "flat") && strcmp(m, "bits")) {
         die("unknown mutation", m);
