@@ -22,7 +22,9 @@ stage() { echo "== $* (at $((SECONDS - t_start)) s)"; }
 
 stage "build (debugoptimized, -Werror)"
 rto_build build --werror
-meson test -C build --print-errorlogs --num-processes 2
+# Three test processes on two cores: several tests spend part of their time waiting (signals sent after delays,
+# timeouts, child processes), and a third keeps both cores busy through those waits.
+meson test -C build --print-errorlogs --num-processes 3
 
 # The gpu stage keeps about one core busy (a WebGPU dispatch, then rtoracle's check of it, in turn), so it runs in the
 # background beside the sanitizer build and tests; its output is shown when they are done.
