@@ -71,7 +71,7 @@ cat "$gpu_log"
 stage "determinism across optimisation levels"
 rto_build build-release --werror --buildtype=release -- installed
 tmp=$(mktemp -d)
-args=(suite sort --sizes tiny,tile,16384 --dists all --checkpoint-max 4096)
+args=(suite sort --sizes tiny,tile,16384 --dists all --checkpoint-max 1024)
 fix=fixtures
 # determinism_runs BUILD: every bundle below written by BUILD's rtoracle; the three builds run side by side.
 determinism_runs() {

@@ -18,9 +18,13 @@ python3 "$IMAGES" set . || { echo "images.py set failed"; exit 1; }
 run 0 "$RTO" compare base.png base.png && has PASS out && has "PSNR        inf" out
 run 0 "$RTO" compare base.png base.exr && has PASS out
 
-# Each kind of fault fails, even with thresholds loose enough for the noise below.
+# Each kind of fault fails, even with thresholds loose enough for the noise below. The verdict's arithmetic on more
+# threshold pairs runs in the optimised build only: under the sanitizers each run costs 0.7 s of OpenImageIO loading,
+# and the same comparisons run there in unit.image (rto_image_compare); the runs that read, write or refuse files all
+# stay.
 for p in shift swap-rb invert-g gamma; do
     run 2 "$RTO" compare base.png "$p.png" --fail 0.01 --warn 0.001 --fail-percent 1 && has FAILURE out
+    [ -z "${RTO_TEST_SANITIZED:-}" ] || break
 done
 # Noise of 1/255 in one channel of every 7th pixel: 28 pixels over --fail 0.003, tolerated by --fail-percent 20, and
 # over --warn 0.001 -> WARNING.
@@ -29,10 +33,12 @@ has "28 pixels (14.6 %) over the warn threshold 0.001" out
 has "28 pixels (14.6 %) over the fail threshold 0.003" out
 # ... within --fail 0.01 everywhere -> PASS, whatever --warn says (idiff 2.4.7: a warning needs a failing pixel);
 # with the defaults (any difference) -> FAILURE; a hard limit under 1/255 -> FAILURE.
-run 0 "$RTO" compare base.png noise.png --fail 0.01 --warn 0.001 && has PASS out
-run 0 "$RTO" compare base.png noise.png --fail 0.01 --warn 0.01 && has PASS out
-run 2 "$RTO" compare base.png noise.png
-run 2 "$RTO" compare base.png noise.png --fail-percent 15 --warn-percent 15 --hard-fail 0.003
+if [ -z "${RTO_TEST_SANITIZED:-}" ]; then
+    run 0 "$RTO" compare base.png noise.png --fail 0.01 --warn 0.001 && has PASS out
+    run 0 "$RTO" compare base.png noise.png --fail 0.01 --warn 0.01 && has PASS out
+    run 2 "$RTO" compare base.png noise.png
+    run 2 "$RTO" compare base.png noise.png --fail-percent 15 --warn-percent 15 --hard-fail 0.003
+fi
 
 # One channel of pixel (3, 2) off by 5/255: the max error, where it is, and the diff image (x 10 -> 50 / 255).
 run 2 "$RTO" compare base.png one-off.png --diff diff.png --diff-scale 10 &&
