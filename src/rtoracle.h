@@ -1077,9 +1077,26 @@ typedef enum rto_bundle_file {
     RTO_FILE_MESH_UVS = 38,        /* mesh_M_uvs.npy          role "mesh-uvs"         f32 (vertices, 2) */
     RTO_FILE_VB_MESH_TEXTURES = 39, /* vb_mesh_textures.npy   role "vb-mesh-textures" i32 (meshes,): T or -1 */
     RTO_FILE_VB_TEXTURES = 40,     /* vb_textures.npy         role "vb-textures"      u32 (T, 3): width, height, levels */
-    RTO_FILE_VB_TEXTURE = 41       /* vb_texture_T.npy        role "vb-texture"       f16 (texels of every level, 4) */
+    RTO_FILE_VB_TEXTURE = 41,      /* vb_texture_T.npy        role "vb-texture"       f16 (texels of every level, 4) */
+    /* Fluid bundles (rtoracle splat and raymarch, DESIGN.md §12; volumes are (nz, ny, nx), x fastest). */
+    RTO_FILE_FLUID_PARAMS = 42,    /* fluid_params.npy        role "fluid-params"     f32 (16,): rto_fluid_uniforms */
+    RTO_FILE_FLUID_PARTICLES = 43, /* particles.npy           role "fluid-particles"  f32 (N, 3) */
+    RTO_FILE_FLUID_VOLUME_U32 = 44, /* volume_u32.npy         role "fluid-volume-u32" u32 (nz, ny, nx), mod 2^32 */
+    RTO_FILE_FLUID_VOLUME_F16 = 45, /* volume_f16.npy         role "fluid-volume-f16" f16 (nz, ny, nx): resolved */
+    RTO_FILE_FLUID_OCCUPANCY = 46, /* occupancy.npy           role "fluid-occupancy"  u32 (words,): every level */
+    RTO_FILE_FLUID_OVERFLOW = 47,  /* overflow.npy            role "fluid-overflow"   u64 (K, 2): voxel, true sum */
+    RTO_FILE_RM_PARAMS = 48,       /* rm_params.npy           role "rm-params"        f32 (64,): rto_raymarch_uniforms */
+    RTO_FILE_RM_IMAGE = 49,        /* rm_image.npy            role "rm-image"         f32 (H, W, 4) */
+    RTO_FILE_RM_CROSSING = 50,     /* rm_crossing.npy         role "rm-crossing"      u32 (H, W): first crossing step */
+    RTO_FILE_RM_CROSSING_T = 51,   /* rm_crossing_t.npy       role "rm-crossing-t"    f32 (H, W) */
+    RTO_FILE_RM_NORMAL_CENTRAL = 52, /* rm_normal_central.npy "rm-normal-central"     f32 (H, W, 3) */
+    RTO_FILE_RM_NORMAL_FORWARD = 53, /* rm_normal_forward.npy "rm-normal-forward"     f32 (H, W, 3) */
+    RTO_FILE_RM_STEPS = 54,        /* rm_steps.npy            role "rm-steps"         u32 (H, W): without skipping */
+    RTO_FILE_RM_STEPS_SKIP = 55,   /* rm_steps_skip.npy       role "rm-steps-skip"    u32 (H, W): with skipping */
+    RTO_FILE_RM_CERTAIN = 56,      /* rm_certain.npy          role "rm-certain"       u8 (H, W): decisions certain */
+    RTO_FILE_RM_TOLERANCE = 57     /* rm_tolerance.npy        role "rm-tolerance"     f32 (H, W): image tolerance */
 } rto_bundle_file;
-#define RTO_BUNDLE_FILE_COUNT 42
+#define RTO_BUNDLE_FILE_COUNT 58
 /** Room for any bundle file name, NUL included. */
 #define RTO_BUNDLE_FILE_NAME_MAX 64
 
@@ -2207,6 +2224,85 @@ typedef struct rto_vbuffer_crosscheck_result {
  */
 rto_status rto_vbuffer_crosscheck(const rto_vbuffer *vb, const rto_accel *accel, const rto_camera *camera,
                                   uint32_t threads, rto_vbuffer_crosscheck_result *out, rto_msg *msg);
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Fluid volumes (seed 003, DESIGN.md §12): particles splatted into a fixed-point density volume, resolved to          */
+/* binary16, and a conservative occupancy grid with its mip chain                                                    */
+
+/** The splat's parameters. bounds: the volume's box; res: voxels per axis (1..1024); radius: the smoothing radius h
+ * (> 0, finite); scale: the fixed-point scale (the seed's 1000); occupancy: occupancy cells per axis (1..1024, the
+ * seed's 32). */
+typedef struct rto_fluid_params {
+    rto_aabb bounds;
+    uint32_t res[3];
+    float radius;
+    float scale;
+    uint32_t occupancy;
+} rto_fluid_params;
+
+/** The seed's defaults: bounds [-1, 1]^3, 64^3 voxels, h = 0.05, scale 1000, occupancy 32. */
+void rto_fluid_params_default(rto_fluid_params *p);
+
+/** What the splat kernels read as their uniform block (fluid_params.npy, f32 (16,)): every value a GPU needs, each
+ * rounded once from binary64 where the host computes it (§12.1). */
+typedef struct rto_fluid_uniforms {
+    float bounds_min[3];
+    float radius;        /* h */
+    float voxel_size[3]; /* (max - min) / res, per axis */
+    float kernel_factor; /* S = 15 / (2 pi h^5) */
+    float bounds_max[3];
+    float scale;         /* the fixed-point scale */
+    float res[3];        /* voxels per axis, as floats */
+    float occupancy;     /* occupancy cells per axis */
+} rto_fluid_uniforms;
+RTO_STATIC_ASSERT(sizeof(rto_fluid_uniforms) == 64, "rto_fluid_uniforms is 64 bytes");
+
+/** Validates p and fills u (§12.1). */
+rto_status rto_fluid_uniforms_make(const rto_fluid_params *p, rto_fluid_uniforms *u, rto_msg *msg);
+
+/**
+ * Particles from a named generator (§12.1): "dambreak:N", "pool:N", "splash:N", "single", "lattice" (particles on
+ * voxel corners, voxel centres and the bounds' faces, where every rounding is on a knife edge). N particles at most
+ * 2^24. The positions depend on the spec and p only. *pos (3 floats a particle) is malloc'ed; the caller frees it.
+ */
+rto_status rto_fluid_generate(const char *spec, const rto_fluid_params *p, float **pos, uint64_t *count, rto_msg *msg);
+
+/** A splat's counters (§12.2). */
+typedef struct rto_splat_stats {
+    uint64_t particles;
+    uint64_t contributions;      /* (particle, voxel) pairs with r < h and a non-zero contribution */
+    uint64_t uncertain;          /* contributions the conformance model does not pin to one integer */
+    uint64_t voxels_nonzero;
+    uint64_t overflow_voxels;    /* voxels whose true sum passes 2^32 - 1 */
+    uint64_t first_overflow;     /* the first of them (x fastest), or UINT64_MAX */
+    uint64_t max_sum;            /* the largest true sum */
+    uint64_t occupied_cells;     /* level 0 of the occupancy grid */
+} rto_splat_stats;
+
+/** The splat, the resolve and the occupancy grid (§12.2-§12.3). */
+typedef struct rto_splat {
+    rto_fluid_params params;
+    rto_fluid_uniforms uniforms;
+    uint32_t *volume_u32;      /* nx * ny * nz, the true sum mod 2^32 (what an atomicAdd leaves) */
+    uint16_t *volume_f16;      /* the resolve: binary16 of f32(u) / scale, round to nearest even */
+    uint32_t *occupancy;       /* every level's bits, level 0 first (§12.3) */
+    uint64_t occupancy_words;
+    uint32_t occupancy_levels;
+    uint64_t level_offset[12]; /* first word of each level */
+    uint32_t level_res[12];    /* cells per axis of each level */
+    uint64_t *overflow;        /* overflow_count pairs (voxel index, true sum), or NULL */
+    uint64_t overflow_count;
+    rto_splat_stats stats;
+} rto_splat;
+
+/** Splats count particles (3 floats each) with threads workers (0 = all cores); the bytes do not depend on threads or
+ * on the particles' order. */
+rto_status rto_splat_make(const rto_fluid_params *p, const float *pos, uint64_t count, uint32_t threads, rto_splat *out,
+                          rto_msg *msg);
+void rto_splat_free(rto_splat *s);
+
+/** Whether occupancy cell (x, y, z) of level l is set. */
+int rto_occupancy_get(const rto_splat *s, uint32_t level, uint32_t x, uint32_t y, uint32_t z);
 
 #ifdef __cplusplus
 }

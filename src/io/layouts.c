@@ -243,6 +243,22 @@ static const struct {
     [RTO_FILE_VB_MESH_TEXTURES] = {"vb_mesh_textures.npy", "vb-mesh-textures", 0},
     [RTO_FILE_VB_TEXTURES] = {"vb_textures.npy", "vb-textures", 0},
     [RTO_FILE_VB_TEXTURE] = {"vb_texture_%u.npy", "vb-texture", 1},
+    [RTO_FILE_FLUID_PARAMS] = {"fluid_params.npy", "fluid-params", 0},
+    [RTO_FILE_FLUID_PARTICLES] = {"particles.npy", "fluid-particles", 0},
+    [RTO_FILE_FLUID_VOLUME_U32] = {"volume_u32.npy", "fluid-volume-u32", 0},
+    [RTO_FILE_FLUID_VOLUME_F16] = {"volume_f16.npy", "fluid-volume-f16", 0},
+    [RTO_FILE_FLUID_OCCUPANCY] = {"occupancy.npy", "fluid-occupancy", 0},
+    [RTO_FILE_FLUID_OVERFLOW] = {"overflow.npy", "fluid-overflow", 0},
+    [RTO_FILE_RM_PARAMS] = {"rm_params.npy", "rm-params", 0},
+    [RTO_FILE_RM_IMAGE] = {"rm_image.npy", "rm-image", 0},
+    [RTO_FILE_RM_CROSSING] = {"rm_crossing.npy", "rm-crossing", 0},
+    [RTO_FILE_RM_CROSSING_T] = {"rm_crossing_t.npy", "rm-crossing-t", 0},
+    [RTO_FILE_RM_NORMAL_CENTRAL] = {"rm_normal_central.npy", "rm-normal-central", 0},
+    [RTO_FILE_RM_NORMAL_FORWARD] = {"rm_normal_forward.npy", "rm-normal-forward", 0},
+    [RTO_FILE_RM_STEPS] = {"rm_steps.npy", "rm-steps", 0},
+    [RTO_FILE_RM_STEPS_SKIP] = {"rm_steps_skip.npy", "rm-steps-skip", 0},
+    [RTO_FILE_RM_CERTAIN] = {"rm_certain.npy", "rm-certain", 0},
+    [RTO_FILE_RM_TOLERANCE] = {"rm_tolerance.npy", "rm-tolerance", 0},
 };
 
 static int known_file(rto_bundle_file f) { return (unsigned)f < RTO_BUNDLE_FILE_COUNT; }
