@@ -263,6 +263,22 @@ static void test_bundle_file_names(void **state)
         {RTO_FILE_VB_MESH_TEXTURES, 0, "vb_mesh_textures.npy", "vb-mesh-textures"},
         {RTO_FILE_VB_TEXTURES, 0, "vb_textures.npy", "vb-textures"},
         {RTO_FILE_VB_TEXTURE, 2, "vb_texture_2.npy", "vb-texture"},
+        {RTO_FILE_FLUID_PARAMS, 0, "fluid_params.npy", "fluid-params"},
+        {RTO_FILE_FLUID_PARTICLES, 0, "particles.npy", "fluid-particles"},
+        {RTO_FILE_FLUID_VOLUME_U32, 0, "volume_u32.npy", "fluid-volume-u32"},
+        {RTO_FILE_FLUID_VOLUME_F16, 0, "volume_f16.npy", "fluid-volume-f16"},
+        {RTO_FILE_FLUID_OCCUPANCY, 0, "occupancy.npy", "fluid-occupancy"},
+        {RTO_FILE_FLUID_OVERFLOW, 0, "overflow.npy", "fluid-overflow"},
+        {RTO_FILE_RM_PARAMS, 0, "rm_params.npy", "rm-params"},
+        {RTO_FILE_RM_IMAGE, 0, "rm_image.npy", "rm-image"},
+        {RTO_FILE_RM_CROSSING, 0, "rm_crossing.npy", "rm-crossing"},
+        {RTO_FILE_RM_CROSSING_T, 0, "rm_crossing_t.npy", "rm-crossing-t"},
+        {RTO_FILE_RM_NORMAL_CENTRAL, 0, "rm_normal_central.npy", "rm-normal-central"},
+        {RTO_FILE_RM_NORMAL_FORWARD, 0, "rm_normal_forward.npy", "rm-normal-forward"},
+        {RTO_FILE_RM_STEPS, 0, "rm_steps.npy", "rm-steps"},
+        {RTO_FILE_RM_STEPS_SKIP, 0, "rm_steps_skip.npy", "rm-steps-skip"},
+        {RTO_FILE_RM_CERTAIN, 0, "rm_certain.npy", "rm-certain"},
+        {RTO_FILE_RM_TOLERANCE, 0, "rm_tolerance.npy", "rm-tolerance"},
     };
     assert_int_equal(sizeof want / sizeof want[0], RTO_BUNDLE_FILE_COUNT);
     char name[RTO_BUNDLE_FILE_NAME_MAX];
