@@ -42,6 +42,10 @@ export async function openDevice() {
     raise('maxStorageBuffersInVertexStage', 4);
     raise('maxColorAttachments', 8);
     raise('maxColorAttachmentBytesPerSample', 64);
+    // The fluid family's kernels use the seed's workgroups of 256 invocations (256x1x1, 8x8x4): compatibility mode's
+    // defaults are 128 invocations and 128 in x (llvmpipe's adapter offers 1024).
+    raise('maxComputeInvocationsPerWorkgroup', 256);
+    raise('maxComputeWorkgroupSizeX', 256);
     const device = await adapter.requestDevice({requiredFeatures: features, requiredLimits: limits});
     // Uncaptured errors: a kernel's WGSL or pipeline error is kept for takeShaderError (a setup error, reported once
     // by gpu/run, with no verdict); what follows from it ("invalid due to a previous error") is dropped; any other
