@@ -14,8 +14,9 @@ import {DEFAULT_RTORACLE, usage} from './lib/oracle.js';
 import {writeHtml} from './lib/report.js';
 import {Timer} from './lib/timing.js';
 
-const FAMILIES = ['bitonic', 'bitonic-wg', 'radix', 'build', 'trace', 'frame', 'vbuffer'];
-const DEFAULT_FAMILIES = FAMILIES;
+const FAMILIES = ['bitonic', 'bitonic-wg', 'radix', 'build', 'trace', 'frame', 'vbuffer', 'fluid'];
+// fluid runs when named (--families fluid) until rtoracle splat and check-volume are part of every build.
+const DEFAULT_FAMILIES = FAMILIES.filter((f) => f !== 'fluid');
 
 const HELP = `usage: gpu/run [--families LIST] [--subset ci|full] [--dists LIST] [--sizes LIST] [--scenes LIST]
                [--repeat K] [--timestamps] [--shrink] [--racy-scatter] [--drop-barrier PASS]
@@ -34,6 +35,8 @@ Families (default: all):
   trace        ordered traversal over TLAS and BLAS, 96-byte hit records (check-hits)
   frame        the wavefront chain with dispatchWorkgroupsIndirect: triangle and sun-shadow (check-frame)
   vbuffer      the visibility buffer (seed 004): 1x/4x MSAA G-buffer, edge mask, material pass (check-vbuffer)
+  fluid        seed 003's density volume: splat (atomicAdd), resolve to rgba16float, occupancy grid and its mips
+               (check-volume); the raymarch of the volume, with and without empty-space skipping (check-raymarch)
 
 options:
   --families LIST     comma-separated families to run

@@ -34,8 +34,10 @@ const fluidCase = (gen, res, extra = {}) => {
 };
 
 /** ci: dambreak, splash and the lattice at 24^3 voxels (8^3 occupancy), single at 16^3; full: also pool, larger
- * volumes and particle counts, other radii and occupancy resolutions. */
+ * volumes and particle counts, other radii and occupancy resolutions. --scenes: each generator spec named
+ * (rtoracle splat --gen, e.g. pool:500) at 24^3 voxels. */
 export function list(opts) {
+  if (opts.scenes) return opts.scenes.map((g) => fluidCase(g, 24));
   const ci = [fluidCase('dambreak:2000', 24), fluidCase('splash:1000', 24), fluidCase('single', 16),
     fluidCase('lattice', 24)];
   if (opts.subset === 'ci') return ci;
