@@ -2304,6 +2304,137 @@ void rto_splat_free(rto_splat *s);
 /** Whether occupancy cell (x, y, z) of level l is set. */
 int rto_occupancy_get(const rto_splat *s, uint32_t level, uint32_t x, uint32_t y, uint32_t z);
 
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Fluid raymarch (seed 003, DESIGN.md §12.4-§12.7): the reference raymarch of a splatted volume, with and without   */
+/* empty-space skipping, and its check                                                                               */
+
+/** What the raymarch kernel reads as its uniform block (rm_params.npy, f32 (64,), 256 bytes; §12.4). Integers are
+ * stored as floats (exact below 2^24) except jitter_seed, stored as its u32 bits (bitcast in WGSL). */
+typedef struct rto_raymarch_uniforms {
+    float inverse_projection[16]; /*  0: the Stage-2 camera block (rto_camera_uniforms), column-major */
+    float inverse_view[16];       /* 16 */
+    float eye[3];                 /* 32: the camera position */
+    float step_size;              /* 35: primary march step */
+    float bounds_min[3];          /* 36 */
+    float light_step_size;        /* 39: the shadow march steps 2 x this */
+    float bounds_max[3];          /* 40 */
+    float density_offset;         /* 43 */
+    float extinction[3];          /* 44: rgb */
+    float density_multiplier;     /* 47 */
+    float sun_dir[3];             /* 48: towards the sun, unit (normalised in binary64) */
+    float ior;                    /* 51: 1.33 */
+    float floor_height;           /* 52 */
+    float num_refractions;        /* 53: 4 */
+    float jitter_scale;           /* 54: 0.4 (0: no jitter) */
+    uint32_t jitter_seed;         /* 55: u32 bits */
+    float width, height;          /* 56, 57 */
+    float skip;                   /* 58: 1 = empty-space skipping on (only with density_offset > 0) */
+    float occupancy;              /* 59: occupancy cells per axis at level 0 */
+    float res[3];                 /* 60: voxels per axis */
+    float occupancy_levels;       /* 63 */
+} rto_raymarch_uniforms;
+RTO_STATIC_ASSERT(sizeof(rto_raymarch_uniforms) == 256, "rto_raymarch_uniforms is 256 bytes");
+
+/** A raymarch's parameters (§12.4). */
+typedef struct rto_raymarch_params {
+    uint32_t width, height;    /* 1..16384 */
+    rto_camera camera;         /* the Stage-2 look-at camera */
+    float step_size;           /* > 0 */
+    float light_step_size;     /* > 0 */
+    float density_offset;      /* skipping needs > 0 */
+    float density_multiplier;  /* > 0 */
+    float extinction[3];       /* >= 0 */
+    float sun_dir[3];          /* towards the sun (normalised) */
+    float ior;                 /* > 0 */
+    uint32_t num_refractions;  /* 0..16 */
+    float floor_height;
+    float jitter_scale;        /* 0.4; 0 turns the jitter off */
+    uint32_t jitter_seed;
+    int skip;                  /* empty-space skipping in the skipping pass (1, default) */
+    int envelope;              /* compute rm_certain / rm_tolerance (1, default; 0 leaves them 0 / inf) */
+    int quantize_weights;      /* test hook: trilinear weights rounded to 8 fractional bits (a simulated GPU) */
+    uint32_t threads;          /* 0: all cores; the bytes do not depend on it */
+} rto_raymarch_params;
+
+/** Defaults for a splat's bounds: 160x120, a camera framing the bounds, step = half the smallest voxel, light step
+ * 2 voxels, offset 100, multiplier 0.01, extinction (1.2, 0.6, 0.25), sun normalize(0.3, 1, 0.2), ior 1.33,
+ * 4 refractions, floor at bounds_min.y, jitter 0.4, seed 3, skip on, envelope on. */
+void rto_raymarch_params_default(const rto_splat *vol, rto_raymarch_params *p);
+
+/** Counters of a raymarch. */
+typedef struct rto_raymarch_stats {
+    uint64_t pixels, crossings, certain, uncertain;
+    uint64_t steps_total, steps_skip_total; /* primary-march loop iterations, all bounces */
+    uint32_t steps_max, steps_skip_max;
+    uint64_t differing_pixels;    /* image bytes that differ between the skipping and non-skipping passes (0) */
+    uint64_t differing_crossings; /* crossings (step or t) that differ between them (0) */
+    uint64_t skipped_samples;     /* samples the skipping pass did not take */
+    double normal_angle_mean, normal_angle_max; /* degrees between central and forward normals at crossings */
+    int skip_enabled;
+} rto_raymarch_stats;
+
+/** A raymarch: every per-pixel array row-major (H, W). */
+typedef struct rto_raymarch {
+    rto_raymarch_params params;
+    rto_raymarch_uniforms uniforms;
+    float *image;            /* (H, W, 4) */
+    uint32_t *crossing;      /* first crossing's step index, or 0xFFFFFFFF */
+    uint32_t *crossing_lo;   /* admissible first-crossing steps [lo, hi]; hi 0xFFFFFFFF: none also admissible */
+    uint32_t *crossing_hi;
+    float *crossing_t;       /* t of the first crossing (0 where none) */
+    float *normal_central;   /* (H, W, 3) at the first crossing (0 where none) */
+    float *normal_forward;
+    uint32_t *steps, *steps_skip;
+    uint8_t *certain;
+    float *tolerance;        /* per pixel, every channel; +inf where uncertain */
+    rto_raymarch_stats stats;
+} rto_raymarch;
+
+/** Raymarches vol (its params, uniforms, volume_f16 and occupancy are read) with p: the non-skipping pass, the
+ * skipping pass (when p->skip and density_offset > 0) and their comparison, and the envelope (§12.4-§12.6). */
+rto_status rto_raymarch_make(const rto_splat *vol, const rto_raymarch_params *p, rto_raymarch *out, rto_msg *msg);
+void rto_raymarch_free(rto_raymarch *r);
+
+/** The raymarch uniform block of p over vol. */
+rto_status rto_raymarch_uniforms_make(const rto_splat *vol, const rto_raymarch_params *p, rto_raymarch_uniforms *u,
+                                      rto_msg *msg);
+
+/** The density the reference samples at world point q (§12.4; exposed for tests). */
+float rto_raymarch_density(const rto_splat *vol, const rto_raymarch_uniforms *u, const float q[3]);
+
+/** A volume read from a splat (or raymarch) bundle directory: params, uniforms, volume_f16 and the occupancy levels
+ * filled (volume_u32 NULL); free with rto_splat_free. */
+rto_status rto_raymarch_volume_load(const char *dir, rto_splat *out, rto_msg *msg);
+
+/** Writes a raymarch bundle (§12.4) to outdir atomically: the rm_* arrays, image.png, the splat arrays a GPU needs,
+ * and the manifest (request: the up-to-date record, or NULL). */
+rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, const rto_splat *vol,
+                                     const rto_raymarch *r, rto_msg *msg);
+
+/** A GPU's raymarch dump (§12.7): image (H, W, 4) and crossing (H, W) required; the rest NULL when absent. */
+typedef struct rto_raymarch_dump {
+    uint32_t width, height;
+    const float *image;
+    const uint32_t *crossing;
+    const uint32_t *crossing_noskip; /* the same GPU without skipping */
+    const uint32_t *steps;
+    const uint32_t *steps_skip;
+} rto_raymarch_dump;
+
+/** What check-raymarch found: fault "" (pass), "crossing", "skip", "image" or "shape", the first wrong pixel, a
+ * one-line detail with expected and GPU values, and counts. */
+typedef struct rto_raymarch_check_result {
+    char fault[16];
+    uint32_t x, y;
+    char detail[320];
+    uint64_t faults, compared, uncertain, crossing_faults, skip_faults, image_faults;
+    double max_excess; /* largest |gpu - ref| / tolerance over the compared pixels */
+} rto_raymarch_check_result;
+
+/** Checks dump against ref (§12.7). RTO_OK with res->fault "" or the fault found; errors only for bad arguments. */
+rto_status rto_raymarch_check(const rto_raymarch *ref, const rto_raymarch_dump *dump, rto_raymarch_check_result *res,
+                              rto_msg *msg);
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,123 @@
+/* check-raymarch (DESIGN.md §12.7): a GPU's raymarch dump against the reference recomputed from the bundle. Faults,
+ * by priority at a pixel: "shape" (wrong dimensions), "skip" (a skipping GPU's crossing differs from its own
+ * non-skipping one, or it took fewer primary-march steps than the reference's lossless skipping at a certain pixel:
+ * it skipped samples inside an occupied cell), "crossing" (the first crossing's step outside the admissible set),
+ * "image" (a certain pixel beyond its tolerance, or not finite). The first wrong pixel in row-major order is named. */
+#include "fluid/raymarch_internal.h"
+#include "internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#define RM_NONE 0xFFFFFFFFu
+
+static int admissible(uint32_t g, uint32_t lo, uint32_t hi)
+{
+    if (lo == RM_NONE)
+        return g == RM_NONE;
+    if (hi == RM_NONE)
+        return g == RM_NONE || g >= lo;
+    return g >= lo && g <= hi;
+}
+
+static void fmt_step(char *buf, size_t cap, uint32_t k)
+{
+    if (k == RM_NONE)
+        snprintf(buf, cap, "none");
+    else
+        snprintf(buf, cap, "%u", k);
+}
+
+rto_status rto_raymarch_check(const rto_raymarch *ref, const rto_raymarch_dump *dump, rto_raymarch_check_result *res,
+                              rto_msg *msg)
+{
+    if (!ref || !dump || !res)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "check-raymarch: missing argument");
+    memset(res, 0, sizeof *res);
+    const uint32_t W = ref->params.width, H = ref->params.height;
+    if (dump->width != W || dump->height != H || !dump->image || !dump->crossing) {
+        snprintf(res->fault, sizeof res->fault, "shape");
+        snprintf(res->detail, sizeof res->detail, "the dump is %ux%u (image %s, crossing %s); the bundle is %ux%u",
+                 dump->width, dump->height, dump->image ? "present" : "missing",
+                 dump->crossing ? "present" : "missing", W, H);
+        res->faults = 1;
+        return RTO_OK;
+    }
+    const size_t n = (size_t)W * H;
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t g = dump->crossing[i], lo = ref->crossing_lo[i], hi = ref->crossing_hi[i];
+        const char *fault = NULL;
+        char detail[320] = "";
+        char a[16], b[16], c[16];
+        const int certain = ref->certain[i] != 0;
+        const int adm = admissible(g, lo, hi);
+        const int fewer = dump->steps_skip && certain && dump->steps_skip[i] < ref->steps_skip[i];
+        if (dump->crossing_noskip && dump->crossing_noskip[i] != g) {
+            fault = "skip";
+            fmt_step(a, sizeof a, g);
+            fmt_step(b, sizeof b, dump->crossing_noskip[i]);
+            snprintf(detail, sizeof detail, "crossing step %s with skipping, %s without", a, b);
+        } else if (fewer || (!adm && dump->steps_skip && dump->steps_skip[i] < ref->steps_skip[i])) {
+            fault = "skip";
+            fmt_step(a, sizeof a, g);
+            fmt_step(b, sizeof b, lo);
+            fmt_step(c, sizeof c, hi);
+            snprintf(detail, sizeof detail,
+                     "%u steps with skipping where the reference's lossless skipping takes %u (a sample skipped inside "
+                     "an occupied cell); crossing step %s, admissible [%s, %s]",
+                     dump->steps_skip[i], ref->steps_skip[i], a, b, c);
+        } else if (!adm) {
+            fault = "crossing";
+            fmt_step(a, sizeof a, g);
+            fmt_step(b, sizeof b, lo);
+            fmt_step(c, sizeof c, hi);
+            snprintf(detail, sizeof detail, "first crossing step %s, admissible [%s, %s%s] (reference %u)", a, b, c,
+                     hi == RM_NONE && lo != RM_NONE ? " or none" : "", ref->crossing[i]);
+        }
+        if (fault) {
+            if (!strcmp(fault, "skip"))
+                res->skip_faults++;
+            else
+                res->crossing_faults++;
+        }
+        if (!certain) {
+            res->uncertain++;
+        } else {
+            res->compared++;
+            const float *e = ref->image + 4 * i, *q = dump->image + 4 * i;
+            double dev = 0;
+            int bad = 0, ch = 0;
+            for (int k = 0; k < 4; k++) {
+                const double d = fabs((double)q[k] - e[k]);
+                if (!isfinite(q[k]) || !(d <= ref->tolerance[i]))
+                    bad = 1;
+                if (!isfinite(q[k]) || d > dev) {
+                    dev = isfinite(q[k]) ? d : INFINITY;
+                    ch = k;
+                }
+            }
+            const double ex = ref->tolerance[i] > 0 ? dev / ref->tolerance[i] : INFINITY;
+            res->max_excess = ex > res->max_excess ? ex : res->max_excess;
+            if (bad) {
+                res->image_faults++;
+                if (!fault) {
+                    fault = "image";
+                    snprintf(detail, sizeof detail,
+                             "channel %d: GPU %.9g, reference %.9g (|difference| %.3g > tolerance %.3g)", ch,
+                             (double)q[ch], (double)e[ch], dev, (double)ref->tolerance[i]);
+                }
+            }
+        }
+        if (fault) {
+            res->faults++;
+            if (!res->fault[0]) {
+                snprintf(res->fault, sizeof res->fault, "%s", fault);
+                res->x = (uint32_t)(i % W);
+                res->y = (uint32_t)(i / W);
+                snprintf(res->detail, sizeof res->detail, "%s", detail);
+            }
+        }
+    }
+    return RTO_OK;
+}
