@@ -15,9 +15,10 @@
 //   - rgba16float 3-D storage textures (texture_storage_3d<rgba16float, write>): allowed, and textureStore works, as
 //     do r32float, rgba32float, r32uint and rgba8unorm; r16float has no STORAGE_BINDING (as in core WebGPU, the seed's
 //     note on an R-only volume).
+import fs from 'node:fs';
 import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
-import {buffer, grid, pipeline, readBack} from '../lib/gpu.js';
+import {buffer, bundledKernels, grid, pipeline, readBack} from '../lib/gpu.js';
 import {writeNpy} from '../lib/npy.js';
 import {check, rtoracle} from '../lib/oracle.js';
 
@@ -40,18 +41,31 @@ export function list(opts) {
   if (opts.scenes) return opts.scenes.map((g) => fluidCase(g, 24));
   const ci = [fluidCase('dambreak:2000', 24), fluidCase('splash:1000', 24), fluidCase('single', 16),
     fluidCase('lattice', 24)];
-  if (opts.subset === 'ci') return ci;
-  return [...ci, fluidCase('pool:4000', 32), fluidCase('dambreak:20000', 48, {occupancy: 16}),
+  // The raymarch cases: only once kernels/fluid_raymarch.wgsl is there.
+  const rm = (gen, res, w, h, skip) => fluidCase(gen, res, {rm: {width: w, height: h, skip}});
+  const march = haveRaymarch() ? [rm('dambreak:2000', 24, 48, 36, true), rm('dambreak:2000', 24, 48, 36, false)] : [];
+  if (opts.subset === 'ci') return [...ci, ...march];
+  const marchFull = haveRaymarch() ? [rm('splash:8000', 40, 96, 72, true), rm('splash:8000', 40, 96, 72, false),
+    rm('pool:4000', 32, 80, 60, true), rm('single', 16, 32, 24, true)] : [];
+  return [...ci, ...march, ...marchFull, fluidCase('pool:4000', 32), fluidCase('dambreak:20000', 48, {occupancy: 16}),
     fluidCase('splash:8000', 40, {occupancy: 32}), fluidCase('pool:30000', 64, {occupancy: 32}),
     fluidCase('lattice', 33, {occupancy: 7}), fluidCase('single', 31, {occupancy: 5, radius: 0.3}),
     fluidCase('dambreak:5000', 32, {radius: 0.12})];
 }
 
-/** The oracle's splat bundle: the GPU's inputs and the volume and occupancy it must match. */
+const RAYMARCH = 'fluid_raymarch.wgsl';
+const haveRaymarch = () => bundledKernels().includes(RAYMARCH);
+
+/** The oracle's splat bundle (the GPU's inputs and the volume and occupancy it must match), and for a raymarch case
+ * its raymarch bundle (CASE/rm: rm_params.npy, the splat's volume and occupancy, the expected image, crossings and
+ * step counts). */
 export function prepare(ctx, c) {
   const args = ['splat', '--gen', c.gen, '--res', String(c.res), '--occupancy', String(c.occupancy)];
   if (c.radius) args.push('--radius', String(c.radius));
   rtoracle(ctx.rtoracle, [...args, '-o', path.join(ctx.dir, 'expected')]);
+  if (c.rm)
+    rtoracle(ctx.rtoracle, ['raymarch', path.join(ctx.dir, 'expected'), '--width', String(c.rm.width), '--height',
+      String(c.rm.height), ...(c.rm.skip ? [] : ['--no-skip']), '-o', path.join(ctx.dir, 'rm')]);
 }
 
 /** The occupancy levels (DESIGN.md §12.3): cells per axis and first word of each, level 0 first, down to 1 cell. */
@@ -69,11 +83,11 @@ export function occupancyLevels(o) {
 
 /** The splat's inputs from a bundle: {uniforms (Float32Array(16)), particles (Float32Array, 3 a particle), nx, ny, nz,
  * levels}, every size checked before anything is allocated on the device. */
-export function splatInputs(bundle) {
+export function splatInputs(bundle, {particles: withParticles = true} = {}) {
   const uniforms = bundle.npy('fluid_params.npy').data;
   if (!(uniforms instanceof Float32Array) || uniforms.length !== 16)
     throw new Error(`${bundle.dir}: fluid_params.npy is not f32 (16,)`);
-  const particles = bundle.npy('particles.npy').data;
+  const particles = withParticles ? bundle.npy('particles.npy').data : new Float32Array(0);
   if (!(particles instanceof Float32Array) || particles.length % 3)
     throw new Error(`${bundle.dir}: particles.npy is not f32 (N, 3)`);
   const [nx, ny, nz] = [uniforms[12], uniforms[13], uniforms[14]];
@@ -170,16 +184,105 @@ export function writeSplatDump(dir, inp, s) {
   writeNpy(path.join(dir, 'occupancy.npy'), s.occupancy, [s.occupancy.length], '<u4');
 }
 
-export async function dump(ctx) {
+/** The raymarch (kernels/fluid_raymarch.wgsl, entry point main, one thread per pixel, 8x8 workgroups) of a raymarch
+ * bundle. Its bindings (group 0): 0 rm_params.npy as a uniform block (rto_raymarch_uniforms, 256 bytes), 1 the density
+ * volume (texture_3d<f32>, rgba16float: density in R), 2 its sampler (linear min/mag/mip filtering, clamp-to-edge),
+ * 3 the occupancy words of every level (storage, read), 4 the image (array<vec4<f32>>, H*W), 5 the first crossing's
+ * step per pixel (array<u32>, 0xFFFFFFFF: none), 6 the primary-march steps per pixel (array<u32>). The march runs
+ * twice on the same texture: with the bundle's skip flag (rm_params[58]) — image, crossing, steps_skip — and with it
+ * 0 — crossing_noskip, steps — so that check-raymarch compares skipping with not skipping on one device.
+ * The texture is the bundle's volume_f16.npy uploaded as it is (the volume the reference marched): a device whose
+ * resolve truncates binary16 (llvmpipe) would otherwise march another volume than the oracle's. */
+export async function runRaymarch(device, rmBundle, {timer = null} = {}) {
+  const u = rmBundle.npy('rm_params.npy').data;
+  if (!(u instanceof Float32Array) || u.length !== 64) throw new Error(`${rmBundle.dir}: rm_params.npy is not f32 (64,)`);
+  const [W, H] = [u[56], u[57]];
+  if (!Number.isInteger(W) || !Number.isInteger(H) || W < 1 || H < 1 || W * H > 4096 * 4096)
+    throw new Error(`${rmBundle.dir}: rm_params.npy: ${W}x${H} pixels`);
+  const inp = splatInputs(rmBundle, {particles: false});
+  const {nx, ny, nz} = inp;
+  const vol = rmBundle.npy('volume_f16.npy').data;
+  if (vol.length !== nx * ny * nz) throw new Error(`${rmBundle.dir}: volume_f16.npy holds ${vol.length} voxels`);
+  const occWords = rmBundle.words('occupancy.npy');
+  const texels = new Uint16Array(nx * ny * nz * 4);
+  for (let i = 0; i < vol.length; i++) texels.set([vol[i], 0, 0, 0x3C00], 4 * i);
+  const tex = device.createTexture({size: [nx, ny, nz], dimension: '3d', format: 'rgba16float', label: 'density',
+    usage: GPUTextureUsage.TEXTURE_BINDING | GPUTextureUsage.COPY_DST});
+  device.queue.writeTexture({texture: tex}, texels, {bytesPerRow: 8 * nx, rowsPerImage: ny}, [nx, ny, nz]);
+  const sampler = device.createSampler({magFilter: 'linear', minFilter: 'linear', mipmapFilter: 'linear',
+    addressModeU: 'clamp-to-edge', addressModeV: 'clamp-to-edge', addressModeW: 'clamp-to-edge'});
+  const bufs = [];
+  const keep = (b) => (bufs.push(b), b);
+  const occ = keep(buffer(device, occWords.byteLength, {data: occWords, label: 'occupancy'}));
+  const pipe = pipeline(device, RAYMARCH);
+  const n = W * H;
+  const enc = device.createCommandEncoder();
+  const outs = [];
+  for (const skip of [u[58], 0]) {
+    const params = new Float32Array(u);
+    params[58] = skip;
+    const ub = keep(buffer(device, 256, {data: params, label: 'rm params',
+      usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST}));
+    const image = keep(buffer(device, n * 16, {label: 'image'}));
+    const crossing = keep(buffer(device, n * 4, {label: 'crossing'}));
+    const steps = keep(buffer(device, n * 4, {label: 'steps'}));
+    const pass = timer ? timer.pass(enc, skip ? 'raymarch_skip' : 'raymarch') : enc.beginComputePass({label: 'raymarch'});
+    pass.setPipeline(pipe);
+    pass.setBindGroup(0, device.createBindGroup({layout: pipe.getBindGroupLayout(0), entries: [
+      {binding: 0, resource: {buffer: ub}}, {binding: 1, resource: tex.createView()}, {binding: 2, resource: sampler},
+      {binding: 3, resource: {buffer: occ}}, {binding: 4, resource: {buffer: image}},
+      {binding: 5, resource: {buffer: crossing}}, {binding: 6, resource: {buffer: steps}}]}));
+    pass.dispatchWorkgroups(Math.ceil(W / 8), Math.ceil(H / 8));
+    pass.end();
+    outs.push(image, crossing, steps);
+  }
+  device.pushErrorScope('validation');
+  let r;
+  try {
+    r = await readBack(device, enc, outs, [n * 16, n * 4, n * 4, n * 16, n * 4, n * 4]);
+  } finally {
+    const e = await device.popErrorScope();
+    if (e) throw new Error(e.message.split('\n')[0]);
+  }
+  for (const b of bufs) b.destroy();
+  tex.destroy();
+  return {width: W, height: H, skip: u[58] !== 0, image: new Float32Array(r[0]), crossing: new Uint32Array(r[1]),
+    steps_skip: new Uint32Array(r[2]), crossing_noskip: new Uint32Array(r[4]), steps: new Uint32Array(r[5])};
+}
+
+/** The dump check-raymarch reads: image.npy f32 (H, W, 4), crossing.npy u32 (H, W) (the skipping march where the
+ * bundle skips), crossing_noskip.npy, steps.npy (the march without skipping), steps_skip.npy (with it). */
+export function writeRaymarchDump(dir, r) {
+  const {width: W, height: H} = r;
+  writeNpy(path.join(dir, 'image.npy'), r.image, [H, W, 4], '<f4');
+  writeNpy(path.join(dir, 'crossing.npy'), r.crossing, [H, W], '<u4');
+  writeNpy(path.join(dir, 'steps.npy'), r.steps, [H, W], '<u4');
+  if (r.skip) {
+    writeNpy(path.join(dir, 'crossing_noskip.npy'), r.crossing_noskip, [H, W], '<u4');
+    writeNpy(path.join(dir, 'steps_skip.npy'), r.steps_skip, [H, W], '<u4');
+  }
+}
+
+export async function dump(ctx, c) {
   const bundle = new Bundle(path.join(ctx.dir, 'expected'));
   const inp = splatInputs(bundle);
   const s = await runSplat(ctx.device, inp, {timer: ctx.timer});
   writeSplatDump(ctx.dumpDir, inp, s);
   s.texture.destroy();
+  if (c.rm) {
+    const rmDir = path.join(ctx.dumpDir, 'rm');
+    fs.mkdirSync(rmDir, {recursive: true});
+    writeRaymarchDump(rmDir, await runRaymarch(ctx.device, new Bundle(path.join(ctx.dir, 'rm')), {timer: ctx.timer}));
+  }
 }
 
-export function validate(ctx) {
-  return {...check(ctx.rtoracle, 'check-volume', ['--expected', path.join(ctx.dir, 'expected'), '--gpu', ctx.dumpDir]),
-    check: 'check-volume'};
+/** check-volume on the splat's dump; for a raymarch case then check-raymarch on the march's (the first failure
+ * counts). */
+export function validate(ctx, c) {
+  const v = {...check(ctx.rtoracle, 'check-volume', ['--expected', path.join(ctx.dir, 'expected'), '--gpu',
+    ctx.dumpDir]), check: 'check-volume'};
+  if (!v.pass || !c.rm) return v;
+  return {...check(ctx.rtoracle, 'check-raymarch', ['--expected', path.join(ctx.dir, 'rm'), '--gpu',
+    path.join(ctx.dumpDir, 'rm')]), check: 'check-raymarch'};
 }
 
