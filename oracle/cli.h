@@ -189,5 +189,7 @@ int cmd_compare(int argc, char **argv);
 int cmd_check_frame(int argc, char **argv);
 int cmd_vbuffer(int argc, char **argv);
 int cmd_check_vbuffer(int argc, char **argv);
+int cmd_splat(int argc, char **argv);
+int cmd_check_volume(int argc, char **argv);
 
 #endif

@@ -21,6 +21,8 @@ static const struct {
     {"check-frame", cmd_check_frame, "validate a GPU's dump of a frame stage by stage against a frame bundle"},
     {"vbuffer", cmd_vbuffer, "rasterize a visibility buffer (G-buffer per sample, edge mask, image) into a bundle"},
     {"check-vbuffer", cmd_check_vbuffer, "validate a GPU's visibility buffer, edge mask and image against a vbuffer bundle"},
+    {"splat", cmd_splat, "splat SPH particles into a fixed-point density volume and occupancy grid (a bundle)"},
+    {"check-volume", cmd_check_volume, "validate a GPU's splat volume, resolve and occupancy grid against a splat bundle"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
     {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
     {"compare", cmd_compare, "compare two images (PNG / OpenEXR) with idiff's thresholds and exit statuses"},

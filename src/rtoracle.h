@@ -2304,6 +2304,61 @@ void rto_splat_free(rto_splat *s);
 /** Whether occupancy cell (x, y, z) of level l is set. */
 int rto_occupancy_get(const rto_splat *s, uint32_t level, uint32_t x, uint32_t y, uint32_t z);
 
+/** A splat bundle read back (rto_splat_bundle_read): its particles and the splat this rtoracle computes from them. */
+typedef struct rto_splat_bundle {
+    float *particles; /* count * 3 floats */
+    uint64_t count;
+    rto_splat splat;
+} rto_splat_bundle;
+
+/** Adds a splat's files to a bundle the caller began (rto_bundle_begin) and commits: fluid_params.npy,
+ * particles.npy, volume_u32.npy, volume_f16.npy, occupancy.npy, overflow.npy (only with overflow), and the manifest's
+ * "fluid", "occupancy" and "splat" sections (§12). */
+rto_status rto_splat_bundle_write(const rto_splat *s, const float *pos, uint64_t count, rto_bundle *b, rto_msg *msg);
+
+/** Reads a splat bundle, checks every array like a GPU dump, recomputes the splat from its particles and parameters
+ * (threads workers, 0 = all cores) and requires every file to be exactly that: a tampered bundle is refused
+ * (RTO_ERR_PARSE, one line naming the file and the first differing element). Free with rto_splat_bundle_free. */
+rto_status rto_splat_bundle_read(const char *dir, uint32_t threads, rto_splat_bundle *out, rto_msg *msg);
+void rto_splat_bundle_free(rto_splat_bundle *b);
+
+/** What a GPU's splat passes wrote, for rto_volume_check (§12.6). */
+typedef struct rto_volume_dump {
+    const uint32_t *volume_u32; /* u32_count words, x fastest (required; nx * ny * nz or a shape fault) */
+    uint64_t u32_count;
+    const uint16_t *volume_f16; /* NULL, or f16_count binary16 bit patterns: nx * ny * nz (density only) or
+                                 * 4 nx * ny * nz (rgba: density, 0, 0, 1) */
+    uint64_t f16_count;
+    const uint32_t *occupancy;  /* NULL, or occupancy_words words: every level, level 0 first */
+    uint64_t occupancy_words;
+} rto_volume_dump;
+
+/** check-volume's fault classes, in the order they are claimed (§12.6). */
+typedef enum rto_volume_fault {
+    RTO_VOLUME_OK = 0,
+    RTO_VOLUME_SHAPE = 1,            /* the dump's sizes are not the bundle's */
+    RTO_VOLUME_OVERFLOW = 2,         /* a voxel whose true sum passes 2^32 - 1 */
+    RTO_VOLUME_RADIUS = 3,           /* mass beyond the kernel radius, or none inside it */
+    RTO_VOLUME_CONTRIBUTION = 4,     /* a voxel's value outside its admissible range */
+    RTO_VOLUME_RESOLVE = 5,          /* the f16 plane outside the admissible f32 -> f16 range */
+    RTO_VOLUME_RESOLVE_ROUNDING = 6, /* with nearest: a resolve that rounds binary16 toward zero */
+    RTO_VOLUME_OCCUPANCY = 7         /* a required cell not set, or a level not the OR of its children */
+} rto_volume_fault;
+
+/** The stable name of a fault class ("none", "shape", "overflow", "radius", "contribution", "resolve",
+ * "resolve-rounding", "occupancy"). */
+const char *rto_volume_fault_name(rto_volume_fault f);
+
+/**
+ * Checks a GPU's splat (§12.6) against the reference s of the particles pos (count of them): every voxel exact where
+ * each of its contributions is certain, else within its admissible range; every overflowing voxel a fault; the f16
+ * plane (of the GPU's own u32 values) within the admissible resolve, with f16_nearest binary16 round-to-nearest-even
+ * only; the occupancy grid lossless and each level the OR of its children. Fills report (the first fault of the
+ * primary class, with the voxel and up to 4 particles reaching it); RTO_OK whether or not a fault was found.
+ */
+rto_status rto_volume_check(const rto_splat *s, const float *pos, uint64_t count, const rto_volume_dump *gpu,
+                            int f16_nearest, uint32_t threads, rto_report *report, rto_msg *msg);
+
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Fluid raymarch (seed 003, DESIGN.md §12.4-§12.7): the reference raymarch of a splatted volume, with and without   */
 /* empty-space skipping, and its check                                                                               */
@@ -2353,6 +2408,7 @@ typedef struct rto_raymarch_params {
     int skip;                  /* empty-space skipping in the skipping pass (1, default) */
     int envelope;              /* compute rm_certain / rm_tolerance (1, default; 0 leaves them 0 / inf) */
     int quantize_weights;      /* test hook: trilinear weights rounded to 8 fractional bits (a simulated GPU) */
+    int skip_only;             /* test hook: only the skipping pass, its results as the image's (a GPU that skips) */
     uint32_t threads;          /* 0: all cores; the bytes do not depend on it */
 } rto_raymarch_params;
 
