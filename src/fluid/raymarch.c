@@ -778,7 +778,7 @@ static void pixels(void *arg, uint32_t worker, size_t begin, size_t end)
     for (size_t i = begin; i < end; i++) {
         const uint32_t x = (uint32_t)(i % S->W), y = (uint32_t)(i / S->W);
         rm_pix a, b;
-        render(S, x, y, MODE_NOMINAL, 0, &a);
+        render(S, x, y, MODE_NOMINAL, r->params.skip_only && S->skip_ok, &a);
         memcpy(r->image + 4 * i, a.rgba, sizeof a.rgba);
         r->crossing[i] = a.cross_k;
         r->crossing_t[i] = a.cross_t;
@@ -788,7 +788,7 @@ static void pixels(void *arg, uint32_t worker, size_t begin, size_t end)
         r->steps_skip[i] = a.steps;
         j->skipped[i] = 0;
         j->differ[i] = 0;
-        if (S->skip_ok) {
+        if (S->skip_ok && !r->params.skip_only) {
             render(S, x, y, MODE_NOMINAL, 1, &b);
             r->steps_skip[i] = b.steps;
             j->skipped[i] = b.skipped;
