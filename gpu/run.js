@@ -15,8 +15,7 @@ import {writeHtml} from './lib/report.js';
 import {Timer} from './lib/timing.js';
 
 const FAMILIES = ['bitonic', 'bitonic-wg', 'radix', 'build', 'trace', 'frame', 'vbuffer', 'fluid'];
-// fluid runs when named (--families fluid) until rtoracle splat and check-volume are part of every build.
-const DEFAULT_FAMILIES = FAMILIES.filter((f) => f !== 'fluid');
+const DEFAULT_FAMILIES = FAMILIES;
 
 const HELP = `usage: gpu/run [--families LIST] [--subset ci|full] [--dists LIST] [--sizes LIST] [--scenes LIST]
                [--repeat K] [--timestamps] [--shrink] [--racy-scatter] [--drop-barrier PASS]
@@ -41,10 +40,11 @@ Families (default: all):
 options:
   --families LIST     comma-separated families to run
   --subset S          ci: sorts of 1, 2, 255-257, 4096, 4097 keys, one build, one traced frame per program
-                      (vbuffer: triangle and rtstress:2 at 64x48) (default full)
+                      (vbuffer: triangle and rtstress:2 at 64x48; fluid: four splats of 16^3-24^3 voxels)
+                      (default full)
   --dists LIST        sort / build distributions (default: every distribution of DESIGN.md §3)
   --sizes LIST        sort sizes, or instance counts of builds (default 1,2,3,255,256,257,4095,4096,4097,16384,65535)
-  --scenes LIST       trace / frame scenes (default: the family's own list)
+  --scenes LIST       trace / frame scenes, fluid generators (default: the family's own list)
   --repeat K          run every case K times and report pass x/K (a race fails intermittently)
   --timestamps        per-kernel GPU time through timestamp-query (where the device has it)
   --shrink            on a failing sort or build case, bisect the size and report the smallest failing case

@@ -2,7 +2,7 @@
 # The WebGPU backend's test: gpu/run's ci subset (every sort kernel over every distribution at 1, 2, 255-257, 4096
 # and 4097 keys, one TLAS build, one traced frame of triangle and of sun-shadow at 64x64 on rtstress:4, the
 # visibility buffer of triangle and rtstress:2 at 64x48, 1x and 4x MSAA, normals and lambert, and the Duck unlit at 4x,
-# its texture sampled) must pass,
+# its texture sampled, and four fluid splats of 16^3 to 24^3 voxels) must pass,
 # and each planted fault must be reported by the oracle as the fault it is, where it starts.
 #   bash tests/gpu.sh RTORACLE OUTDIR
 set -euo pipefail
@@ -64,6 +64,26 @@ expect_fault racy-scatter check-sort pass '^pass: radix pass 0 \(digit bits 0\.\
 # pass 11 already rewrote): the first diverging checkpoint is pass 10 or 11, never earlier, never later.
 expect_fault drop-barrier check-sort pass '^pass: checkpoint pass 1[01] \(k=32, j=(16|8)\) is the first to diverge' \
     --families bitonic-wg --dists sorted --sizes 4096 --drop-barrier 10
+
+# The fluid splat (seed 003): a contribution rounded instead of truncated, an occupancy mip that leaves out each
+# parent's last child (single: the particle at the centre sets one child of parent (1, 1, 1), the last) and a resolve
+# 0.1 % off are each caught and named by check-volume.
+mkdir -p "$out/fluid-round" "$out/fluid-mip" "$out/fluid-resolve"
+sed 's/atomicAdd(&vol\[i\], u32(k \* params.scale));/atomicAdd(\&vol[i], u32(k * params.scale + 0.5));/' \
+    gpu/kernels/fluid_splat.wgsl >"$out/fluid-round/fluid_splat.wgsl"
+sed 's/for (var c = 0u; c < 8u; c++) {/for (var c = 0u; c < 7u; c++) {/' gpu/kernels/fluid_occupancy.wgsl \
+    >"$out/fluid-mip/fluid_occupancy.wgsl"
+sed 's|f32(u) / params.scale, 0.0|f32(u) / params.scale * 1.001, 0.0|' gpu/kernels/fluid_resolve.wgsl \
+    >"$out/fluid-resolve/fluid_resolve.wgsl"
+for f in fluid-round/fluid_splat fluid-mip/fluid_occupancy fluid-resolve/fluid_resolve; do
+    ! cmp -s "gpu/kernels/${f#*/}.wgsl" "$out/$f.wgsl" || { echo "FAIL: the planted $f" >&2; exit 1; }
+done
+expect_fault fluid-round check-volume contribution '^contribution: voxel \([0-9]+, [0-9]+, [0-9]+\) holds ' \
+    --families fluid --scenes dambreak:2000 --kernels "$out/fluid-round"
+expect_fault fluid-mip check-volume occupancy '^occupancy: level 1 cell \(1, 1, 1\) is 0, but the OR of its children' \
+    --families fluid --scenes single --kernels "$out/fluid-mip"
+expect_fault fluid-resolve check-volume resolve '^resolve: voxel ' \
+    --families fluid --scenes splash:1000 --kernels "$out/fluid-resolve"
 
 # Bad usage: one line, status 2.
 for args in "--repeat 0" "--families nope" "--subset most" "--kernels /nonexistent" "--check-only" \
