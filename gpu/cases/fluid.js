@@ -98,10 +98,15 @@ export function splatInputs(bundle, {particles: withParticles = true} = {}) {
     if (!Number.isInteger(v) || v < 1 || v > hi) throw new Error(`${bundle.dir}: fluid_params.npy: ${name} ${v}`);
   if (nx * ny * nz * 8 > 128 * 1024 * 1024) throw new Error(`${bundle.dir}: ${nx}x${ny}x${nz} voxels (at most 128 MiB)`);
   const levels = occupancyLevels(o);
-  const m = bundle.manifest.fluid || bundle.manifest.splat || null;
-  const fromManifest = m && (m.occupancy_offsets || m.level_offset || m.occupancy_level_offsets);
-  if (fromManifest && fromManifest.join() !== levels.offset.join())
-    throw new Error(`${bundle.dir}: the manifest's occupancy offsets (${fromManifest}) are not §12.3's (${levels.offset})`);
+  // The manifest's occupancy section (levels, words, level_L_offset, level_L_res) must be §12.3's layout.
+  const m = bundle.manifest.occupancy;
+  if (m) {
+    const listed = levels.res.map((r, l) => [m[`level_${l}_res`], m[`level_${l}_offset`]]);
+    if (m.levels !== levels.res.length || m.words !== levels.words ||
+        listed.some(([r, off], l) => r !== levels.res[l] || off !== levels.offset[l]))
+      throw new Error(`${bundle.dir}: the manifest's occupancy levels are not §12.3's for ${o} cells (` +
+        `${levels.res.length} levels, ${levels.words} words, offsets ${levels.offset})`);
+  }
   return {uniforms, particles, nx, ny, nz, levels};
 }
 
