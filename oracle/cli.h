@@ -191,5 +191,7 @@ int cmd_vbuffer(int argc, char **argv);
 int cmd_check_vbuffer(int argc, char **argv);
 int cmd_splat(int argc, char **argv);
 int cmd_check_volume(int argc, char **argv);
+int cmd_raymarch(int argc, char **argv);
+int cmd_check_raymarch(int argc, char **argv);
 
 #endif

@@ -23,6 +23,8 @@ static const struct {
     {"check-vbuffer", cmd_check_vbuffer, "validate a GPU's visibility buffer, edge mask and image against a vbuffer bundle"},
     {"splat", cmd_splat, "splat SPH particles into a fixed-point density volume and occupancy grid (a bundle)"},
     {"check-volume", cmd_check_volume, "validate a GPU's splat volume, resolve and occupancy grid against a splat bundle"},
+    {"raymarch", cmd_raymarch, "raymarch a splat bundle's volume with and without empty-space skipping (a bundle)"},
+    {"check-raymarch", cmd_check_raymarch, "validate a GPU's raymarch image and crossings against a raymarch bundle"},
     {"info", cmd_info, "load a scene (.gltf / .glb / procedural) and print what was loaded"},
     {"crosscheck", cmd_crosscheck, "trace rays through the oracle and Embree 3 and classify every disagreement"},
     {"compare", cmd_compare, "compare two images (PNG / OpenEXR) with idiff's thresholds and exit statuses"},

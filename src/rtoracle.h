@@ -2409,7 +2409,6 @@ typedef struct rto_raymarch_params {
     int envelope;              /* compute rm_certain / rm_tolerance (1, default; 0 leaves them 0 / inf) */
     int quantize_weights;      /* test hook: trilinear weights rounded to 8 fractional bits (a simulated GPU) */
     int skip_only;             /* test hook: only the skipping pass, its results as the image's (a GPU that skips) */
-    int skip_only;             /* test hook: only the skipping pass, its results as the image's (a GPU that skips) */
     uint32_t threads;          /* 0: all cores; the bytes do not depend on it */
 } rto_raymarch_params;
 
@@ -2467,6 +2466,13 @@ rto_status rto_raymarch_volume_load(const char *dir, rto_splat *out, rto_msg *ms
  * and the manifest (request: the up-to-date record, or NULL). */
 rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, const rto_splat *vol,
                                      const rto_raymarch *r, rto_msg *msg);
+
+/** Reads a raymarch bundle (§12.7): its volume (rto_raymarch_volume_load), its parameters (rm_params.npy and the
+ * manifest's camera), and recomputes the raymarch into *ref with threads workers; a bundle whose rm_params, rm_image
+ * or rm_crossing differ from the recomputation is refused (RTO_ERR_PARSE, one line naming the file). Free vol with
+ * rto_splat_free and ref with rto_raymarch_free. */
+rto_status rto_raymarch_bundle_read(const char *dir, uint32_t threads, rto_splat *vol, rto_raymarch *ref,
+                                    rto_msg *msg);
 
 /** A GPU's raymarch dump (§12.7): image (H, W, 4) and crossing (H, W) required; the rest NULL when absent. */
 typedef struct rto_raymarch_dump {

@@ -9,6 +9,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+static const char *const camera_keys[13] = {"px", "py", "pz", "tx", "ty", "tz", "ux", "uy", "uz", "fov_y", "aspect",
+                                            "znear", "zfar"};
+
 static rto_status add(rto_bundle *b, rto_bundle_file f, const rto_npy_desc *d, const void *data, rto_msg *msg)
 {
     char name[RTO_BUNDLE_FILE_NAME_MAX];
@@ -112,6 +115,13 @@ rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, co
         rto_bundle_set_int(b, "params", "jitter_seed", r->params.jitter_seed);
         rto_bundle_set_real(b, "params", "jitter_scale", r->params.jitter_scale);
         rto_bundle_set_int(b, "params", "skip", st->skip_enabled);
+        const rto_camera *cam = &r->params.camera;
+        const float cv[13] = {cam->position.x, cam->position.y, cam->position.z, cam->target.x, cam->target.y,
+                              cam->target.z, cam->up.x, cam->up.y, cam->up.z, cam->fov_y, cam->aspect, cam->znear,
+                              cam->zfar};
+        for (int k = 0; k < 13; k++)
+            rto_bundle_set_real(b, "camera", camera_keys[k], cv[k]);
+        rto_bundle_set_int(b, "params", "envelope", r->params.envelope);
         rto_bundle_set_int(b, "params", "occupancy_levels", vol->occupancy_levels);
         for (uint32_t l = 0; l < vol->occupancy_levels && l < 12; l++) {
             char key[32];
@@ -208,5 +218,97 @@ rto_status rto_raymarch_volume_load(const char *dir, rto_splat *out, rto_msg *ms
     rto_npy_free(&occ);
     if (s)
         memset(out, 0, sizeof *out);
+    return s;
+}
+
+rto_status rto_raymarch_bundle_read(const char *dir, uint32_t threads, rto_splat *vol, rto_raymarch *ref, rto_msg *msg)
+{
+    if (!dir || !vol || !ref)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "raymarch: missing argument");
+    memset(ref, 0, sizeof *ref);
+    rto_status s = rto_raymarch_volume_load(dir, vol, msg);
+    if (s)
+        return s;
+    rto_bundle_reader *r;
+    if ((s = rto_bundle_open(dir, &r, msg))) {
+        rto_splat_free(vol);
+        return s;
+    }
+    rto_npy par, img, cr;
+    memset(&par, 0, sizeof par);
+    memset(&img, 0, sizeof img);
+    memset(&cr, 0, sizeof cr);
+    s = rto_bundle_read_role(r, rto_bundle_file_role(RTO_FILE_RM_PARAMS), &par, msg);
+    if (!s)
+        s = rto_bundle_read_role(r, rto_bundle_file_role(RTO_FILE_RM_IMAGE), &img, msg);
+    if (!s)
+        s = rto_bundle_read_role(r, rto_bundle_file_role(RTO_FILE_RM_CROSSING), &cr, msg);
+    rto_raymarch_params p;
+    rto_raymarch_params_default(vol, &p);
+    float cv[13];
+    for (int k = 0; !s && k < 13; k++) {
+        double v;
+        if (!rto_bundle_get_real(r, "camera", camera_keys[k], &v) || !(fabs(v) < 3e38))
+            s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: camera.%s missing or not finite", dir,
+                          camera_keys[k]);
+        else
+            cv[k] = (float)v;
+    }
+    int64_t env = 1;
+    if (!s && !rto_bundle_get_int(r, "params", "envelope", &env))
+        s = rto__fail(msg, RTO_ERR_PARSE, "%s: manifest.json: params.envelope missing", dir);
+    rto_bundle_close(r);
+    if (!s && (par.desc.dtype != RTO_DTYPE_F32 || par.desc.ndim != 1 || par.desc.shape[0] != 64))
+        s = rto__fail(msg, RTO_ERR_PARSE, "%s: rm_params.npy is not f32 (64,)", dir);
+    if (!s) {
+        rto_raymarch_uniforms u;
+        memcpy(&u, par.data, sizeof u);
+        if (!(u.width >= 1 && u.width <= 16384 && u.height >= 1 && u.height <= 16384 &&
+              u.num_refractions >= 0 && u.num_refractions <= 16 && u.width == floorf(u.width) &&
+              u.height == floorf(u.height) && u.num_refractions == floorf(u.num_refractions)))
+            s = rto__fail(msg, RTO_ERR_PARSE, "%s: rm_params.npy: width, height or numRefractions out of range", dir);
+        else {
+            p.width = (uint32_t)u.width;
+            p.height = (uint32_t)u.height;
+            p.camera.position = (rto_vec3){cv[0], cv[1], cv[2]};
+            p.camera.target = (rto_vec3){cv[3], cv[4], cv[5]};
+            p.camera.up = (rto_vec3){cv[6], cv[7], cv[8]};
+            p.camera.fov_y = cv[9];
+            p.camera.aspect = cv[10];
+            p.camera.znear = cv[11];
+            p.camera.zfar = cv[12];
+            p.step_size = u.step_size;
+            p.light_step_size = u.light_step_size;
+            p.density_offset = u.density_offset;
+            p.density_multiplier = u.density_multiplier;
+            memcpy(p.extinction, u.extinction, sizeof p.extinction);
+            memcpy(p.sun_dir, u.sun_dir, sizeof p.sun_dir);
+            p.ior = u.ior;
+            p.num_refractions = (uint32_t)u.num_refractions;
+            p.floor_height = u.floor_height;
+            p.jitter_scale = u.jitter_scale;
+            p.jitter_seed = u.jitter_seed;
+            p.skip = u.skip != 0.0f;
+            p.envelope = env != 0;
+            p.threads = threads;
+            s = rto_raymarch_make(vol, &p, ref, msg);
+        }
+    }
+    if (!s && memcmp(&ref->uniforms, par.data, sizeof ref->uniforms))
+        s = rto__fail(msg, RTO_ERR_PARSE, "%s: rm_params.npy is not what its parameters give", dir);
+    const size_t n = (size_t)p.width * p.height;
+    if (!s && (img.desc.dtype != RTO_DTYPE_F32 || img.nbytes != n * 4 * sizeof(float) ||
+               memcmp(img.data, ref->image, img.nbytes)))
+        s = rto__fail(msg, RTO_ERR_PARSE, "%s: rm_image.npy is not the raymarch of its volume and parameters", dir);
+    if (!s && (cr.desc.dtype != RTO_DTYPE_U32 || cr.nbytes != n * sizeof(uint32_t) ||
+               memcmp(cr.data, ref->crossing, cr.nbytes)))
+        s = rto__fail(msg, RTO_ERR_PARSE, "%s: rm_crossing.npy is not the raymarch of its volume and parameters", dir);
+    rto_npy_free(&par);
+    rto_npy_free(&img);
+    rto_npy_free(&cr);
+    if (s) {
+        rto_raymarch_free(ref);
+        rto_splat_free(vol);
+    }
     return s;
 }
