@@ -15,6 +15,7 @@
 //   - rgba16float 3-D storage textures (texture_storage_3d<rgba16float, write>): allowed, and textureStore works, as
 //     do r32float, rgba32float, r32uint and rgba8unorm; r16float has no STORAGE_BINDING (as in core WebGPU, the seed's
 //     note on an R-only volume).
+import {spawnSync} from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import {Bundle} from '../lib/bundle.js';
@@ -289,7 +290,19 @@ export function validate(ctx, c) {
   const v = {...check(ctx.rtoracle, 'check-volume', ['--expected', path.join(ctx.dir, 'expected'), '--gpu',
     ctx.dumpDir]), check: 'check-volume'};
   if (!v.pass || !c.rm) return v;
-  return {...check(ctx.rtoracle, 'check-raymarch', ['--expected', path.join(ctx.dir, 'rm'), '--gpu',
+  return {...checkText(ctx.rtoracle, 'check-raymarch', ['--expected', path.join(ctx.dir, 'rm'), '--gpu',
     path.join(ctx.dumpDir, 'rm')]), check: 'check-raymarch'};
+}
+
+/** A check without --json (check-raymarch): {pass, status, diagnosis, fault} from its text, whose verdict line is
+ * "check-raymarch: FAIL FAULT[ at pixel (x, y)]: DETAIL" (status 1) or one error line (status 2). */
+function checkText(bin, command, args) {
+  const r = spawnSync(bin, [command, ...args], {encoding: 'utf8', maxBuffer: 64 << 20});
+  if (r.error) throw new Error(`${bin}: ${r.error.message}`);
+  const line = (r.stdout || '').split('\n').find((l) => / FAIL /.test(l)) || (r.stderr || r.stdout || '').trim()
+    .split('\n')[0];
+  const m = / FAIL ([a-z-]+)/.exec(line);
+  return {pass: r.status === 0, status: r.status, diagnosis: r.status === 0 ? '' : line.replace(/^[a-z-]+: FAIL /, ''),
+    fault: r.status === 1 && m ? m[1] : null};
 }
 
