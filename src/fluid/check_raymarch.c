@@ -1,7 +1,8 @@
 /* check-raymarch (DESIGN.md §12.7): a GPU's raymarch dump against the reference recomputed from the bundle. Faults,
  * by priority at a pixel: "shape" (wrong dimensions), "skip" (a skipping GPU's crossing differs from its own
- * non-skipping one, or it took fewer primary-march steps than the reference's lossless skipping at a certain pixel:
- * it skipped samples inside an occupied cell), "crossing" (the first crossing's step outside the admissible set),
+ * non-skipping one; or it took fewer primary-march steps than the samples of its march that lie in occupied cells,
+ * which no lossless skipper can pass over; or its crossing is inadmissible after fewer steps than the reference's
+ * skipping took), "crossing" (the first crossing's step outside the admissible set),
  * "image" (a certain pixel beyond its tolerance, or not finite). The first wrong pixel in row-major order is named. */
 #include "fluid/raymarch_internal.h"
 #include "internal.h"
@@ -52,7 +53,8 @@ rto_status rto_raymarch_check(const rto_raymarch *ref, const rto_raymarch_dump *
         char a[16], b[16], c[16];
         const int certain = ref->certain[i] != 0;
         const int adm = admissible(g, lo, hi);
-        const int fewer = dump->steps_skip && certain && dump->steps_skip[i] < ref->steps_skip[i];
+        /* At a certain pixel every decision is the reference's: its march takes the same samples. */
+        const int fewer = dump->steps_skip && certain && g == ref->crossing[i] && dump->steps_skip[i] < ref->steps_min[i];
         if (dump->crossing_noskip && dump->crossing_noskip[i] != g) {
             fault = "skip";
             fmt_step(a, sizeof a, g);
@@ -64,9 +66,9 @@ rto_status rto_raymarch_check(const rto_raymarch *ref, const rto_raymarch_dump *
             fmt_step(b, sizeof b, lo);
             fmt_step(c, sizeof c, hi);
             snprintf(detail, sizeof detail,
-                     "%u steps with skipping where the reference's lossless skipping takes %u (a sample skipped inside "
-                     "an occupied cell); crossing step %s, admissible [%s, %s]",
-                     dump->steps_skip[i], ref->steps_skip[i], a, b, c);
+                     "%u steps with skipping (the reference's skipping takes %u, at least %u samples lie in occupied "
+                     "cells); crossing step %s, admissible [%s, %s]",
+                     dump->steps_skip[i], ref->steps_skip[i], ref->steps_min[i], a, b, c);
         } else if (!adm) {
             fault = "crossing";
             fmt_step(a, sizeof a, g);

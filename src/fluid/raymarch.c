@@ -70,7 +70,7 @@ typedef struct rm_state {
     const rm_shared *S;
     int mode, skip;
     uint32_t pixel;
-    uint32_t steps, skipped;
+    uint32_t steps, skipped, taken;
     uint64_t hash;
     int uncertain;
 } rm_state;
@@ -348,6 +348,7 @@ static rm_hit search(rm_state *st, const float o[3], const float d[3], int exiti
                 continue;
             }
         }
+        st->taken++;
         const float v = sample(st, p);
         if (st->mode == MODE_NOMINAL) {
             float lo, hi;
@@ -528,7 +529,7 @@ typedef struct rm_pix {
     uint32_t cross_k;
     float cross_t;
     float nc[3], nf[3];
-    uint32_t steps, skipped;
+    uint32_t steps, skipped, taken;
     uint64_t hash;
     int uncertain;
 } rm_pix;
@@ -635,6 +636,7 @@ static void render(const rm_shared *S, uint32_t x, uint32_t y, int mode, int ski
     out->rgba[3] = 1.0f;
     out->steps = st.steps;
     out->skipped = st.skipped;
+    out->taken = st.taken;
     out->hash = st.hash;
     out->uncertain = st.uncertain;
 }
@@ -757,6 +759,7 @@ void rto_raymarch_free(rto_raymarch *r)
     free(r->normal_forward);
     free(r->steps);
     free(r->steps_skip);
+    free(r->steps_min);
     free(r->certain);
     free(r->tolerance);
     memset(r, 0, sizeof *r);
@@ -786,11 +789,13 @@ static void pixels(void *arg, uint32_t worker, size_t begin, size_t end)
         memcpy(r->normal_forward + 3 * i, a.nf, sizeof a.nf);
         r->steps[i] = a.steps;
         r->steps_skip[i] = a.steps;
+        r->steps_min[i] = a.taken;
         j->skipped[i] = 0;
         j->differ[i] = 0;
         if (S->skip_ok && !r->params.skip_only) {
             render(S, x, y, MODE_NOMINAL, 1, &b);
             r->steps_skip[i] = b.steps;
+            r->steps_min[i] = b.taken;
             j->skipped[i] = b.skipped;
             if (memcmp(a.rgba, b.rgba, sizeof a.rgba) || a.hash != b.hash)
                 j->differ[i] |= 1;
@@ -870,11 +875,12 @@ rto_status rto_raymarch_make(const rto_splat *vol, const rto_raymarch_params *p,
     out->normal_forward = malloc(n * 3 * sizeof(float));
     out->steps = malloc(n * sizeof(uint32_t));
     out->steps_skip = malloc(n * sizeof(uint32_t));
+    out->steps_min = malloc(n * sizeof(uint32_t));
     out->certain = malloc(n);
     out->tolerance = malloc(n * sizeof(float));
     rm_job j = {&S, out, malloc(n), malloc(n * sizeof(uint32_t))};
     if (!out->image || !out->crossing || !out->crossing_lo || !out->crossing_hi || !out->crossing_t ||
-        !out->normal_central || !out->normal_forward || !out->steps || !out->steps_skip || !out->certain ||
+        !out->normal_central || !out->normal_forward || !out->steps || !out->steps_skip || !out->steps_min || !out->certain ||
         !out->tolerance || !j.differ || !j.skipped) {
         free(j.differ);
         free(j.skipped);
