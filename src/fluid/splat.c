@@ -157,6 +157,7 @@ typedef struct splat_job {
     uint64_t *lo, *hi; /* model sums, or NULL */
     uint8_t *reach;   /* model reach, or NULL */
     bool model;       /* evaluate the model's intervals */
+    double far2;      /* r^2 from which no conforming GPU reaches the voxel (the model's reach is false) */
     uint64_t contributions[RTO_THREADS_MAX], uncertain[RTO_THREADS_MAX];
 } splat_job;
 
@@ -175,6 +176,9 @@ static void splat_slab(void *ctx, uint32_t worker, size_t zb, size_t ze)
             for (uint32_t y = lo[1]; y <= hi[1]; y++)
                 for (uint32_t x = lo[0]; x <= hi[0]; x++) {
                     const float c[3] = {j->centre[0][x], j->centre[1][y], j->centre[2][z]};
+                    const double dx = (double)c[0] - p[0], dy = (double)c[1] - p[1], dz = (double)c[2] - p[2];
+                    if (dx * dx + dy * dy + dz * dz >= j->far2)
+                        continue; /* beyond every conforming GPU's radius: contributes 0 everywhere */
                     const size_t v = ((size_t)z * ny + y) * nx + x;
                     if (j->sum) {
                         const uint32_t k = rto__fluid_contribution(j->u, p, c, NULL);
@@ -228,6 +232,17 @@ static rto_status run_pass(splat_job *j, const rto_fluid_uniforms *u, const floa
     if (pairs > RTO_FLUID_PAIRS_MAX)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "more than 2^33 (particle, voxel) pairs to visit: the radius "
                          "spans too many voxels for this many particles");
+    /* The model's reach needs r (1 - 2^-19) < h + sqrt(3) ulp(|c_a| + |min_a|); every centre lies in the bounds, so
+     * with that ulp's largest value a pair at r^2 >= far2 reaches nothing (a margin of 2^-30 for the binary64
+     * arithmetic of both sides). */
+    double umax = 0.0;
+    for (int a = 0; a < 3; a++) {
+        const double m = fabs((double)u->bounds_min[a]), M = fabs((double)u->bounds_max[a]);
+        const double ua = ulp32((m > M ? m : M) + m);
+        umax = ua > umax ? ua : umax;
+    }
+    const double far = ((double)u->radius + 1.7320508075688773 * umax) / (1.0 - 0x1p-19) * (1.0 + 0x1p-30);
+    j->far2 = far * far;
     float *cen = malloc(((size_t)j->n[0] + j->n[1] + j->n[2]) * sizeof *cen);
     if (!cen)
         return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory");
