@@ -100,11 +100,16 @@ run 1 "$RTO" check-volume --expected "$T/ov" --gpu "$T/dov" --json && has '"faul
 # refused: a tampered bundle, a mistyped, transposed or missing dump array, a missing directory
 cp -r "$T/b" "$T/tb"
 "$EDIT" "$T/tb/volume_u32.npy" set-u32 $v 1 >/dev/null
+cp -r "$T/b" "$T/tb2" && "$EDIT" "$T/tb2/particles.npy" set-f32 30 0.5 >/dev/null
+cp -r "$T/b" "$T/tb3" && "$EDIT" "$T/tb3/fluid_params.npy" set-f32 3 0.13 >/dev/null
+cp -r "$T/b" "$T/tb4" && "$EDIT" "$T/tb4/fluid_params.npy" set-f32 12 32.5 >/dev/null
+cp -r "$T/b" "$T/tb5" && "$EDIT" "$T/tb5/occupancy.npy" set-u32 3 0 >/dev/null
 cp -r "$T/d" "$T/bad1" && "$EDIT" "$T/bad1/volume_f16.npy" as-u32 >/dev/null
 cp -r "$T/d" "$T/bad2" && cp "$T/b/particles.npy" "$T/bad2/volume_u32.npy"
 mkdir -p "$T/bad3" && cp "$T/b/volume_f16.npy" "$T/bad3/"
 cp -r "$T/d" "$T/bad4" && head -c 100 "$T/d/volume_u32.npy" >"$T/bad4/volume_u32.npy"
-for args in "--expected $T/tb --gpu $T/d" "--expected $T/b --gpu $T/bad1" "--expected $T/b --gpu $T/bad2" \
+for args in "--expected $T/tb --gpu $T/d" "--expected $T/tb2 --gpu $T/d" "--expected $T/tb3 --gpu $T/d" \
+    "--expected $T/tb4 --gpu $T/d" "--expected $T/tb5 --gpu $T/d" "--expected $T/b --gpu $T/bad1" "--expected $T/b --gpu $T/bad2" \
     "--expected $T/b --gpu $T/bad3" "--expected $T/b --gpu $T/bad4" "--expected $T/b --gpu $T/none" \
     "--expected $T/none --gpu $T/d" "--expected $T/b --gpu $T/d --f16-rounding up" "--expected $T/b"; do
     run 2 "$RTO" check-volume $args || continue

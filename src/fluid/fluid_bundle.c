@@ -142,22 +142,27 @@ rto_status rto_splat_bundle_read(const char *dir, uint32_t threads, rto_splat_bu
     const uint64_t count = s ? 0 : a[1].desc.shape[0];
     if (!s && !rto__all_finite(a[1].data, (size_t)count * 3))
         s = rto__bundle_refuse(&in, name, "a particle coordinate is not finite");
+    /* the volumes' files first: the recomputation allocates what they hold, never more than the bundle has */
+    const size_t nv = (size_t)p.res[0] * p.res[1] * p.res[2];
+    want = rto_npy_desc_array(RTO_DTYPE_U32, 3, p.res[2], p.res[1], p.res[0]);
+    if (!s)
+        s = rto__bundle_load(&in, rto__bundle_name(RTO_FILE_FLUID_VOLUME_U32, 0, name), &want, NULL, &a[2]);
+    want = rto_npy_desc_array(RTO_DTYPE_F16, 3, p.res[2], p.res[1], p.res[0]);
+    if (!s)
+        s = rto__bundle_load(&in, rto__bundle_name(RTO_FILE_FLUID_VOLUME_F16, 0, name), &want, NULL, &a[3]);
     if (!s) {
         rto_msg sm = {{0}};
         rto_status e = rto_splat_make(&p, a[1].data, count, threads, &out->splat, &sm);
         if (e == RTO_ERR_OUT_OF_MEMORY)
             s = rto__fail(msg, e, "%s", sm.text);
         else if (e)
-            s = rto__bundle_refuse(&in, name, "%s", sm.text);
+            s = rto__bundle_refuse(&in, rto__bundle_name(RTO_FILE_FLUID_PARTICLES, 0, name), "%s", sm.text);
     }
     const rto_splat *sp = &out->splat;
-    const size_t nv = (size_t)p.res[0] * p.res[1] * p.res[2];
-    want = rto_npy_desc_array(RTO_DTYPE_U32, 3, p.res[2], p.res[1], p.res[0]);
-    if (!s && !(s = rto__bundle_load(&in, rto__bundle_name(RTO_FILE_FLUID_VOLUME_U32, 0, name), &want, NULL, &a[2])))
-        s = same(&in, name, a[2].data, sp->volume_u32, nv, 4);
-    want = rto_npy_desc_array(RTO_DTYPE_F16, 3, p.res[2], p.res[1], p.res[0]);
-    if (!s && !(s = rto__bundle_load(&in, rto__bundle_name(RTO_FILE_FLUID_VOLUME_F16, 0, name), &want, NULL, &a[3])))
-        s = same(&in, name, a[3].data, sp->volume_f16, nv, 2);
+    if (!s)
+        s = same(&in, rto__bundle_name(RTO_FILE_FLUID_VOLUME_U32, 0, name), a[2].data, sp->volume_u32, nv, 4);
+    if (!s)
+        s = same(&in, rto__bundle_name(RTO_FILE_FLUID_VOLUME_F16, 0, name), a[3].data, sp->volume_f16, nv, 2);
     want = rto_npy_desc_array(RTO_DTYPE_U32, 1, sp->occupancy_words, 0, 0);
     if (!s && !(s = rto__bundle_load(&in, rto__bundle_name(RTO_FILE_FLUID_OCCUPANCY, 0, name), &want, NULL, &a[4])))
         s = same(&in, name, a[4].data, sp->occupancy, (size_t)sp->occupancy_words, 4);
