@@ -197,13 +197,8 @@ static void check_occupancy(rto_report *r, const rto_splat *s, const uint32_t *w
     const uint32_t *n = s->params.res, O = s->level_res[0];
     const uint64_t nv = (uint64_t)n[0] * n[1] * n[2];
     for (uint64_t v = 0; v < nv; v++) {
-        if (s->volume_u32[v] == 0 && hi[v] == 0) {
-            bool over = false;
-            for (uint64_t k = 0; k < s->overflow_count && !over; k++)
-                over = s->overflow[2 * k] == v;
-            if (!over)
-                continue;
-        }
+        if (s->volume_u32[v] == 0 && hi[v] == 0) /* hi >= the true sum: an overflowing voxel has hi > 0 */
+            continue;
         const uint32_t id[3] = {(uint32_t)(v % n[0]), (uint32_t)(v / n[0] % n[1]), (uint32_t)(v / ((uint64_t)n[0] * n[1]))};
         uint32_t c0[3], c1[3];
         for (int a = 0; a < 3; a++) {
