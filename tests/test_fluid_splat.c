@@ -396,6 +396,11 @@ static void test_params_and_generators(void **state)
     q = p;
     q.bounds.max.y = q.bounds.min.y;
     assert_int_equal(rto_fluid_uniforms_make(&q, &u, &msg), RTO_ERR_INVALID_ARGUMENT);
+    q = p; /* a radius the bounds' binary32 precision does not resolve: 2^13 sqrt(3) ulp(2) / (1 - 2^-7) = 0.0017 */
+    q.radius = 0.0017f;
+    assert_int_equal(rto_fluid_uniforms_make(&q, &u, &msg), RTO_ERR_INVALID_ARGUMENT);
+    q.radius = 0.0018f;
+    assert_int_equal(rto_fluid_uniforms_make(&q, &u, &msg), RTO_OK);
     q = p;
     q.occupancy = 1025;
     assert_int_equal(rto_fluid_uniforms_make(&q, &u, &msg), RTO_ERR_INVALID_ARGUMENT);

@@ -62,6 +62,20 @@ rto_status rto_fluid_uniforms_make(const rto_fluid_params *p, rto_fluid_uniforms
     if (!(S <= 3.0e38) || !((float)S > 0.0f))
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "radius %g: the kernel factor 15 / (2 pi h^5) = %g is not a "
                          "finite non-zero binary32", h, S);
+    /* The occupancy grid's margin h 2^-12 must cover the model's distance error at r = h (§12.3): a radius
+     * below what the bounds' binary32 precision resolves is refused. */
+    double umax = 0.0;
+    for (int a = 0; a < 3; a++) {
+        const double m = fabs((double)rto__v3get(&p->bounds.min, a)), M = fabs((double)rto__v3get(&p->bounds.max, a));
+        int e;
+        frexp((m > M ? m : M) + m, &e);
+        const double ua = ldexp(1.0, e - 24);
+        umax = ua > umax ? ua : umax;
+    }
+    const double hmin = 1.7320508075688773 * umax / (0x1p-12 - 0x1p-19);
+    if (h < hmin)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "radius %g: below %g, what the bounds' binary32 precision "
+                         "resolves (DESIGN.md §12.3)", h, hmin);
     for (int a = 0; a < 3; a++) {
         const double vs =
             ((double)rto__v3get(&p->bounds.max, a) - (double)rto__v3get(&p->bounds.min, a)) / (double)p->res[a];
