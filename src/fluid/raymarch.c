@@ -61,14 +61,14 @@ typedef struct rm_shared {
     float bmin[3], bmax[3], ext[3], vs[3];
     double cs[3]; /* occupancy cell size, binary64 */
     double bmag;  /* largest |bound| */
-    int skip_ok, quant;
+    int skip_ok, quant, envelope;
 } rm_shared;
 
 enum { MODE_NOMINAL = 0, MODE_LO = 1, MODE_HI = 2, MODE_FORWARD = 3 };
 
 typedef struct rm_state {
     const rm_shared *S;
-    int mode, skip;
+    int mode, skip, certainty;
     uint32_t pixel;
     uint32_t steps, skipped, taken;
     uint64_t hash;
@@ -204,6 +204,49 @@ static void density_range(const rm_shared *S, const float q[3], float *lo, float
         return;
     }
     *lo = *hi = outside;
+}
+
+/* A cheap enclosure of density_range: the nominal value +- 3 w (vmax - vmin) over the texels any perturbed point
+ * may read (the multilinear function moves by at most (vmax - vmin) per unit of each coordinate), plus the slack.
+ * Returns 0 when the point is near the box's eps thresholds (then use density_range). */
+static int density_bound(const rm_shared *S, const float q[3], float *v, float *lo, float *hi)
+{
+    float g[3];
+    int near;
+    const float off = S->u->density_offset, mul = S->u->density_multiplier;
+    const int in = coords(S, q, g, &near);
+    if (near)
+        return 0;
+    if (!in) {
+        *v = *lo = *hi = -off * mul;
+        return 1;
+    }
+    int a0[3], a1[3];
+    for (int a = 0; a < 3; a++) {
+        const double gl = (double)g[a] - RM_WEIGHT_ERR, gh = (double)g[a] + RM_WEIGHT_ERR;
+        a0[a] = clampi((int)floor(gl), 0, (int)S->n[a] - 1);
+        a1[a] = clampi((int)floor(gh) + 1, 0, (int)S->n[a] - 1);
+    }
+    float vmin = INFINITY, vmax = -INFINITY;
+    for (int z = a0[2]; z <= a1[2]; z++)
+        for (int y = a0[1]; y <= a1[1]; y++)
+            for (int x = a0[0]; x <= a1[0]; x++) {
+                const float t = texel(S, x, y, z);
+                vmin = t < vmin ? t : vmin;
+                vmax = t > vmax ? t : vmax;
+            }
+    const float tri = trilin_g(S, g, S->quant);
+    *v = (tri - off) * mul;
+    if (!(vmax - vmin < 1e30f))
+        return 0;
+    const double e = 3.0 * RM_WEIGHT_ERR * ((double)vmax - vmin) + 0x1p-21 * (fmax(fabs(vmin), fabs(vmax)) + fabs(off)) +
+                     0x1p-40;
+    double l = ((double)tri - off - e) * mul, h = ((double)tri - off + e) * mul;
+    l -= fabs(l) * 0x1p-22;
+    h += fabs(h) * 0x1p-22;
+    *lo = (float)l;
+    *hi = (float)h;
+    return 1;
 }
 
 /* The sample a render takes: the nominal value, or its interval's low or high end in the envelope's renders. */
@@ -350,10 +393,15 @@ static rm_hit search(rm_state *st, const float o[3], const float d[3], int exiti
         }
         st->taken++;
         const float v = sample(st, p);
-        if (st->mode == MODE_NOMINAL) {
-            float lo, hi;
-            density_range(S, p, &lo, &hi);
-            const int certain = exiting ? (hi < 0.0f || lo >= 0.0f) : (lo > 0.0f || hi <= 0.0f);
+        if (st->mode == MODE_NOMINAL && st->certainty) {
+            float lo, hi, vb;
+            int certain = 0;
+            if (density_bound(S, p, &vb, &lo, &hi))
+                certain = exiting ? (hi < 0.0f || lo >= 0.0f) : (lo > 0.0f || hi <= 0.0f);
+            if (!certain) {
+                density_range(S, p, &lo, &hi);
+                certain = exiting ? (hi < 0.0f || lo >= 0.0f) : (lo > 0.0f || hi <= 0.0f);
+            }
             if (!certain)
                 st->uncertain = 1;
         }
@@ -388,9 +436,11 @@ static void admissible(rm_state *st, const float o[3], const float d[3], uint32_
         const float t = tb + (float)k * step;
         if (!(t < t1))
             break;
-        float p[3], lo, hi;
+        float p[3], lo, hi, v;
         at(o, d, t, p);
-        density_range(S, p, &lo, &hi);
+        /* The cheap enclosure decides both questions unless it straddles 0. */
+        if (!density_bound(S, p, &v, &lo, &hi) || (lo <= 0.0f && hi > 0.0f))
+            density_range(S, p, &lo, &hi);
         if (hi > 0.0f && *klo == RM_NONE)
             *klo = k;
         if (lo > 0.0f) {
@@ -542,6 +592,7 @@ static void render(const rm_shared *S, uint32_t x, uint32_t y, int mode, int ski
     st.S = S;
     st.mode = mode;
     st.skip = skip;
+    st.certainty = S->envelope;
     st.pixel = y * S->W + x;
     st.hash = UINT64_C(0xcbf29ce484222325);
     memset(out, 0, sizeof *out);
@@ -848,6 +899,7 @@ rto_status rto_raymarch_make(const rto_splat *vol, const rto_raymarch_params *p,
     S.W = p->width;
     S.H = p->height;
     S.quant = p->quantize_weights;
+    S.envelope = p->envelope;
     S.O = vol->params.occupancy;
     S.levels = vol->occupancy_levels;
     s = rto_camera_uniforms_make(&p->camera, p->width, p->height, &S.cam, msg);
