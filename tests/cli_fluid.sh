@@ -87,6 +87,10 @@ run 1 "$RTO" check-volume --expected "$T/b" --gpu "$T/m1" --json && has '"fault"
 cp -r "$T/d" "$T/m2"
 "$EDIT" "$T/m2/volume_u32.npy" set-u32 $(( 32 * 28 * 36 - 1 )) 7 >/dev/null
 run 1 "$RTO" check-volume --expected "$T/b" --gpu "$T/m2" && has "^FAIL radius" out
+# the report does not depend on --threads
+run 1 "$RTO" check-volume --expected "$T/b" --gpu "$T/m2" --json --threads 1 && cp "$T/out" "$T/r1"
+run 1 "$RTO" check-volume --expected "$T/b" --gpu "$T/m2" --json --threads 3 && cmp -s "$T/out" "$T/r1" ||
+    fail "check-volume: the report differs between 1 and 3 threads"
 cp -r "$T/d" "$T/m3"
 "$EDIT" "$T/m3/occupancy.npy" set-u32 0 0 >/dev/null
 run 1 "$RTO" check-volume --expected "$T/b" --gpu "$T/m3" --json && has '"fault": "occupancy"' out
