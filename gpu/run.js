@@ -40,7 +40,8 @@ Families (default: all):
 options:
   --families LIST     comma-separated families to run
   --subset S          ci: sorts of 1, 2, 255-257, 4096, 4097 keys, one build, one traced frame per program
-                      (vbuffer: triangle and rtstress:2 at 64x48; fluid: four splats of 16^3-24^3 voxels)
+                      (vbuffer: triangle and rtstress:2 at 64x48; fluid: four splats of 16^3-24^3 voxels,
+                      one raymarched at 48x36 with and without skipping)
                       (default full)
   --dists LIST        sort / build distributions (default: every distribution of DESIGN.md §3)
   --sizes LIST        sort sizes, or instance counts of builds (default 1,2,3,255,256,257,4095,4096,4097,16384,65535)

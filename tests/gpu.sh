@@ -2,7 +2,8 @@
 # The WebGPU backend's test: gpu/run's ci subset (every sort kernel over every distribution at 1, 2, 255-257, 4096
 # and 4097 keys, one TLAS build, one traced frame of triangle and of sun-shadow at 64x64 on rtstress:4, the
 # visibility buffer of triangle and rtstress:2 at 64x48, 1x and 4x MSAA, normals and lambert, and the Duck unlit at 4x,
-# its texture sampled, and four fluid splats of 16^3 to 24^3 voxels) must pass,
+# its texture sampled, three fluid splats of 16^3 and 24^3 voxels and the raymarch of a fourth, 48x36, with and
+# without empty-space skipping) must pass,
 # and each planted fault must be reported by the oracle as the fault it is, where it starts.
 #   bash tests/gpu.sh RTORACLE OUTDIR
 set -euo pipefail
@@ -84,6 +85,14 @@ expect_fault fluid-mip check-volume occupancy '^occupancy: level 1 cell \(1, 1, 
     --families fluid --scenes single --kernels "$out/fluid-mip"
 expect_fault fluid-resolve check-volume resolve '^resolve: voxel ' \
     --families fluid --scenes splash:1000 --kernels "$out/fluid-resolve"
+# The raymarch's empty-space skipping made to jump from an occupied cell too (its level-0 test left out): the skipping
+# march of the ci subset's dambreak case takes fewer steps than the samples lying in occupied cells, named as skip.
+mkdir -p "$out/fluid-skip"
+sed 's/  if (occ_get(0u, c.x, c.y, c.z)) { return k; }/  if (false) { return k; }/' gpu/kernels/fluid_raymarch.wgsl \
+    >"$out/fluid-skip/fluid_raymarch.wgsl"
+! cmp -s gpu/kernels/fluid_raymarch.wgsl "$out/fluid-skip/fluid_raymarch.wgsl" || { echo "FAIL: the planted skip" >&2; exit 1; }
+expect_fault fluid-skip check-raymarch skip '^skip at pixel \([0-9]+, [0-9]+\): [0-9]+ steps with skipping' \
+    --families fluid --subset ci --kernels "$out/fluid-skip"
 
 # Bad usage: one line, status 2.
 for args in "--repeat 0" "--families nope" "--subset most" "--kernels /nonexistent" "--check-only" \

@@ -36,22 +36,25 @@ const fluidCase = (gen, res, extra = {}) => {
   return {...c, id: `fluid/${bits.join('/')}`};
 };
 
-/** ci: dambreak, splash and the lattice at 24^3 voxels (8^3 occupancy), single at 16^3; full: also pool, larger
- * volumes and particle counts, other radii and occupancy resolutions. --scenes: each generator spec named
+/** ci: the raymarch of dambreak:2000 at 24^3 voxels (8^3 occupancy), 48x36, with and without skipping, and the
+ * splats of splash and the lattice at 24^3 and single at 16^3; full: also the splat of dambreak alone, raymarches of
+ * splash, pool and single, and splats of pool, larger volumes and particle counts, other radii and occupancy
+ * resolutions. --scenes: each generator spec named
  * (rtoracle splat GENERATOR: dambreak:N, pool:N, splash:N, single, lattice) at 24^3 voxels; the other scenes named
  * are the other families'. */
 export function list(opts) {
   if (opts.scenes)
     return opts.scenes.filter((g) => /^((dambreak|pool|splash):\d+|single|lattice)$/.test(g)).map((g) => fluidCase(g, 24));
-  const ci = [fluidCase('dambreak:2000', 24), fluidCase('splash:1000', 24), fluidCase('single', 16),
-    fluidCase('lattice', 24)];
-  // The raymarch cases: only once kernels/fluid_raymarch.wgsl is there.
+  // A raymarch case checks its splat too (check-volume, then check-raymarch); the raymarch cases need
+  // kernels/fluid_raymarch.wgsl (a --kernels directory may replace it, not remove it).
   const rm = (gen, res, w, h, skip) => fluidCase(gen, res, {rm: {width: w, height: h, skip}});
+  const march = haveRaymarch() ? [rm('dambreak:2000', 24, 48, 36, true), rm('dambreak:2000', 24, 48, 36, false)]
+    : [fluidCase('dambreak:2000', 24)];
+  const ci = [...march, fluidCase('splash:1000', 24), fluidCase('single', 16), fluidCase('lattice', 24)];
   if (opts.subset === 'ci') return ci;
-  const marchFull = haveRaymarch() ? [rm('dambreak:2000', 24, 48, 36, true), rm('dambreak:2000', 24, 48, 36, false),
-    rm('splash:8000', 40, 96, 72, true), rm('splash:8000', 40, 96, 72, false),
+  const marchFull = haveRaymarch() ? [rm('splash:8000', 40, 96, 72, true), rm('splash:8000', 40, 96, 72, false),
     rm('pool:4000', 32, 80, 60, true), rm('single', 16, 32, 24, true)] : [];
-  return [...ci, ...marchFull, fluidCase('pool:4000', 32), fluidCase('dambreak:20000', 48, {occupancy: 16}),
+  return [...ci, ...marchFull, fluidCase('dambreak:2000', 24), fluidCase('pool:4000', 32), fluidCase('dambreak:20000', 48, {occupancy: 16}),
     fluidCase('splash:8000', 40, {occupancy: 32}), fluidCase('pool:30000', 64, {occupancy: 32}),
     fluidCase('lattice', 33, {occupancy: 7}), fluidCase('single', 31, {occupancy: 5, radius: 0.3}),
     fluidCase('dambreak:5000', 32, {radius: 0.12})];
