@@ -1,4 +1,4 @@
-/* rtoracle raymarch: the reference raymarch of seed 003 (DESIGN.md §12.4-§12.6) over a splat bundle's volume, with
+/* rtoracle raymarch: the reference raymarch of seed 003 (DESIGN.md §12.4-§12.5.1) over a splat bundle's volume, with
  * and without empty-space skipping (verified identical on every run), into a bundle a GPU harness runs alone. */
 #include "cli.h"
 
@@ -15,7 +15,7 @@ static const char raymarch_usage[] =
     "the pixel's Stage-2 camera ray, trilinear density minus the offset, central-difference normals (forward ones\n"
     "written beside them), shadow transmittance towards the sun, up to N refraction bounces, a checkered floor and\n"
     "a sky. The march is run twice, without and with empty-space skipping over the occupancy grid (offset > 0);\n"
-    "the two must give the same image bytes and crossings, or the command exits 1. The envelope (§12.6) marks the\n"
+    "the two must give the same image bytes and crossings, or the command exits 1. The envelope (§12.5.1) marks the\n"
     "pixels whose every decision is certain and their image tolerance. Writes a bundle (atomically): rm_params.npy,\n"
     "rm_image.npy, image.png, rm_crossing.npy, rm_crossing_t.npy, rm_normal_central.npy, rm_normal_forward.npy,\n"
     "rm_steps.npy, rm_steps_skip.npy, rm_certain.npy, rm_tolerance.npy, fluid_params.npy, volume_f16.npy,\n"

@@ -2448,7 +2448,7 @@ typedef struct rto_raymarch {
 } rto_raymarch;
 
 /** Raymarches vol (its params, uniforms, volume_f16 and occupancy are read) with p: the non-skipping pass, the
- * skipping pass (when p->skip and density_offset > 0) and their comparison, and the envelope (§12.4-§12.6). */
+ * skipping pass (when p->skip and density_offset > 0) and their comparison, and the envelope (§12.4-§12.5.1). */
 rto_status rto_raymarch_make(const rto_splat *vol, const rto_raymarch_params *p, rto_raymarch *out, rto_msg *msg);
 void rto_raymarch_free(rto_raymarch *r);
 

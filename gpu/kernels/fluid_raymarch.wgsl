@@ -26,7 +26,7 @@
 //   56  width          57  height            58  skip (1: empty-space skipping)   59  occupancy (O, cells per axis)
 //   60..62  res (voxels per axis)          63  occupancy_levels
 //
-// Differences a conforming device may show and the check admits (§12.6): the hardware's trilinear weights (8
+// Differences a conforming device may show and the check admits (§12.5.1): the hardware's trilinear weights (8
 // fractional bits), fused multiply-adds, exp / sqrt / division within WGSL's accuracy, the skip jump computed in f32
 // here (binary64 in the reference: steps_skip may differ, never below the samples in occupied cells).
 

@@ -1,4 +1,4 @@
-/* The reference raymarch of seed 003 (DESIGN.md §12.4-§12.6): a fixed-step march through the resolved density volume
+/* The reference raymarch of seed 003 (DESIGN.md §12.4-§12.5.1): a fixed-step march through the resolved density volume
  * (trilinear, binary32, no contraction), central and forward-difference normals, shadow transmittance towards the
  * sun, up to numRefractions bounces choosing refraction or reflection by a 4-step short march, an environment of a
  * checkered floor and a sky; the same march with empty-space skipping over the occupancy grid, compared with the
@@ -180,7 +180,7 @@ static float density_nominal(const rm_shared *S, const float q[3])
     return (trilin_g(S, g, S->quant) - off) * mul;
 }
 
-/* The conformance interval of the density at q (§12.6). */
+/* The conformance interval of the density at q (§12.5.1). */
 static void density_range(const rm_shared *S, const float q[3], float *lo, float *hi)
 {
     float g[3];
@@ -420,7 +420,7 @@ static rm_hit search(rm_state *st, const float o[3], const float d[3], int exiti
     return h;
 }
 
-/* The admissible first crossings of the primary entry search (§12.6): [first k whose interval's hi > 0, first k whose
+/* The admissible first crossings of the primary entry search (§12.5.1): [first k whose interval's hi > 0, first k whose
  * lo > 0]; hi RM_NONE when no sample is certainly inside (then no crossing is admissible too), lo RM_NONE when no
  * sample may be. */
 static void admissible(rm_state *st, const float o[3], const float d[3], uint32_t *klo, uint32_t *khi)
