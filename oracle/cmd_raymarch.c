@@ -57,6 +57,9 @@ int cmd_raymarch(int argc, char **argv)
     if ((rc = opts_require(&cmd, &args, required)))
         return rc;
     (void)force;
+    /* About 80 bytes a pixel of arrays: at most 2^22 pixels (4 Mpixel, ~340 MB). */
+    if (width * height > (UINT64_C(1) << 22))
+        return cli_fail("raymarch", "--width %" PRIu64 " --height %" PRIu64 ": more than 2^22 pixels", width, height);
     if (!(multiplier > 0))
         return cli_fail("raymarch", "--multiplier must be > 0");
     rto_msg msg = {{0}};

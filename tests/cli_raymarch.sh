@@ -57,7 +57,7 @@ H=48
 # bad usage and input: one line, exit 2, nothing written
 for args in "$T/sp" "$T/sp --width 0 -o $T/x" "$T/sp --multiplier 0 -o $T/x" "$T/missing -o $T/x" \
     "$T/sp --camera 1,2,3 -o $T/x" "$T/sp --camera 0,0,0,0,0,0,0,1,0,60 -o $T/x" "$T/sp --refractions 17 -o $T/x" \
-    "$T/sp --jitter 2 -o $T/x" "$T/sp --width 5000 -o $T/x"; do
+    "$T/sp --jitter 2 -o $T/x" "$T/sp --width 5000 -o $T/x" "$T/sp --width 4096 --height 4096 -o $T/x"; do
     run 2 "$RTO" raymarch $args || continue
     [ "$(wc -l <"$T/err")" = 1 ] || fail "raymarch $args: want one stderr line: $(cat "$T/err")"
     [ -e "$T/x" ] && fail "raymarch $args left $T/x"

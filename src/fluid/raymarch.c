@@ -109,7 +109,9 @@ static float trilin_g(const rm_shared *S, const float g[3], int quant)
         w[a] = g[a] - fl;
         if (quant)
             w[a] = floorf(w[a] * 256.0f + 0.5f) / 256.0f;
-        const int i = fl < -2.0f ? -2 : fl > (float)S->n[a] + 2.0f ? (int)S->n[a] + 2 : (int)fl;
+        const int i = !(fl == fl) ? 0 : fl < -2.0f ? -2 : fl > (float)S->n[a] + 2.0f ? (int)S->n[a] + 2 : (int)fl;
+        if (!(w[a] >= 0.0f && w[a] <= 1.0f))
+            w[a] = 0.0f; /* a non-finite coordinate (never inside the box) reads one texel */
         i0[a] = clampi(i, 0, (int)S->n[a] - 1);
         i1[a] = clampi(i + 1, 0, (int)S->n[a] - 1);
     }
