@@ -427,6 +427,56 @@ static void test_params_and_generators(void **state)
     assert_int_equal(rto_splat_make(&p, bad_pos, 1, 1, &s, &msg), RTO_ERR_INVALID_ARGUMENT);
 }
 
+/* rto__fluid_sample: at voxel centres the texel itself; elsewhere trilinear over the clamped neighbours, against a
+ * binary64 evaluation here (binary32 coordinates and lerps: within 2^-16 of the largest texel). */
+static void test_sample(void **state)
+{
+    (void)state;
+    rto_fluid_params p = params(12, 10, 14, -1.0f, 1.0f, 0.3f, 1000.0f);
+    uint64_t n;
+    float *pos = gen("dambreak:300", &p, &n);
+    rto_splat s;
+    rto_msg msg = {{0}};
+    assert_int_equal(rto_splat_make(&p, pos, n, 1, &s, &msg), RTO_OK);
+    const double bmin[3] = {p.bounds.min.x, p.bounds.min.y, p.bounds.min.z};
+    const double bmax[3] = {p.bounds.max.x, p.bounds.max.y, p.bounds.max.z};
+    double top = 0.0;
+    for (size_t v = 0; v < (size_t)12 * 10 * 14; v++)
+        top = fmax(top, rto_f16_to_f32(s.volume_f16[v]));
+    assert_true(top > 0.0);
+    lcg_state = 5;
+    for (int k = 0; k < 20000; k++) {
+        float q[3];
+        double t[3];
+        for (int a = 0; a < 3; a++) {
+            const double ext = bmax[a] - bmin[a];
+            q[a] = (float)(bmin[a] - 0.1 * ext + 1.2 * ext * lcg_unit());
+            if (k < 1000) /* exactly on a voxel centre */
+                q[a] = (float)(bmin[a] + ((double)(lcg() % p.res[a]) + 0.5) * ext / p.res[a]);
+            t[a] = ((double)q[a] - bmin[a]) / ext * p.res[a] - 0.5;
+            t[a] = fmin(fmax(t[a], -1.0), (double)p.res[a]);
+        }
+        double acc = 0.0;
+        for (int c = 0; c < 8; c++) {
+            double w = 1.0;
+            size_t id[3];
+            for (int a = 0; a < 3; a++) {
+                const double f = floor(t[a]), frac = t[a] - f;
+                long i = (long)f + ((c >> a) & 1);
+                i = i < 0 ? 0 : i > (long)p.res[a] - 1 ? (long)p.res[a] - 1 : i;
+                id[a] = (size_t)i;
+                w *= (c >> a) & 1 ? frac : 1.0 - frac;
+            }
+            acc += w * rto_f16_to_f32(s.volume_f16[(id[2] * p.res[1] + id[1]) * p.res[0] + id[0]]);
+        }
+        const double got = rto__fluid_sample(&s, q);
+        if (fabs(got - acc) > top * 0x1p-16)
+            fail_msg("sample (%g, %g, %g): %.9g, binary64 %.9g", q[0], q[1], q[2], got, acc);
+    }
+    rto_splat_free(&s);
+    free(pos);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -436,6 +486,7 @@ int main(void)
         cmocka_unit_test(test_occupancy),
         cmocka_unit_test(test_model_contains_reference),
         cmocka_unit_test(test_params_and_generators),
+        cmocka_unit_test(test_sample),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
