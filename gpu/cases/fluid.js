@@ -46,12 +46,12 @@ const fluidCase = (gen, res, extra = {}) => {
 /** ci: the raymarch of dambreak:2000 at 24^3 voxels (8^3 occupancy), 48x36, with and without skipping, and the
  * splats of splash and the lattice at 24^3 and single at 16^3; full: also the splat of dambreak alone, raymarches of
  * splash, pool and single, and splats of pool, larger volumes and particle counts, other radii and occupancy
- * resolutions. --scenes: each generator spec named
- * (rtoracle splat GENERATOR: dambreak:N, pool:N, splash:N, single, lattice) at 24^3 voxels; the other scenes named
- * are the other families'. */
+ * resolutions. --scenes: each generator spec named (rtoracle splat GENERATOR: dambreak:N, pool:N, splash:N, single,
+ * lattice) at 24^3 voxels; the other scenes named are the other families'. */
 export function list(opts) {
   if (opts.scenes)
-    return opts.scenes.filter((g) => /^((dambreak|pool|splash):\d+|single|lattice)$/.test(g)).map((g) => fluidCase(g, 24));
+    return opts.scenes.filter((g) => /^((dambreak|pool|splash):\d+|single|lattice)$/.test(g))
+      .map((g) => fluidCase(g, 24));
   // A raymarch case checks its splat too (check-volume, then check-raymarch); the raymarch cases need
   // kernels/fluid_raymarch.wgsl (a --kernels directory may replace it, not remove it).
   // (rm.chain, the march on the device's own resolve, is listed nowhere: on llvmpipe, whose binary16 store
@@ -64,8 +64,8 @@ export function list(opts) {
   const ci = [...march, fluidCase('splash:1000', 24), fluidCase('single', 16), fluidCase('lattice', 24)];
   if (opts.subset === 'ci') return ci;
   const marchFull = haveRaymarch() ? [rm('splash:8000', 40, 96, 72, true), rm('splash:8000', 40, 96, 72, false),
-    rm('pool:4000', 32, 80, 60, true), rm('single', 16, 32, 24, true)] : [];
-  return [...ci, ...marchFull, fluidCase('dambreak:2000', 24), fluidCase('pool:4000', 32), fluidCase('dambreak:20000', 48, {occupancy: 16}),
+    rm('pool:4000', 32, 80, 60, true), rm('single', 16, 32, 24, true), fluidCase('dambreak:2000', 24)] : [];
+  return [...ci, ...marchFull, fluidCase('pool:4000', 32), fluidCase('dambreak:20000', 48, {occupancy: 16}),
     fluidCase('splash:8000', 40, {occupancy: 32}), fluidCase('pool:30000', 64, {occupancy: 32}),
     fluidCase('lattice', 33, {occupancy: 7}), fluidCase('single', 31, {occupancy: 5, radius: 0.3}),
     fluidCase('dambreak:5000', 32, {radius: 0.12})];
@@ -111,7 +111,8 @@ export function splatInputs(bundle, {particles: withParticles = true} = {}) {
   const o = uniforms[15];
   for (const [name, v, hi] of [['res x', nx, 1024], ['res y', ny, 1024], ['res z', nz, 1024], ['occupancy', o, 1024]])
     if (!Number.isInteger(v) || v < 1 || v > hi) throw new Error(`${bundle.dir}: fluid_params.npy: ${name} ${v}`);
-  if (nx * ny * nz * 8 > 128 * 1024 * 1024) throw new Error(`${bundle.dir}: ${nx}x${ny}x${nz} voxels (at most 128 MiB)`);
+  if (nx * ny * nz * 8 > 128 * 1024 * 1024)
+    throw new Error(`${bundle.dir}: ${nx}x${ny}x${nz} voxels (at most 128 MiB)`);
   const levels = occupancyLevels(o);
   // The manifest's occupancy section (levels, words, level_L_offset, level_L_res) must be §12.3's layout.
   const m = bundle.manifest.occupancy;
@@ -211,13 +212,14 @@ export function writeSplatDump(dir, inp, s) {
  * volume (texture_3d<f32>, rgba16float: density in R), 2 its sampler (linear min/mag/mip filtering, clamp-to-edge),
  * 3 the occupancy words of every level (storage, read), 4 the image (array<vec4<f32>>, H*W), 5 the first crossing's
  * step per pixel (array<u32>, 0xFFFFFFFF: none), 6 the primary-march steps per pixel (array<u32>). The march runs
- * twice on the same texture: with the bundle's skip flag (rm_params[58]) — image, crossing, steps_skip — and with it
- * 0 — crossing_noskip, steps — so that check-raymarch compares skipping with not skipping on one device.
+ * twice on the same texture: with the bundle's skip flag (rm_params[58]) (image, crossing, steps_skip) and with it
+ * 0 (crossing_noskip, steps), so that check-raymarch compares skipping with not skipping on one device.
  * The texture is the bundle's volume_f16.npy uploaded as it is (the volume the reference marched): a device whose
  * resolve truncates binary16 (llvmpipe) would otherwise march another volume than the oracle's. */
 export async function runRaymarch(device, rmBundle, {timer = null, texture = null} = {}) {
   const u = rmBundle.npy('rm_params.npy').data;
-  if (!(u instanceof Float32Array) || u.length !== 64) throw new Error(`${rmBundle.dir}: rm_params.npy is not f32 (64,)`);
+  if (!(u instanceof Float32Array) || u.length !== 64)
+    throw new Error(`${rmBundle.dir}: rm_params.npy is not f32 (64,)`);
   const [W, H] = [u[56], u[57]];
   if (!Number.isInteger(W) || !Number.isInteger(H) || W < 1 || H < 1 || W * H > 4096 * 4096)
     throw new Error(`${rmBundle.dir}: rm_params.npy: ${W}x${H} pixels`);
@@ -249,7 +251,8 @@ export async function runRaymarch(device, rmBundle, {timer = null, texture = nul
     const image = keep(buffer(device, n * 16, {label: 'image'}));
     const crossing = keep(buffer(device, n * 4, {label: 'crossing'}));
     const steps = keep(buffer(device, n * 4, {label: 'steps'}));
-    const pass = timer ? timer.pass(enc, skip ? 'raymarch_skip' : 'raymarch') : enc.beginComputePass({label: 'raymarch'});
+    const label = skip ? 'raymarch_skip' : 'raymarch';
+    const pass = timer ? timer.pass(enc, label) : enc.beginComputePass({label});
     pass.setPipeline(pipe);
     pass.setBindGroup(0, device.createBindGroup({layout: pipe.getBindGroupLayout(0), entries: [
       {binding: 0, resource: {buffer: ub}}, {binding: 1, resource: tex.createView()}, {binding: 2, resource: sampler},

@@ -1,6 +1,6 @@
 // splat_particles (seed 003, DESIGN.md §12.2): one thread per particle adds the spiky pow2 kernel
-// K(r) = (h - r)^2 * S, as the fixed-point integer u32(K * scale), to every voxel whose centre lies within the smoothing
-// radius h, with atomicAdd (integer addition: exact and order-independent, wrapping mod 2^32 as the oracle's
+// K(r) = (h - r)^2 * S, as the fixed-point integer u32(K * scale), to every voxel whose centre lies within the
+// smoothing radius h, with atomicAdd (integer addition: exact and order-independent, wrapping mod 2^32 as the oracle's
 // volume_u32.npy holds it). The arithmetic is §12.2's, in its order:
 //   c = bounds_min + (f32(i) + 0.5) * voxel_size;  d = c - p;  r2 = (dx*dx + dy*dy) + dz*dz;  r = sqrt(r2)
 //   r < h:  v = h - r;  k = (v * v) * S;  atomicAdd(vol[i], u32(k * scale))   (u32(f32) truncates toward zero)
