@@ -2409,6 +2409,9 @@ typedef struct rto_raymarch_params {
     int envelope;              /* compute rm_certain / rm_tolerance (1, default; 0 leaves them 0 / inf) */
     int quantize_weights;      /* test hook: trilinear weights rounded to 8 fractional bits (a simulated GPU) */
     int skip_only;             /* test hook: only the skipping pass, its results as the image's (a GPU that skips) */
+    /* test hook (NULL: none): called with every sample position a skip passes over, from the worker threads */
+    void (*skipped_sample)(void *ctx, uint32_t pixel, const float p[3]);
+    void *skipped_ctx;
     uint32_t threads;          /* 0: all cores; the bytes do not depend on it */
 } rto_raymarch_params;
 

@@ -1,6 +1,7 @@
 /* The fluid raymarch (DESIGN.md §12.4-§12.7): empty-space skipping is lossless on every generator at three volume
  * resolutions (identical image bytes and crossings, fewer steps), the premise it rests on checked by brute force
- * (every texel any point of an empty cell of any level can read is exactly 0, by the test's own texel arithmetic),
+ * (every texel any point of an empty cell of any level can read is exactly 0, and every sample position a skip passes
+ * over reads only zero texels, both by the test's own texel arithmetic),
  * the reference inside its own admissible sets, and check-raymarch's faults planted and named: a cleared occupancy
  * cell (a GPU skipping an occupied cell: "skip"), the jitter off and a wrong step size ("crossing"), a changed pixel
  * ("image"), a wrong size ("shape"); controls that must pass: the reference's own arrays, a simulated GPU with 8-bit
@@ -117,6 +118,43 @@ static uint64_t check_empty_cells_read_zero(const rto_splat *s)
     return empty;
 }
 
+/* The test hook's check of every skipped sample position: by the test's own long double texel arithmetic, every texel
+ * a trilinear read there may touch (both neighbours on each axis) is 0, or the point is outside [eps, 1 - eps]. */
+typedef struct skip_check {
+    const rto_splat *s;
+    uint64_t checked, violations;
+    float first[3];
+} skip_check;
+
+static void check_skipped(void *ctx, uint32_t pixel, const float p[3])
+{
+    (void)pixel;
+    skip_check *c = ctx;
+    const rto_splat *s = c->s;
+    __atomic_add_fetch(&c->checked, 1, __ATOMIC_RELAXED);
+    const double mn[3] = {s->params.bounds.min.x, s->params.bounds.min.y, s->params.bounds.min.z};
+    const double mx[3] = {s->params.bounds.max.x, s->params.bounds.max.y, s->params.bounds.max.z};
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        const long double uvw = ((long double)p[a] - mn[a]) / ((long double)mx[a] - mn[a]);
+        if (!(uvw > 0.99e-4L && uvw < 1.0L - 0.99e-4L))
+            return; /* outside: -offset whatever the texels */
+        const long double g = uvw * s->params.res[a] - 0.5L;
+        lo[a] = (int)floorl(g);
+        hi[a] = lo[a] + 1;
+        lo[a] = lo[a] < 0 ? 0 : lo[a] > (int)s->params.res[a] - 1 ? (int)s->params.res[a] - 1 : lo[a];
+        hi[a] = hi[a] < 0 ? 0 : hi[a] > (int)s->params.res[a] - 1 ? (int)s->params.res[a] - 1 : hi[a];
+    }
+    for (int z = lo[2]; z <= hi[2]; z++)
+        for (int y = lo[1]; y <= hi[1]; y++)
+            for (int x = lo[0]; x <= hi[0]; x++)
+                if (s->volume_f16[((size_t)z * s->params.res[1] + (size_t)y) * s->params.res[0] + (size_t)x]) {
+                    if (__atomic_add_fetch(&c->violations, 1, __ATOMIC_RELAXED) == 1)
+                        memcpy(c->first, p, sizeof c->first);
+                    return;
+                }
+}
+
 static void test_skip_lossless(void **state)
 {
     (void)state;
@@ -129,13 +167,23 @@ static void test_skip_lossless(void **state)
             check_empty_cells_read_zero(&c.s);
             rto_raymarch rm;
             rto_msg msg;
+            skip_check sc = {&c.s, 0, 0, {0, 0, 0}};
+            c.p.skipped_sample = check_skipped;
+            c.p.skipped_ctx = &sc;
             assert_int_equal(rto_raymarch_make(&c.s, &c.p, &rm, &msg), RTO_OK);
             const rto_raymarch_stats *st = &rm.stats;
-            print_message("%-14s %2u^3: %llu crossings, steps %.1f -> %.1f per pixel (%.0f%% fewer), %llu differing\n",
+            if (sc.violations)
+                print_error("%llu skipped samples read a non-zero texel, the first at (%.9g, %.9g, %.9g)\n",
+                            (unsigned long long)sc.violations, (double)sc.first[0], (double)sc.first[1],
+                            (double)sc.first[2]);
+            assert_int_equal(sc.violations, 0);
+            assert_true(sc.checked > 0 || strcmp(specs[i], "lattice") == 0);
+            print_message("%-14s %2u^3: %llu crossings, steps %.1f -> %.1f per pixel (%.0f%% fewer), %llu differing, "
+                          "%llu skipped samples read 0\n",
                           specs[i], res[r], (unsigned long long)st->crossings,
                           (double)st->steps_total / st->pixels, (double)st->steps_skip_total / st->pixels,
                           100.0 * (1.0 - (double)st->steps_skip_total / (double)st->steps_total),
-                          (unsigned long long)st->differing_pixels);
+                          (unsigned long long)st->differing_pixels, (unsigned long long)sc.checked);
             assert_true(st->skip_enabled);
             assert_int_equal(st->differing_pixels, 0);
             assert_int_equal(st->differing_crossings, 0);
@@ -308,7 +356,11 @@ static void test_check_faults(void **state)
     rto_raymarch_params sp = c.p;
     sp.skip_only = 1;
     sp.envelope = 0;
+    skip_check sc = {&c.s, 0, 0, {0, 0, 0}}; /* the true volume: skipped samples that read non-zero texels */
+    sp.skipped_sample = check_skipped;
+    sp.skipped_ctx = &sc;
     assert_int_equal(rto_raymarch_make(&bad, &sp, &q, &msg), RTO_OK);
+    assert_true(sc.violations > 0); /* the brute-force check of skipped samples sees the planted fault too */
     assert_true(q.crossing[pix] != ref.crossing[pix]);
     d = dump_of(&q);
     d.steps = NULL;

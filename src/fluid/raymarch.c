@@ -62,6 +62,7 @@ typedef struct rm_shared {
     double cs[3]; /* occupancy cell size, binary64 */
     double bmag;  /* largest |bound| */
     int skip_ok, quant, envelope;
+    const rto_raymarch_params *params;
 } rm_shared;
 
 enum { MODE_NOMINAL = 0, MODE_LO = 1, MODE_HI = 2, MODE_FORWARD = 3 };
@@ -352,6 +353,23 @@ static uint32_t skip_to(const rm_shared *S, const float o[3], const float d[3], 
     return k2 > k + 1 ? k2 : k + 1;
 }
 
+/* The test hook: every sample position a skip passes over (those the unskipped march would take: t_j < t1). */
+static void report_skipped(const rm_state *st, const float o[3], const float d[3], float tb, float step, float t1,
+                           uint32_t k, uint32_t k2)
+{
+    const rto_raymarch_params *p = st->S->params;
+    if (!p->skipped_sample)
+        return;
+    for (uint32_t j = k; j < k2; j++) {
+        const float t = tb + (float)j * step;
+        if (!(t < t1))
+            break;
+        float q[3];
+        at(o, d, t, q);
+        p->skipped_sample(p->skipped_ctx, st->pixel, q);
+    }
+}
+
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Marches                                                                                                          */
 
@@ -388,6 +406,7 @@ static rm_hit search(rm_state *st, const float o[3], const float d[3], int exiti
         if (st->skip && !exiting && S->skip_ok) {
             const uint32_t k2 = skip_to(S, o, d, p, tb, step, k, RM_MAX_STEPS);
             if (k2 != k) {
+                report_skipped(st, o, d, tb, step, t1, k, k2);
                 st->skipped += k2 - k;
                 k = k2;
                 continue;
@@ -475,6 +494,7 @@ static float shadow_depth(rm_state *st, const float o[3], const float d[3])
         if (st->skip && S->skip_ok) {
             const uint32_t k2 = skip_to(S, o, d, p, tb, step2, k, RM_SHADOW_STEPS);
             if (k2 != k) {
+                report_skipped(st, o, d, tb, step2, t1, k, k2);
                 k = k2;
                 continue;
             }
@@ -902,6 +922,7 @@ rto_status rto_raymarch_make(const rto_splat *vol, const rto_raymarch_params *p,
     S.H = p->height;
     S.quant = p->quantize_weights;
     S.envelope = p->envelope;
+    S.params = p;
     S.O = vol->params.occupancy;
     S.levels = vol->occupancy_levels;
     s = rto_camera_uniforms_make(&p->camera, p->width, p->height, &S.cam, msg);
