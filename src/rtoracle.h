@@ -2444,7 +2444,8 @@ typedef struct rto_raymarch {
     float *normal_central;   /* (H, W, 3) at the first crossing (0 where none) */
     float *normal_forward;
     uint32_t *steps, *steps_skip;
-    uint32_t *steps_min; /* samples the skipping pass took in occupied cells: no lossless skipper takes fewer */
+    uint32_t *steps_min; /* primary entry-search samples (to the first crossing) that read a non-zero texel: their
+                          * cells are required, so no lossless skipper takes fewer steps */
     uint8_t *certain;
     float *tolerance;        /* per pixel, every channel; +inf where uncertain */
     rto_raymarch_stats stats;

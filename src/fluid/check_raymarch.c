@@ -1,7 +1,7 @@
 /* check-raymarch (DESIGN.md §12.7): a GPU's raymarch dump against the reference recomputed from the bundle. Faults,
  * by priority at a pixel: "shape" (wrong dimensions), "skip" (a skipping GPU's crossing differs from its own
- * non-skipping one; or it took fewer primary-march steps than the samples of its march that lie in occupied cells,
- * which no lossless skipper can pass over; or its crossing is inadmissible after fewer steps than the reference's
+ * non-skipping one; or it took fewer primary-march steps than the samples of its first entry search that read a
+ * non-zero texel (their cells are required, §12.3), which no lossless skipper can pass over; or its crossing is inadmissible after fewer steps than the reference's
  * skipping took), "crossing" (the first crossing's step outside the admissible set),
  * "image" (a certain pixel beyond its tolerance, or not finite). The first wrong pixel in row-major order is named. */
 #include "fluid/raymarch_internal.h"
@@ -66,8 +66,8 @@ rto_status rto_raymarch_check(const rto_raymarch *ref, const rto_raymarch_dump *
             fmt_step(b, sizeof b, lo);
             fmt_step(c, sizeof c, hi);
             snprintf(detail, sizeof detail,
-                     "%u steps with skipping (the reference's skipping takes %u, at least %u samples lie in occupied "
-                     "cells); crossing step %s, admissible [%s, %s]",
+                     "%u steps with skipping (the reference's skipping takes %u; %u samples before the first crossing "
+                     "read non-zero texels, so their cells are occupied); crossing step %s, admissible [%s, %s]",
                      dump->steps_skip[i], ref->steps_skip[i], ref->steps_min[i], a, b, c);
         } else if (!adm) {
             fault = "crossing";

@@ -353,6 +353,26 @@ static uint32_t skip_to(const rm_shared *S, const float o[3], const float d[3], 
     return k2 > k + 1 ? k2 : k + 1;
 }
 
+/* Whether a trilinear read at q may touch a non-zero texel (any of the 8 around it, inside [eps, 1 - eps]). */
+static int reads_nonzero(const rm_shared *S, const float q[3])
+{
+    float g[3];
+    int near, i0[3], i1[3];
+    if (!coords(S, q, g, &near) && !near)
+        return 0;
+    for (int a = 0; a < 3; a++) {
+        if (!(g[a] > -2.0f && g[a] < (float)S->n[a] + 2.0f))
+            return 0;
+        const int f = (int)floorf(g[a]);
+        i0[a] = clampi(f, 0, (int)S->n[a] - 1);
+        i1[a] = clampi(f + 1, 0, (int)S->n[a] - 1);
+    }
+    for (int k = 0; k < 8; k++)
+        if (texel(S, (k & 1) ? i1[0] : i0[0], (k & 2) ? i1[1] : i0[1], (k & 4) ? i1[2] : i0[2]) != 0.0f)
+            return 1;
+    return 0;
+}
+
 /* The test hook: every sample position a skip passes over (those the unskipped march would take: t_j < t1). */
 static void report_skipped(const rm_state *st, const float o[3], const float d[3], float tb, float step, float t1,
                            uint32_t k, uint32_t k2)
@@ -412,7 +432,8 @@ static rm_hit search(rm_state *st, const float o[3], const float d[3], int exiti
                 continue;
             }
         }
-        st->taken++;
+        if (primary && !exiting && st->mode == MODE_NOMINAL && reads_nonzero(S, p))
+            st->taken++; /* its cell is required (§12.3): no lossless skipper passes over it */
         const float v = sample(st, p);
         if (st->mode == MODE_NOMINAL && st->certainty) {
             float lo, hi, vb;
@@ -868,7 +889,6 @@ static void pixels(void *arg, uint32_t worker, size_t begin, size_t end)
         if (S->skip_ok && !r->params.skip_only) {
             render(S, x, y, MODE_NOMINAL, 1, &b);
             r->steps_skip[i] = b.steps;
-            r->steps_min[i] = b.taken;
             j->skipped[i] = b.skipped;
             if (memcmp(a.rgba, b.rgba, sizeof a.rgba) || a.hash != b.hash)
                 j->differ[i] |= 1;
