@@ -593,7 +593,13 @@ static void normal_at(rm_state *st, const float p[3], int forward, float n[3])
 {
     const rm_shared *S = st->S;
     float g[3];
+    /* The envelope's low and high renders tilt the gradient: the samples it subtracts take the other end of their
+     * intervals (otherwise shifting every sample one way would leave differences, so normals, unperturbed). */
+    const int mode = st->mode;
+    const int other = mode == MODE_LO ? MODE_HI : mode == MODE_HI ? MODE_LO : mode;
+    st->mode = other;
     const float d0 = forward ? sample(st, p) : 0.0f;
+    st->mode = mode;
     for (int a = 0; a < 3; a++) {
         float q[3] = {p[0], p[1], p[2]};
         q[a] = p[a] + S->vs[a];
@@ -602,7 +608,9 @@ static void normal_at(rm_state *st, const float p[3], int forward, float n[3])
             g[a] = plus - d0;
         } else {
             q[a] = p[a] - S->vs[a];
+            st->mode = other;
             g[a] = plus - sample(st, q);
+            st->mode = mode;
         }
     }
     const float len2 = dot3(g, g);
