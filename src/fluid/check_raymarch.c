@@ -53,22 +53,43 @@ rto_status rto_raymarch_check(const rto_raymarch *ref, const rto_raymarch_dump *
         char a[16], b[16], c[16];
         const int certain = ref->certain[i] != 0;
         const int adm = admissible(g, lo, hi);
-        /* At a certain pixel every decision is the reference's: its march takes the same samples. */
-        const int fewer = dump->steps_skip && certain && g == ref->crossing[i] && dump->steps_skip[i] < ref->steps_min[i];
-        if (dump->crossing_noskip && dump->crossing_noskip[i] != g) {
-            fault = "skip";
-            fmt_step(a, sizeof a, g);
-            fmt_step(b, sizeof b, dump->crossing_noskip[i]);
-            snprintf(detail, sizeof detail, "crossing step %s with skipping, %s without", a, b);
-        } else if (fewer || (!adm && dump->steps_skip && dump->steps_skip[i] < ref->steps_skip[i])) {
+        /* A GPU whose first entry search went at least as far as the reference's passed every sample of it that reads
+         * a non-zero texel, and a lossless skipper takes each of those (§12.3 requires their cells set). */
+        const uint32_t rc = ref->crossing[i];
+        const int as_far = rc == RM_NONE ? g == RM_NONE : (g == RM_NONE || g >= rc);
+        const int fewer = dump->steps_skip && certain && as_far && dump->steps_skip[i] < ref->steps_min[i];
+        if (fewer) {
             fault = "skip";
             fmt_step(a, sizeof a, g);
             fmt_step(b, sizeof b, lo);
             fmt_step(c, sizeof c, hi);
             snprintf(detail, sizeof detail,
-                     "%u steps with skipping (the reference's skipping takes %u; %u samples before the first crossing "
+                     "%u steps with skipping (the reference's skipping takes %u; %u samples before its first crossing "
                      "read non-zero texels, so their cells are occupied); crossing step %s, admissible [%s, %s]",
                      dump->steps_skip[i], ref->steps_skip[i], ref->steps_min[i], a, b, c);
+            if (dump->crossing_noskip && dump->crossing_noskip[i] != g) {
+                const size_t len = strlen(detail);
+                fmt_step(a, sizeof a, dump->crossing_noskip[i]);
+                snprintf(detail + len, sizeof detail - len, "; %s without skipping", a);
+            }
+        } else if (dump->crossing_noskip && dump->crossing_noskip[i] != g) {
+            fault = "skip";
+            fmt_step(a, sizeof a, g);
+            fmt_step(b, sizeof b, dump->crossing_noskip[i]);
+            if (dump->steps_skip && dump->steps)
+                snprintf(detail, sizeof detail, "%u steps with skipping to crossing step %s; %u steps to %s without",
+                         dump->steps_skip[i], a, dump->steps[i], b);
+            else
+                snprintf(detail, sizeof detail, "crossing step %s with skipping, %s without", a, b);
+        } else if (!adm && dump->steps_skip && dump->steps_skip[i] < ref->steps_skip[i]) {
+            fault = "skip";
+            fmt_step(a, sizeof a, g);
+            fmt_step(b, sizeof b, lo);
+            fmt_step(c, sizeof c, hi);
+            snprintf(detail, sizeof detail,
+                     "%u steps with skipping, fewer than the reference's skipping takes (%u), and crossing step %s "
+                     "outside the admissible [%s, %s]",
+                     dump->steps_skip[i], ref->steps_skip[i], a, b, c);
         } else if (!adm) {
             fault = "crossing";
             fmt_step(a, sizeof a, g);
