@@ -42,7 +42,7 @@ int cmd_raymarch(int argc, char **argv)
         OPT_FLAG("no-skip", &no_skip, "no empty-space skipping pass"),
         OPT_FLAG("no-envelope", &no_envelope, "no envelope: rm_certain 0, rm_tolerance inf (faster)"),
         OPT_UINT("threads", &threads, 0, 256, "N", "threads (0: one per CPU); the output is the same", "0"),
-        OPT_FLAG("force", &force, "accepted for symmetry: the bundle is always written"),
+        OPT_FLAG("force", &force, "write the bundle even when OUTDIR is up to date"),
         OPT_PATH("output", 'o', &out, "DIR", "output bundle directory"),
         OPT_END,
     };
@@ -56,17 +56,24 @@ int cmd_raymarch(int argc, char **argv)
     static const char *const required[] = {"output", NULL};
     if ((rc = opts_require(&cmd, &args, required)))
         return rc;
-    (void)force;
     /* About 80 bytes a pixel of arrays: at most 2^22 pixels (4 Mpixel, ~340 MB). */
     if (width * height > (UINT64_C(1) << 22))
         return cli_fail("raymarch", "--width %" PRIu64 " --height %" PRIu64 ": more than 2^22 pixels", width, height);
     if (!(multiplier > 0))
         return cli_fail("raymarch", "--multiplier must be > 0");
+    static const char *const not_inputs[] = {"output", "force", "threads", NULL};
+    char *request = opts_request(&cmd, &args, not_inputs);
+    if (cli_up_to_date("raymarch", out, request, force)) {
+        free(request);
+        return EXIT_PASS;
+    }
     rto_msg msg = {{0}};
     rto_splat vol;
     rto_status s = rto_raymarch_volume_load(args.arg[0], &vol, &msg);
-    if (s)
+    if (s) {
+        free(request);
         return cli_status("raymarch", s, &msg);
+    }
     rto_raymarch_params p;
     rto_raymarch_params_default(&vol, &p);
     p.width = (uint32_t)width;
@@ -74,6 +81,7 @@ int cmd_raymarch(int argc, char **argv)
     p.camera = rto_camera_frame(&vol.params.bounds, (float)width / (float)height);
     if (camera_arg && strcmp(camera_arg, "auto") && !cli_camera_numbers(camera_arg, &p.camera)) {
         rto_splat_free(&vol);
+        free(request);
         return cli_fail("raymarch", "--camera %s: expected auto or 10 numbers EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOVY",
                         camera_arg);
     }
@@ -85,6 +93,7 @@ int cmd_raymarch(int argc, char **argv)
      * not advance t in binary32 is not. */
     if (!(p.step_size >= 1e-6f) || !(p.light_step_size >= 1e-6f)) {
         rto_splat_free(&vol);
+        free(request);
         return cli_fail("raymarch", "--step and --light-step must be at least 1e-6");
     }
     p.density_offset = (float)offset;
@@ -100,7 +109,9 @@ int cmd_raymarch(int argc, char **argv)
     s = rto_raymarch_make(&vol, &p, &r, &msg);
     const double secs = cli_now() - t0;
     if (!s)
-        s = rto_raymarch_bundle_write(out, NULL, &vol, &r, &msg);
+        s = rto_raymarch_bundle_write(out, /* a skipping pass that differs is not recorded as up to date */
+                                      r.stats.differing_pixels || r.stats.differing_crossings ? NULL : request,
+                                      args.arg[0], &vol, &r, &msg);
     int status = cli_status("raymarch", s, &msg);
     if (!s) {
         const rto_raymarch_stats *st = &r.stats;
@@ -122,5 +133,6 @@ int cmd_raymarch(int argc, char **argv)
     }
     rto_raymarch_free(&r);
     rto_splat_free(&vol);
+    free(request);
     return status;
 }

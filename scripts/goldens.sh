@@ -45,3 +45,6 @@ mapfile -t settings < <(rto_render_settings $cornell sun-shadow)
 # Visibility buffers: rtstress:2 at 4x MSAA with the lambert material, the Box fixture at 1x with normals.
 "$rto" vbuffer rtstress:2 --width 32 --height 24 --material lambert -o "$out/vbuffer-rtstress-2" >/dev/null
 "$rto" vbuffer fixtures/Box/glTF/Box.gltf --width 32 --height 24 --msaa 1 -o "$out/vbuffer-Box" >/dev/null
+# Fluid (seed 003): a splash splatted at 24^3 with its occupancy grid, and raymarched at 32x24 with and without skipping.
+"$rto" splat splash:1000 --resolution 24 --radius 0.12 -o "$out/fluid-splat-splash" >/dev/null
+"$rto" raymarch "$out/fluid-splat-splash" --width 32 --height 24 -o "$out/fluid-raymarch-splash" >/dev/null

@@ -113,4 +113,16 @@ for spec in triangle rtstress:16; do
     golden vbuffer vbuffer "$spec" --material lambert "${vsize[@]}" -o "$out/vbuffer/${spec//:/-}"
 done
 family_done vbuffer "$out/vbuffer"
+
+# Fluid bundles (seed 003): each particle generator splatted into a 64^3 volume (with --full the seed's 150^3) with its
+# occupancy grid, and raymarched at 160x120 (320x240) with and without empty-space skipping.
+mkdir -p "$out/fluid"
+fres=64 rsize=(--width 160 --height 120)
+[ $full = 0 ] || { fres=150 rsize=(--width 320 --height 240); }
+for spec in dambreak:20000 pool:20000 splash:20000 single lattice; do
+    name=${spec//:/-}
+    golden fluid splat "$spec" --resolution $fres -o "$out/fluid/splat-$name"
+    golden fluid raymarch "$out/fluid/splat-$name" "${rsize[@]}" -o "$out/fluid/raymarch-$name"
+done
+family_done fluid "$out/fluid"
 rto_say "built $rto; golden bundles in $out/ ($(du -sh "$out" | cut -f1)B)"

@@ -2468,8 +2468,9 @@ float rto_raymarch_density(const rto_splat *vol, const rto_raymarch_uniforms *u,
 rto_status rto_raymarch_volume_load(const char *dir, rto_splat *out, rto_msg *msg);
 
 /** Writes a raymarch bundle (§12.4) to outdir atomically: the rm_* arrays, image.png, the splat arrays a GPU needs,
- * and the manifest (request: the up-to-date record, or NULL). */
-rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, const rto_splat *vol,
+ * and the manifest. request: the up-to-date record (rto_bundle_set_request), or NULL; srcdir: the bundle vol was
+ * loaded from, whose fluid_params.npy, volume_f16.npy and occupancy.npy the record hashes as its sources (NULL: none). */
+rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, const char *srcdir, const rto_splat *vol,
                                      const rto_raymarch *r, rto_msg *msg);
 
 /** Reads a raymarch bundle (§12.7): its volume (rto_raymarch_volume_load), its parameters (rm_params.npy and the

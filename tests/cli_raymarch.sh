@@ -81,6 +81,15 @@ for f in "$T"/rm/*.npy; do cmp -s "$f" "$T/rm3/$(basename "$f")" || fail "$(base
 run 0 "$RTO" raymarch "$T/sp" --width $W --height $H --no-skip -o "$T/rmn"
 cmp -s "$T/rm/rm_image.npy" "$T/rmn/rm_image.npy" || fail "--no-skip changed the image"
 cmp -s "$T/rmn/rm_steps.npy" "$T/rmn/rm_steps_skip.npy" || fail "--no-skip: steps_skip differs from steps"
+# Up to date: the same request on the same splat is not recomputed (--threads is no input); another splat's volume in
+# the same directory, or --force, writes it again.
+run 0 "$RTO" raymarch "$T/sp" --width $W --height $H --no-skip --threads 2 -o "$T/rmn" && has "is up to date" out
+run 0 "$RTO" raymarch "$T/sp" --width $W --height $H --no-skip --force -o "$T/rmn" && has "differing pixels" out
+run 0 "$RTO" splat dambreak:2000 --resolution 32 --radius 0.11 -o "$T/sp2"
+cp "$T/sp2/volume_f16.npy" "$T/sp/volume_f16.npy.new" && mv "$T/sp/volume_f16.npy.new" "$T/sp/volume_f16.npy"
+run 2 "$RTO" raymarch "$T/sp" --width $W --height $H --no-skip -o "$T/rmn"
+rm -rf "$T/sp" && cp -r "$T/sp2" "$T/sp"
+run 0 "$RTO" raymarch "$T/sp" --width $W --height $H --no-skip -o "$T/rmn" && has "differing pixels" out
 
 # check-raymarch: the bundle's own buffers pass
 mkdir -p "$T/d"

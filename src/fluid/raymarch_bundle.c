@@ -42,7 +42,7 @@ static rto_status add_png(rto_bundle *b, const float *image, uint32_t w, uint32_
     return s;
 }
 
-rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, const rto_splat *vol,
+rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, const char *srcdir, const rto_splat *vol,
                                      const rto_raymarch *r, rto_msg *msg)
 {
     if (!outdir || !vol || !r || !r->image)
@@ -53,8 +53,23 @@ rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, co
     rto_status s = rto_bundle_begin(outdir, "raymarch", &b, msg);
     if (s)
         return s;
-    if (request)
-        s = rto_bundle_set_request(b, request, NULL, 0, msg);
+    if (request) {
+        /* The record hashes the three source arrays the volume was read from (rto_raymarch_volume_load). */
+        static const rto_bundle_file src_files[3] = {RTO_FILE_FLUID_PARAMS, RTO_FILE_FLUID_VOLUME_F16,
+                                                     RTO_FILE_FLUID_OCCUPANCY};
+        char paths[3][4096];
+        const char *src[3];
+        size_t n = 0;
+        for (size_t i = 0; srcdir && i < 3 && !s; i++) {
+            char name[RTO_BUNDLE_FILE_NAME_MAX];
+            s = rto_bundle_file_name(src_files[i], 0, name, sizeof name);
+            if (!s && snprintf(paths[i], sizeof paths[i], "%s/%s", srcdir, name) >= (int)sizeof paths[i])
+                s = rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "raymarch bundle: %s: path too long", srcdir);
+            src[n++] = paths[i];
+        }
+        if (!s)
+            s = rto_bundle_set_request(b, request, src, n, msg);
+    }
     rto_npy_desc d;
     if (!s) {
         d = rto_npy_desc_array(RTO_DTYPE_F32, 1, 64, 0, 0);
