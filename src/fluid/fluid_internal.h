@@ -4,13 +4,15 @@
 #ifndef RTO_FLUID_INTERNAL_H
 #define RTO_FLUID_INTERNAL_H
 
-#if defined(__GNUC__)
-#pragma GCC visibility push(hidden)
-#endif
-
 #include "rtoracle.h"
 
 #include <stdbool.h>
+
+/* After the public header: its declarations keep default visibility (a hidden redeclaration would hide them from the
+ * shared library under link-time optimisation). */
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
 
 /** Component a (0 x, 1 y, 2 z) of v, and a pointer to it. */
 static inline float rto__v3get(const rto_vec3 *v, int a) { return a == 0 ? v->x : a == 1 ? v->y : v->z; }

@@ -3,11 +3,13 @@
 #ifndef RTO_RAYMARCH_INTERNAL_H
 #define RTO_RAYMARCH_INTERNAL_H
 
+#include "rtoracle.h"
+
+/* After the public header: its declarations keep default visibility (a hidden redeclaration would hide them from the
+ * shared library under link-time optimisation). */
 #if defined(__GNUC__)
 #pragma GCC visibility push(hidden)
 #endif
-
-#include "rtoracle.h"
 
 /** The occupancy levels of O cells per axis (§12.3): levels down to one cell, each level's first word and cells per
  * axis, and the total words. Returns the level count (at most 12), 0 when O is out of range. */
