@@ -65,7 +65,10 @@ typedef struct rm_shared {
     const rto_raymarch_params *params;
 } rm_shared;
 
-enum { MODE_NOMINAL = 0, MODE_LO = 1, MODE_HI = 2, MODE_FORWARD = 3 };
+enum { MODE_NOMINAL = 0, MODE_LO = 1, MODE_HI = 2, MODE_FORWARD = 3, MODE_TILT = 4 /* .. MODE_TILT + 3 */ };
+/* A GPU's normal may point anywhere within the angle its gradient's interval allows (§12.5.1): the envelope's tilt
+ * renders turn every normal by that angle (plus 2^-12 rad of arithmetic) towards each of four directions. */
+#define RM_TILTS 4
 
 typedef struct rm_state {
     const rm_shared *S;
@@ -587,6 +590,53 @@ static void environment(rm_state *st, const float o[3], const float d[3], float 
         out[c] = (sky_horizon[c] + (sky_zenith[c] - sky_horizon[c]) * a) + s * 4.0f;
 }
 
+/* The tilt renders' normal (§12.5.1): the gradient's interval from its samples' intervals gives |dg| (the norm of
+ * the component half-widths), so the GPU's normal lies within theta = atan(|dg| / (|g| - |dg|)) + 2^-12 of n; n is
+ * turned by theta towards +u, -u, +v or -v (u, v orthonormal to n). theta >= pi/2 marks the render uncertain. */
+static void tilt(rm_state *st, const float p[3], int forward, float len, float n[3])
+{
+    const rm_shared *S = st->S;
+    double w2 = 0.0;
+    for (int a = 0; a < 3; a++) {
+        float q[3] = {p[0], p[1], p[2]}, lo, hi;
+        double w = 0.0;
+        q[a] = p[a] + S->vs[a];
+        density_range(S, q, &lo, &hi);
+        w += 0.5 * ((double)hi - lo);
+        q[a] = forward ? p[a] : p[a] - S->vs[a];
+        density_range(S, q, &lo, &hi);
+        w += 0.5 * ((double)hi - lo);
+        w2 += w * w;
+    }
+    const double dg = sqrt(w2) * (1.0 + 0x1p-20);
+    if (!(dg < (double)len)) {
+        st->uncertain = 1;
+        return;
+    }
+    const double theta = atan(dg / ((double)len - dg)) + 0x1p-12;
+    /* u: n x (the axis n is least aligned with), v = n x u */
+    int m = 0;
+    for (int a = 1; a < 3; a++)
+        if (fabs(n[a]) < fabs(n[m]))
+            m = a;
+    double e[3] = {0, 0, 0}, u[3], v[3];
+    e[m] = 1.0;
+    u[0] = n[1] * e[2] - n[2] * e[1];
+    u[1] = n[2] * e[0] - n[0] * e[2];
+    u[2] = n[0] * e[1] - n[1] * e[0];
+    const double ul = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int a = 0; a < 3; a++)
+        u[a] /= ul;
+    v[0] = n[1] * u[2] - n[2] * u[1];
+    v[1] = n[2] * u[0] - n[0] * u[2];
+    v[2] = n[0] * u[1] - n[1] * u[0];
+    const int k = st->mode - MODE_TILT;
+    const double *t = k < 2 ? u : v;
+    const double sg = (k & 1) ? -1.0 : 1.0, c = cos(theta), sn = sin(theta) * sg;
+    for (int a = 0; a < 3; a++)
+        n[a] = (float)(c * n[a] + sn * t[a]);
+}
+
 /* The normal at p (§12.4): n = -grad / |grad|, grad by central differences (6 samples, one voxel on each axis) or
  * forward differences (4 samples); (0, 1, 0) where the gradient is 0. */
 static void normal_at(rm_state *st, const float p[3], int forward, float n[3])
@@ -623,6 +673,8 @@ static void normal_at(rm_state *st, const float p[3], int forward, float n[3])
     const float len = sqrtf(len2);
     for (int a = 0; a < 3; a++)
         n[a] = -(g[a] / len);
+    if (mode >= MODE_TILT)
+        tilt(st, p, forward, len, n);
 }
 
 typedef struct rm_pix {
@@ -703,6 +755,20 @@ static void render(const rm_shared *S, uint32_t x, uint32_t y, int mode, int ski
         const float dRefr = tir ? 0.0f : short_depth(&st, h.p, refr);
         const float dRefl = short_depth(&st, h.p, refl);
         const int trace_refr = dRefr * Tr > dRefl * R;
+        if (st.mode == MODE_NOMINAL && st.certainty) {
+            /* The path choice compares two marches whose samples a GPU may take anywhere in their intervals: it is
+             * certain only where the intervals of the two sides (with 2^-10 of arithmetic) do not overlap. */
+            st.mode = MODE_LO;
+            const float rl = tir ? 0.0f : short_depth(&st, h.p, refr), ll = short_depth(&st, h.p, refl);
+            st.mode = MODE_HI;
+            const float rh = tir ? 0.0f : short_depth(&st, h.p, refr), lh = short_depth(&st, h.p, refl);
+            st.mode = MODE_NOMINAL;
+            const double ae = 0x1p-10;
+            const double a_lo = (double)rl * Tr * (1 - ae), a_hi = (double)rh * Tr * (1 + ae) + 0x1p-30;
+            const double b_lo = (double)ll * R * (1 - ae), b_hi = (double)lh * R * (1 + ae) + 0x1p-30;
+            if (!(a_lo > b_hi || a_hi < b_lo) && !(tir && !trace_refr))
+                st.uncertain = 1;
+        }
         note(&st, 0x7000 + (uint64_t)tir * 2 + (uint64_t)trace_refr);
         if (trace_refr) {
             environment(&st, h.p, refl, e);
@@ -918,13 +984,21 @@ static void pixels(void *arg, uint32_t worker, size_t begin, size_t end)
             render(S, x, y, MODE_LO, 0, &lo);
             render(S, x, y, MODE_HI, 0, &hi);
             render(S, x, y, MODE_FORWARD, 0, &fw);
-            if (!a.uncertain && lo.hash == a.hash && hi.hash == a.hash) {
+            rm_pix tl[RM_TILTS];
+            int same = !a.uncertain && lo.hash == a.hash && hi.hash == a.hash;
+            for (int k = 0; k < RM_TILTS && same; k++) {
+                render(S, x, y, MODE_TILT + k, 0, &tl[k]);
+                same = !tl[k].uncertain && tl[k].hash == a.hash;
+            }
+            if (same) {
                 double dev = 0;
                 for (int c = 0; c < 3; c++) {
                     dev = fmax(dev, fabs((double)lo.rgba[c] - a.rgba[c]));
                     dev = fmax(dev, fabs((double)hi.rgba[c] - a.rgba[c]));
                     if (fw.hash == a.hash)
                         dev = fmax(dev, fabs((double)fw.rgba[c] - a.rgba[c]));
+                    for (int k = 0; k < RM_TILTS; k++)
+                        dev = fmax(dev, fabs((double)tl[k].rgba[c] - a.rgba[c]));
                 }
                 r->certain[i] = 1;
                 r->tolerance[i] = (float)(2.0 * dev + 0x1p-10);
