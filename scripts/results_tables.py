@@ -258,17 +258,7 @@ def vbuffer_area():
                  "admissible set (docs/vbuffer.md, \"The rasterizer beside the tracer\"), with the sizes of the "
                  "admissible sets (`tests/tools/vbuffer_crosscheck.py`).") + "\n\n" + block("vbuffer-crosscheck"),
             [lambda doc, src=src: vc.table(src, doc)]))
-    runs = [f"{RESULTS}/{n}" for n in ("h100-vbuffer.json", "llvmpipe-vbuffer.json") if exists(n)]
-    if runs:
-        gpu_results = load_module("gpu/results.py", "gpu_results")
-
-        def fill(doc):
-            gpu_results.table(types.SimpleNamespace(runs=runs, doc=doc))
-        sections.append((
-            "The `vbuffer` family on GPUs and on llvmpipe",
-            para("`gpu/run --families vbuffer` per run (docs/gpu.md): every case, the runs it passed, what "
-                 "`check-vbuffer` said besides its verdict and the GPU time per run where the device has timestamp "
-                 "queries (`gpu/results.py table`).") + "\n\n" + block("gpu-results"), [fill]))
+    sections += gpu_runs_section("vbuffer", "`check-vbuffer`", ("h100-vbuffer.json", "llvmpipe-vbuffer.json"))
     sections += bench_rows("vbuffer", "`bench_vbuffer`", "docs/vbuffer.md, \"Benchmark\",")
     if exists("bench-vbuffer.json"):
         d = load("bench-vbuffer.json")
@@ -286,8 +276,30 @@ def vbuffer_area():
             "doc": "[docs/vbuffer.md](../vbuffer.md)", "sections": sections}
 
 
+def gpu_runs_section(family, check, runs):
+    """The recorded runs of one gpu/ family (gpu/results.py table), or no section when none is recorded."""
+    runs = [f"{RESULTS}/{n}" for n in runs if exists(n)]
+    if not runs:
+        return []
+    gpu_results = load_module("gpu/results.py", "gpu_results")
+
+    def fill(doc):
+        gpu_results.table(types.SimpleNamespace(runs=runs, doc=doc))
+    return [(f"The `{family}` family on GPUs and on llvmpipe",
+             para(f"`gpu/run --families {family}` per run (docs/gpu.md): every case, the runs it passed, what "
+                  f"{check} said besides its verdict and the GPU time per run where the device has timestamp "
+                  "queries (`gpu/results.py table`).") + "\n\n" + block("gpu-results"), [fill])]
+
+
+def fluid_area():
+    return {"title": "Results: the fluid volume", "intro": "The `fluid` family (seed 003's splat, occupancy grid "
+            "and raymarch) on GPUs and on llvmpipe.", "doc": "[docs/gpu.md](../gpu.md) and DESIGN.md §12",
+            "sections": gpu_runs_section("fluid", "`check-volume` / `check-raymarch`",
+                                         ("h100-fluid.json", "llvmpipe-fluid.json"))}
+
+
 AREAS = {"gpu": gpu_area, "trace": trace_area, "frame": frame_area, "sort": sort_area, "bvh": bvh_area,
-         "vbuffer": vbuffer_area}
+         "vbuffer": vbuffer_area, "fluid": fluid_area}
 
 
 def render(area):
