@@ -89,27 +89,18 @@ static double march_once(const rto_splat *s, int skip, uint32_t threads, double 
     return t;
 }
 
-/* Peak RSS (KiB) of a child that splats spec (which 0) or splats it and marches (1: without skipping, 2: with). */
-static long child_rss(const char *spec, int which)
+/* What a peak-RSS child does (bench_child_peak_kib): splats spec (which 0) or splats it and marches (1: without
+ * skipping, 2: with). */
+static void rss_work(const char *spec, int which)
 {
-    fflush(stdout);
-    const pid_t pid = fork();
-    if (pid == 0) {
-        uint64_t n = 0;
-        float *pos = particles(spec, &n);
-        rto_splat s;
-        splat_once(pos, n, 0, &s);
-        free(pos);
-        if (which)
-            march_once(&s, which == 2, 0, NULL);
-        rto_splat_free(&s);
-        _exit(0);
-    }
-    int status = 0;
-    struct rusage ru;
-    if (pid < 0 || wait4(pid, &status, 0, &ru) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        return -1;
-    return ru.ru_maxrss;
+    uint64_t n = 0;
+    float *pos = particles(spec, &n);
+    rto_splat s;
+    splat_once(pos, n, 0, &s);
+    free(pos);
+    if (which)
+        march_once(&s, which == 2, 0, NULL);
+    rto_splat_free(&s);
 }
 
 int main(int argc, char **argv)
@@ -143,7 +134,7 @@ int main(int argc, char **argv)
     for (int s = 0; s < 2; s++) {
         uint64_t n = 0;
         float *pos = particles(specs[s], &n);
-        const long rss = child_rss(specs[s], 0);
+        const long rss = bench_child_peak_kib(rss_work, specs[s], 0);
         for (int th = 0; th < 2; th++) {
             for (int r = 0; r < runs; r++)
                 t[r] = splat_once(pos, n, th == 0 ? 1 : 0, NULL);
@@ -164,7 +155,7 @@ int main(int argc, char **argv)
         splat_once(pos, n, 0, &s);
         free(pos);
         for (int skip = 0; skip < 2; skip++) {
-            const long rss = child_rss(specs[1], 1 + skip);
+            const long rss = bench_child_peak_kib(rss_work, specs[1], 1 + skip);
             for (int th = 0; th < 2; th++) {
                 double steps = 0;
                 for (int r = 0; r < runs; r++)

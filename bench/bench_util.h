@@ -7,10 +7,29 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
 #define RUNS 7
+
+/* The peak RSS (KiB) of work(spec, which) run once in a child process of its own (fork; getrusage's ru_maxrss of the
+ * child), so that one measurement's memory does not raise the next one's; -1 when the child fails. */
+static inline long bench_child_peak_kib(void (*work)(const char *spec, int which), const char *spec, int which)
+{
+    fflush(stdout);
+    const pid_t pid = fork();
+    if (pid == 0) {
+        work(spec, which);
+        _exit(0);
+    }
+    int status = 0;
+    struct rusage ru;
+    if (pid < 0 || wait4(pid, &status, 0, &ru) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+        return -1;
+    return ru.ru_maxrss;
+}
 
 static inline double now(void)
 {

@@ -86,31 +86,22 @@ static double trace_once(const loaded *l, const rto_wf_ray *rays, size_t n, rto_
     return now() - t0;
 }
 
-/* Peak RSS (KiB) of a child that loads spec and makes the vbuffer (which 0) or traces the rays (1), all threads. */
-static long child_rss(const char *spec, int which)
+/* What a peak-RSS child does (bench_child_peak_kib): loads spec and makes the vbuffer (which 0) or traces the rays
+ * (1), all threads. */
+static void rss_work(const char *spec, int which)
 {
-    fflush(stdout);
-    const pid_t pid = fork();
-    if (pid == 0) {
-        loaded l;
-        load(spec, &l);
-        if (which == 0) {
-            vbuffer_once(&l, 0);
-        } else {
-            size_t n = 0;
-            rto_wf_ray *rays = make_rays(&l, &n);
-            rto_hit_record *hits = malloc(n * sizeof *hits);
-            if (!hits)
-                _exit(1);
-            trace_once(&l, rays, n, hits, 0);
-        }
-        _exit(0);
+    loaded l;
+    load(spec, &l);
+    if (which == 0) {
+        vbuffer_once(&l, 0);
+    } else {
+        size_t n = 0;
+        rto_wf_ray *rays = make_rays(&l, &n);
+        rto_hit_record *hits = malloc(n * sizeof *hits);
+        if (!hits)
+            _exit(1);
+        trace_once(&l, rays, n, hits, 0);
     }
-    int status = 0;
-    struct rusage ru;
-    if (pid < 0 || wait4(pid, &status, 0, &ru) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        return -1;
-    return ru.ru_maxrss;
 }
 
 int main(int argc, char **argv)
@@ -130,7 +121,8 @@ int main(int argc, char **argv)
     printf("%-12s %-8s %12s %12s %8s %14s %14s\n", "scene", "threads", "vbuffer ms", "trace ms", "ratio",
            "vbuffer RSS MB", "trace RSS MB");
     for (int s = 0; s < 2; s++) {
-        const long rss_vb = child_rss(scenes[s], 0), rss_tr = child_rss(scenes[s], 1);
+        const long rss_vb = bench_child_peak_kib(rss_work, scenes[s], 0),
+                   rss_tr = bench_child_peak_kib(rss_work, scenes[s], 1);
         loaded l;
         load(scenes[s], &l);
         size_t n = 0;
