@@ -18,7 +18,8 @@ static const char raymarch_usage[] =
     "the two must give the same image bytes and crossings, or the command exits 1. The envelope (§12.5.1) marks the\n"
     "pixels whose every decision is certain and their image tolerance. Writes a bundle (atomically): rm_params.npy,\n"
     "rm_image.npy, image.png, rm_crossing.npy, rm_crossing_t.npy, rm_normal_central.npy, rm_normal_forward.npy,\n"
-    "rm_steps.npy, rm_steps_skip.npy, rm_certain.npy, rm_tolerance.npy, fluid_params.npy, volume_f16.npy,\n"
+    "rm_steps.npy, rm_steps_skip.npy, rm_certain.npy, rm_tolerance.npy, rm_image_wall.npy,\n"
+    "rm_tolerance_wall.npy (a wall event's other admissible outcome), fluid_params.npy, volume_f16.npy,\n"
     "occupancy.npy and manifest.json (steps with and without skipping, the reduction, differing pixels).\n";
 
 int cmd_raymarch(int argc, char **argv)
@@ -119,11 +120,12 @@ int cmd_raymarch(int argc, char **argv)
         const double np = (double)st->pixels;
         printf("raymarch %s: %" PRIu64 "x%" PRIu64 ", %" PRIu64 " crossings, steps per pixel %.2f (max %u) without "
                "skipping, %.2f (max %u) with (%s); %" PRIu64 " differing pixels, %" PRIu64 " differing crossings; %"
-               PRIu64 " certain, %" PRIu64 " uncertain; normals central vs forward %.2f deg mean, %.2f max; %.2f s"
+               PRIu64 " certain (%" PRIu64 " with a wall event's other outcome), %" PRIu64 " uncertain; normals central vs forward %.2f deg mean, %.2f max; %.2f s"
                " -> %s (%s)\n",
                args.arg[0], width, height, st->crossings, (double)st->steps_total / np, st->steps_max,
                (double)st->steps_skip_total / np, st->steps_skip_max, st->skip_enabled ? "skipping on" : "skipping off",
-               st->differing_pixels, st->differing_crossings, st->certain, st->uncertain, st->normal_angle_mean,
+               st->differing_pixels, st->differing_crossings, st->certain, st->wall_pixels, st->uncertain,
+               st->normal_angle_mean,
                st->normal_angle_max, secs, out, cli_dir_summary(out, sum, sizeof sum));
         if (st->differing_pixels || st->differing_crossings) {
             fprintf(stderr, "rtoracle raymarch: empty-space skipping changed %" PRIu64 " pixels and %" PRIu64

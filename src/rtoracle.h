@@ -1094,9 +1094,11 @@ typedef enum rto_bundle_file {
     RTO_FILE_RM_STEPS = 54,        /* rm_steps.npy            role "rm-steps"         u32 (H, W): without skipping */
     RTO_FILE_RM_STEPS_SKIP = 55,   /* rm_steps_skip.npy       role "rm-steps-skip"    u32 (H, W): with skipping */
     RTO_FILE_RM_CERTAIN = 56,      /* rm_certain.npy          role "rm-certain"       u8 (H, W): decisions certain */
-    RTO_FILE_RM_TOLERANCE = 57     /* rm_tolerance.npy        role "rm-tolerance"     f32 (H, W): image tolerance */
+    RTO_FILE_RM_TOLERANCE = 57,    /* rm_tolerance.npy        role "rm-tolerance"     f32 (H, W): image tolerance */
+    RTO_FILE_RM_IMAGE_WALL = 58,   /* rm_image_wall.npy       role "rm-image-wall"    f32 (H, W, 4): other outcome */
+    RTO_FILE_RM_TOLERANCE_WALL = 59 /* rm_tolerance_wall.npy  role "rm-tolerance-wall" f32 (H, W): its tolerance */
 } rto_bundle_file;
-#define RTO_BUNDLE_FILE_COUNT 58
+#define RTO_BUNDLE_FILE_COUNT 60
 /** Room for any bundle file name, NUL included. */
 #define RTO_BUNDLE_FILE_NAME_MAX 64
 
@@ -2407,7 +2409,8 @@ typedef struct rto_raymarch_params {
     uint32_t jitter_seed;
     int skip;                  /* empty-space skipping in the skipping pass (1, default) */
     int envelope;              /* compute rm_certain / rm_tolerance (1, default; 0 leaves them 0 / inf) */
-    int quantize_weights;      /* test hook: trilinear weights rounded to 8 fractional bits (a simulated GPU) */
+    int quantize_weights;      /* test hook, a simulated GPU: 1: trilinear weights rounded to 8 fractional bits; 2:
+                                * also the filtered value rounded to binary16 (as an H100 filters rgba16float) */
     int skip_only;             /* test hook: only the skipping pass, its results as the image's (a GPU that skips) */
     /* test hook (NULL: none): called with every sample position a skip passes over, from the worker threads */
     void (*skipped_sample)(void *ctx, uint32_t pixel, const float p[3]);
@@ -2423,6 +2426,7 @@ void rto_raymarch_params_default(const rto_splat *vol, rto_raymarch_params *p);
 /** Counters of a raymarch. */
 typedef struct rto_raymarch_stats {
     uint64_t pixels, crossings, certain, uncertain;
+    uint64_t wall_pixels; /* certain pixels with a wall event's other outcome (image_wall) */
     uint64_t steps_total, steps_skip_total; /* primary-march loop iterations, all bounces */
     uint32_t steps_max, steps_skip_max;
     uint64_t differing_pixels;    /* image bytes that differ between the skipping and non-skipping passes (0) */
@@ -2448,6 +2452,10 @@ typedef struct rto_raymarch {
                           * cells are required, so no lossless skipper takes fewer steps */
     uint8_t *certain;
     float *tolerance;        /* per pixel, every channel; +inf where uncertain */
+    float *image_wall;       /* (H, W, 4): a certain pixel's other admissible image, where its path meets a wall event
+                              * (§12.5.1: an exit search leaving the box in the fluid, or an exit in the box's eps band);
+                              * NaN elsewhere */
+    float *tolerance_wall;   /* its tolerance; NaN where there is none */
     rto_raymarch_stats stats;
 } rto_raymarch;
 

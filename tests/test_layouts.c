@@ -279,6 +279,8 @@ static void test_bundle_file_names(void **state)
         {RTO_FILE_RM_STEPS_SKIP, 0, "rm_steps_skip.npy", "rm-steps-skip"},
         {RTO_FILE_RM_CERTAIN, 0, "rm_certain.npy", "rm-certain"},
         {RTO_FILE_RM_TOLERANCE, 0, "rm_tolerance.npy", "rm-tolerance"},
+        {RTO_FILE_RM_IMAGE_WALL, 0, "rm_image_wall.npy", "rm-image-wall"},
+        {RTO_FILE_RM_TOLERANCE_WALL, 0, "rm_tolerance_wall.npy", "rm-tolerance-wall"},
     };
     assert_int_equal(sizeof want / sizeof want[0], RTO_BUNDLE_FILE_COUNT);
     char name[RTO_BUNDLE_FILE_NAME_MAX];

@@ -272,7 +272,7 @@ static void test_check_faults(void **state)
 {
     (void)state;
     vol_case c;
-    make_case("dambreak:1500", 32, 48, 32, &c);
+    make_case("dambreak:4000", 32, 48, 32, &c);
     c.p.envelope = 1;
     rto_raymarch ref;
     rto_msg msg;
@@ -288,20 +288,48 @@ static void test_check_faults(void **state)
     assert_int_equal(rto_raymarch_check(&ref, &d, &res, &msg), RTO_OK);
     assert_string_equal(res.fault, "");
 
-    /* Control: a GPU with 8-bit trilinear weights. */
-    rto_raymarch_params qp = c.p;
-    qp.quantize_weights = 1;
-    qp.envelope = 0;
+    /* Controls: a GPU with 8-bit trilinear weights, and one whose filtered value is also rounded to binary16 (an
+     * H100's rgba16float filtering, §12.5.1). */
     rto_raymarch q;
-    assert_int_equal(rto_raymarch_make(&c.s, &qp, &q, &msg), RTO_OK);
-    d = dump_of(&q);
+    for (int mode = 1; mode <= 2; mode++) {
+        rto_raymarch_params qp = c.p;
+        qp.quantize_weights = mode;
+        qp.envelope = 0;
+        assert_int_equal(rto_raymarch_make(&c.s, &qp, &q, &msg), RTO_OK);
+        d = dump_of(&q);
+        assert_int_equal(rto_raymarch_check(&ref, &d, &res, &msg), RTO_OK);
+        if (res.fault[0])
+            print_error("quantized %d: %s at (%u, %u): %s\n", mode, res.fault, res.x, res.y, res.detail);
+        assert_string_equal(res.fault, "");
+        print_message("%s: %llu pixels compared, largest deviation %.3f of the tolerance\n",
+                      mode == 1 ? "8-bit weights" : "8-bit weights, binary16 result", (unsigned long long)res.compared,
+                      res.max_excess);
+        rto_raymarch_free(&q);
+    }
+
+    /* Wall events (§12.5.1): a GPU that takes the other outcome at every certain pixel that has one passes; the
+     * other outcome's image moved by 4x its tolerance + 0.01 is named image at its pixel. */
+    float *img = malloc(ref.stats.pixels * 4 * sizeof(float));
+    assert_non_null(img);
+    size_t wall = ref.stats.pixels, walls = 0;
+    memcpy(img, ref.image, ref.stats.pixels * 4 * sizeof(float));
+    for (size_t i = 0; i < ref.stats.pixels; i++)
+        if (ref.certain[i] && ref.tolerance_wall[i] == ref.tolerance_wall[i]) {
+            memcpy(img + 4 * i, ref.image_wall + 4 * i, 4 * sizeof(float));
+            wall = wall < i ? wall : i;
+            walls++;
+        }
+    print_message("wall events: %llu certain pixels with another admissible outcome\n", (unsigned long long)walls);
+    assert_true(walls > 0 && walls == ref.stats.wall_pixels);
+    d = dump_of(&ref);
+    d.image = img;
     assert_int_equal(rto_raymarch_check(&ref, &d, &res, &msg), RTO_OK);
-    if (res.fault[0])
-        print_error("quantized: %s at (%u, %u): %s\n", res.fault, res.x, res.y, res.detail);
     assert_string_equal(res.fault, "");
-    print_message("8-bit weights: %llu pixels compared, largest deviation %.3f of the tolerance\n",
-                  (unsigned long long)res.compared, res.max_excess);
-    rto_raymarch_free(&q);
+    img[4 * wall + 2] += 4.0f * fmaxf(ref.tolerance_wall[wall], ref.tolerance[wall]) + 0.01f;
+    assert_int_equal(rto_raymarch_check(&ref, &d, &res, &msg), RTO_OK);
+    assert_string_equal(res.fault, "image");
+    assert_int_equal(res.x + res.y * c.p.width, wall);
+    print_message("wall outcome moved: %s at (%u, %u): %s\n", res.fault, res.x, res.y, res.detail);
 
     /* Fault: jitter off -> crossing. */
     rto_raymarch_params jp = c.p;
@@ -374,11 +402,12 @@ static void test_check_faults(void **state)
     rto_raymarch_free(&q);
     free(bad.occupancy);
 
-    /* Fault: one certain pixel's red channel moved by 4x its tolerance + 0.01 -> image. */
-    float *img = malloc(ref.stats.pixels * 4 * sizeof(float));
-    assert_non_null(img);
+    /* Fault: one certain pixel's red channel moved by 4x its tolerance + 0.01 (and away from any wall outcome) ->
+     * image. */
     memcpy(img, ref.image, ref.stats.pixels * 4 * sizeof(float));
-    img[4 * pix] += 4.0f * ref.tolerance[pix] + 0.01f;
+    const float tw = ref.tolerance_wall[pix];
+    img[4 * pix] += tw == tw ? 4.0f * fmaxf(ref.tolerance[pix], tw) + 0.01f + fabsf(ref.image_wall[4 * pix] - img[4 * pix])
+                             : 4.0f * ref.tolerance[pix] + 0.01f; /* far from the wall outcome too */
     d = dump_of(&ref);
     d.image = img;
     assert_int_equal(rto_raymarch_check(&ref, &d, &res, &msg), RTO_OK);

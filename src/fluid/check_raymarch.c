@@ -30,6 +30,25 @@ static void fmt_step(char *buf, size_t cap, uint32_t k)
         snprintf(buf, cap, "%u", k);
 }
 
+/* The largest channel deviation of GPU pixel q from e (*dev, channel *ch; inf for a non-finite channel); 1 when some
+ * channel is not finite or beyond tol. */
+static int pixel_deviation(const float *q, const float *e, float tol, double *dev, int *ch)
+{
+    int bad = 0;
+    *dev = 0;
+    *ch = 0;
+    for (int k = 0; k < 4; k++) {
+        const double d = fabs((double)q[k] - e[k]);
+        if (!isfinite(q[k]) || !(d <= tol))
+            bad = 1;
+        if (!isfinite(q[k]) || d > *dev) {
+            *dev = isfinite(q[k]) ? d : INFINITY;
+            *ch = k;
+        }
+    }
+    return bad;
+}
+
 rto_status rto_raymarch_check(const rto_raymarch *ref, const rto_raymarch_dump *dump, rto_raymarch_check_result *res,
                               rto_msg *msg)
 {
@@ -109,18 +128,21 @@ rto_status rto_raymarch_check(const rto_raymarch *ref, const rto_raymarch_dump *
         } else {
             res->compared++;
             const float *e = ref->image + 4 * i, *q = dump->image + 4 * i;
-            double dev = 0;
-            int bad = 0, ch = 0;
-            for (int k = 0; k < 4; k++) {
-                const double d = fabs((double)q[k] - e[k]);
-                if (!isfinite(q[k]) || !(d <= ref->tolerance[i]))
-                    bad = 1;
-                if (!isfinite(q[k]) || d > dev) {
-                    dev = isfinite(q[k]) ? d : INFINITY;
-                    ch = k;
-                }
+            double dev;
+            int ch;
+            int bad = pixel_deviation(q, e, ref->tolerance[i], &dev, &ch);
+            double ex = ref->tolerance[i] > 0 ? dev / ref->tolerance[i] : INFINITY;
+            const float tw = ref->tolerance_wall ? ref->tolerance_wall[i] : NAN;
+            if (tw == tw) {
+                /* the other admissible image of a wall event (§12.5.1): the pixel passes when either matches, and
+                 * its excess is the closer one's */
+                double dw;
+                int cw;
+                const int bw = pixel_deviation(q, ref->image_wall + 4 * i, tw, &dw, &cw);
+                const double exw = tw > 0 ? dw / tw : INFINITY;
+                ex = exw < ex ? exw : ex;
+                bad = bad && bw;
             }
-            const double ex = ref->tolerance[i] > 0 ? dev / ref->tolerance[i] : INFINITY;
             res->max_excess = ex > res->max_excess ? ex : res->max_excess;
             if (bad) {
                 res->image_faults++;
@@ -129,6 +151,11 @@ rto_status rto_raymarch_check(const rto_raymarch *ref, const rto_raymarch_dump *
                     snprintf(detail, sizeof detail,
                              "channel %d: GPU %.9g, reference %.9g (|difference| %.3g > tolerance %.3g)", ch,
                              (double)q[ch], (double)e[ch], dev, (double)ref->tolerance[i]);
+                    if (tw == tw) {
+                        const size_t len = strlen(detail);
+                        snprintf(detail + len, sizeof detail - len, "; nor its wall event's other outcome %.9g "
+                                 "(tolerance %.3g)", (double)ref->image_wall[4 * i + ch], (double)tw);
+                    }
                 }
             }
         }

@@ -13,13 +13,15 @@
 #include <string.h>
 
 #define RM_NONE 0xFFFFFFFFu
+#define RM_WALL_K 0xFFFFFFFEu /* a later bounce's exit found at the box's wall (a wall event, §12.5.1) */
 #define RM_MAX_STEPS 512u     /* primary march: sample indices 0 .. 511 */
 #define RM_SHADOW_STEPS 32u   /* shadow march: sample indices 0 .. 31 */
 #define RM_SHADOW_EXIT 3.0f   /* optical depth that ends a shadow march */
 #define RM_SHORT_STEPS 4u     /* refraction heuristic: 4 samples */
 #define RM_SHORT_MAX 2.0f     /* ... over at most this distance */
 #define RM_EPS 1.0e-4f        /* samples with uvw <= eps or >= 1 - eps read -densityOffset */
-#define RM_WEIGHT_ERR (1.0 / 256.0 + 1.0 / 4096.0) /* a GPU's trilinear weight error per axis (8 bits + coords) */
+#define RM_WEIGHT_ERR (1.0 / 512.0 + 1.0 / 4096.0) /* a GPU's lerp weight error per axis (8 bits rounded + coordinates) */
+#define RM_COORD_ERR (1.0 / 4096.0)                 /* ... of it the coordinate's: the texels a sample may read */
 
 uint32_t rto__rm_levels(uint32_t O, uint64_t level_offset[12], uint32_t level_res[12], uint64_t *words)
 {
@@ -77,6 +79,8 @@ typedef struct rm_state {
     uint32_t steps, skipped, taken;
     uint64_t hash;
     int uncertain;
+    int wall;     /* the render met a wall event (below) */
+    int wall_alt; /* 1: the first wall event takes the other outcome (then 2) */
 } rm_state;
 
 static void note(rm_state *st, uint64_t v)
@@ -127,7 +131,8 @@ static float trilin_g(const rm_shared *S, const float g[3], int quant)
         }
     const float c0 = c[0][0] * (1.0f - w[1]) + c[0][1] * w[1];
     const float c1 = c[1][0] * (1.0f - w[1]) + c[1][1] * w[1];
-    return c0 * (1.0f - w[2]) + c1 * w[2];
+    const float r = c0 * (1.0f - w[2]) + c1 * w[2];
+    return quant == 2 ? rto_f16_to_f32(rto_f16_from_f32(r)) : r;
 }
 
 /* Texel coordinates of q; returns 0 when q is outside [eps, 1 - eps] (then the sample is -offset * multiplier), 1
@@ -147,34 +152,6 @@ static int coords(const rm_shared *S, const float q[3], float g[3], int *near)
     return inside;
 }
 
-/* The range of the trilinear over every g' with |g'_a - g_a| <= RM_WEIGHT_ERR: the function is multilinear on each
- * texel cell, so its extremes are at the corners of the box split at the integer knots inside it. */
-static void trilin_range(const rm_shared *S, const float g[3], float *lo, float *hi)
-{
-    float cand[3][3];
-    int nc[3];
-    for (int a = 0; a < 3; a++) {
-        const double gl = (double)g[a] - RM_WEIGHT_ERR, gh = (double)g[a] + RM_WEIGHT_ERR;
-        nc[a] = 0;
-        cand[a][nc[a]++] = (float)gl;
-        const double k = floor(gh);
-        if (k > gl && k < gh)
-            cand[a][nc[a]++] = (float)k;
-        cand[a][nc[a]++] = (float)gh;
-    }
-    float mn = INFINITY, mx = -INFINITY;
-    for (int i = 0; i < nc[0]; i++)
-        for (int j = 0; j < nc[1]; j++)
-            for (int k = 0; k < nc[2]; k++) {
-                const float gg[3] = {cand[0][i], cand[1][j], cand[2][k]};
-                const float v = trilin_g(S, gg, 0);
-                mn = v < mn ? v : mn;
-                mx = v > mx ? v : mx;
-            }
-    *lo = mn;
-    *hi = mx;
-}
-
 /* The reference density at q: (trilinear - offset) * multiplier, or -offset * multiplier outside. */
 static float density_nominal(const rm_shared *S, const float q[3])
 {
@@ -186,7 +163,22 @@ static float density_nominal(const rm_shared *S, const float q[3])
     return (trilin_g(S, g, S->quant) - off) * mul;
 }
 
-/* The conformance interval of the density at q (§12.5.1). */
+/* binary16's unit in the last place at |v| (subnormal spacing below 2^-14). */
+static double ulp16(double v)
+{
+    v = fabs(v);
+    if (!(v >= 0x1p-14))
+        return 0x1p-24;
+    int e;
+    frexp(v, &e);
+    return ldexp(1.0, e - 11);
+}
+
+/* The conformance interval [lo, hi] of the density at q (§12.5.1): a GPU's filtered value
+ * is within 3 RM_WEIGHT_ERR (vmax - vmin) of the trilinear, over the texels any coordinate within RM_COORD_ERR may
+ * read (each of the three lerps' weights off by up to RM_WEIGHT_ERR moves the result by at most that much of the
+ * texels' spread), plus one binary16 ulp of the largest texel (a filter whose result has the format's precision) and
+ * binary32 slack; merged with -offset * multiplier where some uvw is within 2^-20 of the box's eps thresholds. */
 static void density_range(const rm_shared *S, const float q[3], float *lo, float *hi)
 {
     float g[3];
@@ -194,44 +186,17 @@ static void density_range(const rm_shared *S, const float q[3], float *lo, float
     const float off = S->u->density_offset, mul = S->u->density_multiplier;
     const float outside = -off * mul;
     const int in = coords(S, q, g, &near);
-    float tlo, thi;
-    if (in || near) {
-        trilin_range(S, g, &tlo, &thi);
-        const double slack = 0x1p-21 * (fmax(fabs(tlo), fabs(thi)) + fabs(off)) + 0x1p-40;
-        double l = ((double)tlo - off - slack) * mul, h = ((double)thi - off + slack) * mul;
-        l -= fabs(l) * 0x1p-22;
-        h += fabs(h) * 0x1p-22;
-        *lo = (float)l;
-        *hi = (float)h;
-        if (!in || near) {
-            *lo = *lo < outside ? *lo : outside;
-            *hi = *hi > outside ? *hi : outside;
-        }
+    if (!in && !near) {
+        *lo = *hi = outside;
         return;
-    }
-    *lo = *hi = outside;
-}
-
-/* A cheap enclosure of density_range: the nominal value +- 3 w (vmax - vmin) over the texels any perturbed point
- * may read (the multilinear function moves by at most (vmax - vmin) per unit of each coordinate), plus the slack.
- * Returns 0 when the point is near the box's eps thresholds (then use density_range). */
-static int density_bound(const rm_shared *S, const float q[3], float *v, float *lo, float *hi)
-{
-    float g[3];
-    int near;
-    const float off = S->u->density_offset, mul = S->u->density_multiplier;
-    const int in = coords(S, q, g, &near);
-    if (near)
-        return 0;
-    if (!in) {
-        *v = *lo = *hi = -off * mul;
-        return 1;
     }
     int a0[3], a1[3];
     for (int a = 0; a < 3; a++) {
-        const double gl = (double)g[a] - RM_WEIGHT_ERR, gh = (double)g[a] + RM_WEIGHT_ERR;
-        a0[a] = clampi((int)floor(gl), 0, (int)S->n[a] - 1);
-        a1[a] = clampi((int)floor(gh) + 1, 0, (int)S->n[a] - 1);
+        const double gl = (double)g[a] - RM_COORD_ERR, gh = (double)g[a] + RM_COORD_ERR;
+        const double cl = gl < -2.0 ? -2.0 : gl > S->n[a] + 2.0 ? S->n[a] + 2.0 : gl; /* NaN: reads texel 0 */
+        const double ch = gh < -2.0 ? -2.0 : gh > S->n[a] + 2.0 ? S->n[a] + 2.0 : gh;
+        a0[a] = clampi((int)floor(cl == cl ? cl : 0.0), 0, (int)S->n[a] - 1);
+        a1[a] = clampi((int)floor(ch == ch ? ch : 0.0) + 1, 0, (int)S->n[a] - 1);
     }
     float vmin = INFINITY, vmax = -INFINITY;
     for (int z = a0[2]; z <= a1[2]; z++)
@@ -241,18 +206,18 @@ static int density_bound(const rm_shared *S, const float q[3], float *v, float *
                 vmin = t < vmin ? t : vmin;
                 vmax = t > vmax ? t : vmax;
             }
-    const float tri = trilin_g(S, g, S->quant);
-    *v = (tri - off) * mul;
-    if (!(vmax - vmin < 1e30f))
-        return 0;
-    const double e = 3.0 * RM_WEIGHT_ERR * ((double)vmax - vmin) + 0x1p-21 * (fmax(fabs(vmin), fabs(vmax)) + fabs(off)) +
-                     0x1p-40;
+    const float tri = trilin_g(S, g, 0);
+    const double big = fmax(fabs(vmin), fabs(vmax));
+    const double e = 3.0 * RM_WEIGHT_ERR * ((double)vmax - vmin) + ulp16(big) + 0x1p-21 * (big + fabs(off)) + 0x1p-40;
     double l = ((double)tri - off - e) * mul, h = ((double)tri - off + e) * mul;
     l -= fabs(l) * 0x1p-22;
     h += fabs(h) * 0x1p-22;
     *lo = (float)l;
     *hi = (float)h;
-    return 1;
+    if (!in || near) {
+        *lo = *lo < outside ? *lo : outside;
+        *hi = *hi > outside ? *hi : outside;
+    }
 }
 
 /* The sample a render takes: the nominal value, or its interval's low or high end in the envelope's renders. */
@@ -396,6 +361,44 @@ static void report_skipped(const rm_state *st, const float o[3], const float d[3
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Marches                                                                                                          */
 
+/* Whether q is in the box's eps band or outside it, or within 2^-20 of the band's edge: a sample there reads (or may
+ * read) -offset * multiplier. */
+static int wall_band(const rm_shared *S, const float q[3])
+{
+    float g[3];
+    int near;
+    const int in = coords(S, q, g, &near);
+    return !in || near;
+}
+
+/* The density at q as if q were inside the box's eps band (trilinear, clamp-to-edge). */
+static float density_unbanded(const rm_shared *S, const float q[3])
+{
+    float g[3];
+    int near;
+    coords(S, q, g, &near);
+    return (trilin_g(S, g, S->quant) - S->u->density_offset) * S->u->density_multiplier;
+}
+
+/* Where a ray leaves the box: [*te0, *te1], from leaving the box shrunk by eps to leaving the box; 0 when it does not
+ * leave it ahead. */
+static int band_exit(const rm_shared *S, const float o[3], const float d[3], float *te0, float *te1)
+{
+    float tn = -INFINITY, tf = INFINITY, tfe = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        const float inv = 1.0f / d[a];
+        const float ta = (S->bmin[a] - o[a]) * inv, tb = (S->bmax[a] - o[a]) * inv;
+        const float e = RM_EPS * S->ext[a];
+        const float tea = (S->bmin[a] + e - o[a]) * inv, teb = (S->bmax[a] - e - o[a]) * inv;
+        tn = maxnan(tn, minnan(ta, tb));
+        tf = minnan(tf, maxnan(ta, tb));
+        tfe = minnan(tfe, maxnan(tea, teb));
+    }
+    *te0 = tfe;
+    *te1 = tf;
+    return tf > 0.0f && tfe <= tf && tfe == tfe;
+}
+
 typedef struct rm_hit {
     int found;
     uint32_t k;
@@ -439,18 +442,27 @@ static rm_hit search(rm_state *st, const float o[3], const float d[3], int exiti
             st->taken++; /* its cell is required (§12.3): no lossless skipper passes over it */
         const float v = sample(st, p);
         if (st->mode == MODE_NOMINAL && st->certainty) {
-            float lo, hi, vb;
-            int certain = 0;
-            if (density_bound(S, p, &vb, &lo, &hi))
-                certain = exiting ? (hi < 0.0f || lo >= 0.0f) : (lo > 0.0f || hi <= 0.0f);
-            if (!certain) {
-                density_range(S, p, &lo, &hi);
-                certain = exiting ? (hi < 0.0f || lo >= 0.0f) : (lo > 0.0f || hi <= 0.0f);
-            }
-            if (!certain)
+            float lo, hi;
+            density_range(S, p, &lo, &hi);
+            if (!(exiting ? (hi < 0.0f || lo >= 0.0f) : (lo > 0.0f || hi <= 0.0f)))
                 st->uncertain = 1;
         }
         const int found = exiting ? v < 0.0f : v > 0.0f;
+        if (found && !primary && exiting && wall_band(S, p)) {
+            /* A wall event (§12.5.1), outcome "wall": the exit found in the box's eps band. The other outcome: the
+             * sample a hair inside the band, and the ray leaving the box. */
+            st->wall = 1;
+            if (st->wall_alt == 1) {
+                st->wall_alt = 2;
+                h.depth = h.depth + density_unbanded(S, p) * step;
+                return h;
+            }
+            h.found = 1;
+            h.k = RM_WALL_K;
+            h.t = t;
+            memcpy(h.p, p, sizeof p);
+            return h;
+        }
         if (found) {
             h.found = 1;
             h.k = k;
@@ -461,6 +473,22 @@ static rm_hit search(rm_state *st, const float o[3], const float d[3], int exiti
         if (exiting)
             h.depth = h.depth + v * step;
         k++;
+    }
+    /* A wall event (§12.5.1), outcome "leave": an exit search that leaves the box in the fluid. A GPU's ray a hair
+     * away may put a last sample in the box's eps band, which reads -offset (outside): the other outcome is the exit
+     * found in the band, where this ray crosses it. */
+    if (!primary && exiting && k < RM_MAX_STEPS) {
+        st->wall = 1;
+        if (st->wall_alt == 1) {
+            float te0, te1;
+            if (band_exit(S, o, d, &te0, &te1)) {
+                st->wall_alt = 2;
+                h.found = 1;
+                h.k = RM_WALL_K;
+                h.t = 0.5f * (te0 + te1);
+                at(o, d, h.t, h.p);
+            }
+        }
     }
     return h;
 }
@@ -481,11 +509,9 @@ static void admissible(rm_state *st, const float o[3], const float d[3], uint32_
         const float t = tb + (float)k * step;
         if (!(t < t1))
             break;
-        float p[3], lo, hi, v;
+        float p[3], lo, hi;
         at(o, d, t, p);
-        /* The cheap enclosure decides both questions unless it straddles 0. */
-        if (!density_bound(S, p, &v, &lo, &hi) || (lo <= 0.0f && hi > 0.0f))
-            density_range(S, p, &lo, &hi);
+        density_range(S, p, &lo, &hi);
         if (hi > 0.0f && *klo == RM_NONE)
             *klo = k;
         if (lo > 0.0f) {
@@ -685,10 +711,11 @@ typedef struct rm_pix {
     uint32_t steps, skipped, taken;
     uint64_t hash;
     int uncertain;
+    int wall; /* the render met a wall event */
 } rm_pix;
 
 /* One pixel (§12.4). */
-static void render(const rm_shared *S, uint32_t x, uint32_t y, int mode, int skip, rm_pix *out)
+static void render(const rm_shared *S, uint32_t x, uint32_t y, int mode, int skip, int wall_alt, rm_pix *out)
 {
     rm_state st;
     memset(&st, 0, sizeof st);
@@ -696,6 +723,7 @@ static void render(const rm_shared *S, uint32_t x, uint32_t y, int mode, int ski
     st.mode = mode;
     st.skip = skip;
     st.certainty = S->envelope;
+    st.wall_alt = wall_alt;
     st.pixel = y * S->W + x;
     st.hash = UINT64_C(0xcbf29ce484222325);
     memset(out, 0, sizeof *out);
@@ -807,6 +835,7 @@ static void render(const rm_shared *S, uint32_t x, uint32_t y, int mode, int ski
     out->taken = st.taken;
     out->hash = st.hash;
     out->uncertain = st.uncertain;
+    out->wall = st.wall;
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
@@ -930,6 +959,8 @@ void rto_raymarch_free(rto_raymarch *r)
     free(r->steps_min);
     free(r->certain);
     free(r->tolerance);
+    free(r->image_wall);
+    free(r->tolerance_wall);
     memset(r, 0, sizeof *r);
 }
 
@@ -940,6 +971,37 @@ typedef struct rm_job {
     uint32_t *skipped; /* per pixel */
 } rm_job;
 
+/* The envelope of a pixel whose nominal render (wall_alt: of a wall event's other outcome) is a (§12.5.1): 1 and the
+ * image tolerance when its decisions are certain and the low, high and tilt renders make the same ones, else 0. */
+static int envelope(const rm_shared *S, uint32_t x, uint32_t y, int wall_alt, const rm_pix *a, float *tol)
+{
+    *tol = INFINITY;
+    if (a->uncertain)
+        return 0;
+    rm_pix lo, hi, fw, tl[RM_TILTS];
+    render(S, x, y, MODE_LO, 0, wall_alt, &lo);
+    render(S, x, y, MODE_HI, 0, wall_alt, &hi);
+    if (lo.hash != a->hash || hi.hash != a->hash)
+        return 0;
+    for (int k = 0; k < RM_TILTS; k++) {
+        render(S, x, y, MODE_TILT + k, 0, wall_alt, &tl[k]);
+        if (tl[k].uncertain || tl[k].hash != a->hash)
+            return 0;
+    }
+    render(S, x, y, MODE_FORWARD, 0, wall_alt, &fw);
+    double dev = 0;
+    for (int c = 0; c < 3; c++) {
+        dev = fmax(dev, fabs((double)lo.rgba[c] - a->rgba[c]));
+        dev = fmax(dev, fabs((double)hi.rgba[c] - a->rgba[c]));
+        if (fw.hash == a->hash)
+            dev = fmax(dev, fabs((double)fw.rgba[c] - a->rgba[c]));
+        for (int k = 0; k < RM_TILTS; k++)
+            dev = fmax(dev, fabs((double)tl[k].rgba[c] - a->rgba[c]));
+    }
+    *tol = (float)(2.0 * dev + 0x1p-10);
+    return 1;
+}
+
 static void pixels(void *arg, uint32_t worker, size_t begin, size_t end)
 {
     (void)worker;
@@ -949,7 +1011,7 @@ static void pixels(void *arg, uint32_t worker, size_t begin, size_t end)
     for (size_t i = begin; i < end; i++) {
         const uint32_t x = (uint32_t)(i % S->W), y = (uint32_t)(i / S->W);
         rm_pix a, b;
-        render(S, x, y, MODE_NOMINAL, r->params.skip_only && S->skip_ok, &a);
+        render(S, x, y, MODE_NOMINAL, r->params.skip_only && S->skip_ok, 0, &a);
         memcpy(r->image + 4 * i, a.rgba, sizeof a.rgba);
         r->crossing[i] = a.cross_k;
         r->crossing_t[i] = a.cross_t;
@@ -961,7 +1023,7 @@ static void pixels(void *arg, uint32_t worker, size_t begin, size_t end)
         j->skipped[i] = 0;
         j->differ[i] = 0;
         if (S->skip_ok && !r->params.skip_only) {
-            render(S, x, y, MODE_NOMINAL, 1, &b);
+            render(S, x, y, MODE_NOMINAL, 1, 0, &b);
             r->steps_skip[i] = b.steps;
             j->skipped[i] = b.skipped;
             if (memcmp(a.rgba, b.rgba, sizeof a.rgba) || a.hash != b.hash)
@@ -979,29 +1041,23 @@ static void pixels(void *arg, uint32_t worker, size_t begin, size_t end)
         }
         r->certain[i] = 0;
         r->tolerance[i] = INFINITY;
-        if (r->params.envelope) {
-            rm_pix lo, hi, fw;
-            render(S, x, y, MODE_LO, 0, &lo);
-            render(S, x, y, MODE_HI, 0, &hi);
-            render(S, x, y, MODE_FORWARD, 0, &fw);
-            rm_pix tl[RM_TILTS];
-            int same = !a.uncertain && lo.hash == a.hash && hi.hash == a.hash;
-            for (int k = 0; k < RM_TILTS && same; k++) {
-                render(S, x, y, MODE_TILT + k, 0, &tl[k]);
-                same = !tl[k].uncertain && tl[k].hash == a.hash;
-            }
-            if (same) {
-                double dev = 0;
-                for (int c = 0; c < 3; c++) {
-                    dev = fmax(dev, fabs((double)lo.rgba[c] - a.rgba[c]));
-                    dev = fmax(dev, fabs((double)hi.rgba[c] - a.rgba[c]));
-                    if (fw.hash == a.hash)
-                        dev = fmax(dev, fabs((double)fw.rgba[c] - a.rgba[c]));
-                    for (int k = 0; k < RM_TILTS; k++)
-                        dev = fmax(dev, fabs((double)tl[k].rgba[c] - a.rgba[c]));
+        for (int c = 0; c < 4; c++)
+            r->image_wall[4 * i + c] = NAN;
+        r->tolerance_wall[i] = NAN;
+        if (r->params.envelope && envelope(S, x, y, 0, &a, &r->tolerance[i])) {
+            r->certain[i] = 1;
+            if (a.wall) {
+                /* the other outcome of the first wall event (§12.5.1), with its own envelope */
+                rm_pix w;
+                float tw;
+                render(S, x, y, MODE_NOMINAL, 0, 1, &w);
+                if (envelope(S, x, y, 1, &w, &tw)) {
+                    memcpy(r->image_wall + 4 * i, w.rgba, sizeof w.rgba);
+                    r->tolerance_wall[i] = tw;
+                } else {
+                    r->certain[i] = 0;
+                    r->tolerance[i] = INFINITY;
                 }
-                r->certain[i] = 1;
-                r->tolerance[i] = (float)(2.0 * dev + 0x1p-10);
             }
         }
     }
@@ -1055,10 +1111,12 @@ rto_status rto_raymarch_make(const rto_splat *vol, const rto_raymarch_params *p,
     out->steps_min = malloc(n * sizeof(uint32_t));
     out->certain = malloc(n);
     out->tolerance = malloc(n * sizeof(float));
+    out->image_wall = malloc(4 * n * sizeof(float));
+    out->tolerance_wall = malloc(n * sizeof(float));
     rm_job j = {&S, out, malloc(n), malloc(n * sizeof(uint32_t))};
     if (!out->image || !out->crossing || !out->crossing_lo || !out->crossing_hi || !out->crossing_t ||
         !out->normal_central || !out->normal_forward || !out->steps || !out->steps_skip || !out->steps_min || !out->certain ||
-        !out->tolerance || !j.differ || !j.skipped) {
+        !out->tolerance || !out->image_wall || !out->tolerance_wall || !j.differ || !j.skipped) {
         free(j.differ);
         free(j.skipped);
         rto_raymarch_free(out);
@@ -1081,6 +1139,8 @@ rto_status rto_raymarch_make(const rto_splat *vol, const rto_raymarch_params *p,
         st->differing_crossings += (j.differ[i] & 2) != 0;
         if (out->certain[i])
             st->certain++;
+        if (out->certain[i] && out->tolerance_wall[i] == out->tolerance_wall[i])
+            st->wall_pixels++;
         if (out->crossing[i] != RM_NONE) {
             st->crossings++;
             const float *a = out->normal_central + 3 * i, *b = out->normal_forward + 3 * i;

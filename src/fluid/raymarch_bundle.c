@@ -78,6 +78,8 @@ rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, co
     if (!s) {
         d = rto_npy_desc_array(RTO_DTYPE_F32, 3, H, W, 4);
         s = add(b, RTO_FILE_RM_IMAGE, &d, r->image, msg);
+        if (!s)
+            s = add(b, RTO_FILE_RM_IMAGE_WALL, &d, r->image_wall, msg);
     }
     if (!s) {
         d = rto_npy_desc_array(RTO_DTYPE_U32, 2, H, W, 0);
@@ -92,6 +94,8 @@ rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, co
         s = add(b, RTO_FILE_RM_CROSSING_T, &d, r->crossing_t, msg);
         if (!s)
             s = add(b, RTO_FILE_RM_TOLERANCE, &d, r->tolerance, msg);
+        if (!s)
+            s = add(b, RTO_FILE_RM_TOLERANCE_WALL, &d, r->tolerance_wall, msg);
     }
     if (!s) {
         d = rto_npy_desc_array(RTO_DTYPE_F32, 3, H, W, 3);
@@ -149,6 +153,7 @@ rto_status rto_raymarch_bundle_write(const char *outdir, const char *request, co
         rto_bundle_set_int(b, "stats", "crossings", (int64_t)st->crossings);
         rto_bundle_set_int(b, "stats", "certain", (int64_t)st->certain);
         rto_bundle_set_int(b, "stats", "uncertain", (int64_t)st->uncertain);
+        rto_bundle_set_int(b, "stats", "wall_pixels", (int64_t)st->wall_pixels);
         rto_bundle_set_real(b, "stats", "steps_mean", (double)st->steps_total / np);
         rto_bundle_set_int(b, "stats", "steps_max", st->steps_max);
         rto_bundle_set_real(b, "stats", "steps_skip_mean", (double)st->steps_skip_total / np);

@@ -259,6 +259,8 @@ static const struct {
     [RTO_FILE_RM_STEPS_SKIP] = {"rm_steps_skip.npy", "rm-steps-skip", 0},
     [RTO_FILE_RM_CERTAIN] = {"rm_certain.npy", "rm-certain", 0},
     [RTO_FILE_RM_TOLERANCE] = {"rm_tolerance.npy", "rm-tolerance", 0},
+    [RTO_FILE_RM_IMAGE_WALL] = {"rm_image_wall.npy", "rm-image-wall", 0},
+    [RTO_FILE_RM_TOLERANCE_WALL] = {"rm_tolerance_wall.npy", "rm-tolerance-wall", 0},
 };
 
 static int known_file(rto_bundle_file f) { return (unsigned)f < RTO_BUNDLE_FILE_COUNT; }
