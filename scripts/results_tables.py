@@ -292,10 +292,25 @@ def gpu_runs_section(family, check, runs):
 
 
 def fluid_area():
+    sections = gpu_runs_section("fluid", "`check-volume` / `check-raymarch`", ("h100-fluid.json", "llvmpipe-fluid.json"))
+    if exists("bench-fluid.json"):
+        d = load("bench-fluid.json")
+        rec = d["recorded"]
+        lines = ["| stage | case | threads | ms | steps / pixel | peak RSS MiB |", "|---|---|---:|---:|---:|---:|"]
+        for r in d["detail"]:
+            case = r["case"] if r["stage"] == "splat" else ("skipping on" if r["skip"] else "skipping off")
+            steps = f"{r['steps_per_pixel']:.2f}" if "steps_per_pixel" in r else "-"
+            lines.append(f"| {r['stage']} | {case} | {r['threads'] or 'all'} | {r['ms']:.1f} | {steps} | "
+                         f"{r['rss_kib'] / 1024:.1f} |")
+        sections.append(("`bench_fluid`", para(
+            f"`bench_fluid --json`, median of {d['runs']} runs, at {rec['commit']} ({rec['date']}) on "
+            f"{rec['machine']} (`{RESULTS}/bench-fluid.json`): `rto_splat_make` at 150^3 voxels (h 0.05, occupancy "
+            "32) of the dam-break generator's particles, and a 1920×1080 raymarch of the 1M-particle volume (envelope "
+            "off) without and with empty-space skipping, with its primary-march steps per pixel. Peak RSS: a child "
+            "process doing the same work once on every thread (DESIGN.md §12.5).") + "\n\n" + "\n".join(lines), []))
     return {"title": "Results: the fluid volume", "intro": "The `fluid` family (seed 003's splat, occupancy grid "
-            "and raymarch) on GPUs and on llvmpipe.", "doc": "[docs/gpu.md](../gpu.md) and DESIGN.md §12",
-            "sections": gpu_runs_section("fluid", "`check-volume` / `check-raymarch`",
-                                         ("h100-fluid.json", "llvmpipe-fluid.json"))}
+            "and raymarch) on GPUs and on llvmpipe, and what `bench_fluid` measured.",
+            "doc": "[docs/gpu.md](../gpu.md) and DESIGN.md §12", "sections": sections}
 
 
 AREAS = {"gpu": gpu_area, "trace": trace_area, "frame": frame_area, "sort": sort_area, "bvh": bvh_area,
