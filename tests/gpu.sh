@@ -4,7 +4,8 @@
 # visibility buffer of triangle and rtstress:2 at 64x48, 1x and 4x MSAA, normals and lambert, and the Duck unlit at 4x,
 # its texture sampled, three fluid splats of 16^3 and 24^3 voxels and the raymarch of a fourth, 48x36, with and
 # without empty-space skipping) must pass,
-# and each planted fault must be reported by the oracle as the fault it is, where it starts.
+# and each planted fault must be reported by the oracle as the fault it is, where it starts; gpu/probe's filtering
+# measurement must find llvmpipe within the raymarch envelope's filter model, and a value moved out of it.
 #   bash tests/gpu.sh RTORACLE OUTDIR
 set -euo pipefail
 rto=$1
@@ -93,6 +94,24 @@ sed 's/  if (occ_get(0u, c.x, c.y, c.z)) { return k; }/  if (false) { return k; 
 ! cmp -s gpu/kernels/fluid_raymarch.wgsl "$out/fluid-skip/fluid_raymarch.wgsl" || { echo "FAIL: the planted skip" >&2; exit 1; }
 expect_fault fluid-skip check-raymarch skip '^skip at pixel \([0-9]+, [0-9]+\): [0-9]+ steps with skipping' \
     --families fluid --subset ci --kernels "$out/fluid-skip"
+
+# The filtering probe (gpu/probe): llvmpipe's trilinear filtering fits the raymarch envelope's model (DESIGN.md
+# §12.5.1); one result moved by 2/256 of its texels' spread (beyond the model's 1.69/256) is counted outside it.
+node gpu/probe/probe.mjs "$out/probe" >"$out/probe.log" 2>&1 && python3 gpu/probe/filter.py "$out/probe" >>"$out/probe.log" ||
+    { cat "$out/probe.log" >&2; echo "FAIL: gpu/probe on llvmpipe" >&2; exit 1; }
+python3 - "$out/probe/filterA.f32" <<'PY'
+import struct, sys
+path = sys.argv[1]
+b = bytearray(open(path, 'rb').read())
+v = struct.unpack_from('<f', b, 0)[0]  # query 0, R: the sweep's first weight (texels 0 and 1 in x: spread 1)
+struct.pack_into('<f', b, 0, v + 2.0 / 256)
+open(path, 'wb').write(b)
+PY
+status=0
+python3 gpu/probe/filter.py "$out/probe" >"$out/probe-bad.log" 2>&1 || status=$?
+[ "$status" = 1 ] && grep -q '^texture A: .* 1 outside the model$' "$out/probe-bad.log" ||
+    { cat "$out/probe-bad.log" >&2; echo "FAIL: a filtered value 2/256 off not counted (status $status)" >&2; exit 1; }
+echo "gpu: llvmpipe's filtering fits the raymarch envelope's model; a value 2/256 of its spread off does not"
 
 # Bad usage: one line, status 2.
 for args in "--repeat 0" "--families nope" "--subset most" "--kernels /nonexistent" "--check-only" \
