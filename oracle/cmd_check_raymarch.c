@@ -13,7 +13,8 @@ static const char check_raymarch_usage[] =
     "crossing_noskip.npy (the same GPU's crossings without skipping). Faults: shape, skip (a skipping GPU's crossing\n"
     "differs from its own non-skipping one, or it took fewer steps than the reference's lossless skipping at a\n"
     "certain pixel), crossing (the first crossing's step outside the admissible set), image (a certain pixel beyond\n"
-    "its tolerance). The first wrong pixel is named with expected and GPU values.\n";
+    "its tolerance, and beyond its wall event's other outcome where it has one: DESIGN.md §12.5.1). The first wrong\n"
+    "pixel is named with expected and GPU values.\n";
 
 /* Reads DIR/name: NULL data when absent and optional; 1 = bad (line printed), 0 = fine. 2 = shape fault. */
 static int read_plane(const char *dir, const char *name, int optional, rto_dtype t, uint32_t ch, uint32_t W,
