@@ -120,13 +120,12 @@ int cmd_raymarch(int argc, char **argv)
         const double np = (double)st->pixels;
         printf("raymarch %s: %" PRIu64 "x%" PRIu64 ", %" PRIu64 " crossings, steps per pixel %.2f (max %u) without "
                "skipping, %.2f (max %u) with (%s); %" PRIu64 " differing pixels, %" PRIu64 " differing crossings; %"
-               PRIu64 " certain (%" PRIu64 " with a wall event's other outcome), %" PRIu64 " uncertain; normals central vs forward %.2f deg mean, %.2f max; %.2f s"
-               " -> %s (%s)\n",
+               PRIu64 " certain (%" PRIu64 " with a wall event's other outcome), %" PRIu64 " uncertain; normals "
+               "central vs forward %.2f deg mean, %.2f max; %.2f s -> %s (%s)\n",
                args.arg[0], width, height, st->crossings, (double)st->steps_total / np, st->steps_max,
                (double)st->steps_skip_total / np, st->steps_skip_max, st->skip_enabled ? "skipping on" : "skipping off",
                st->differing_pixels, st->differing_crossings, st->certain, st->wall_pixels, st->uncertain,
-               st->normal_angle_mean,
-               st->normal_angle_max, secs, out, cli_dir_summary(out, sum, sizeof sum));
+               st->normal_angle_mean, st->normal_angle_max, secs, out, cli_dir_summary(out, sum, sizeof sum));
         if (st->differing_pixels || st->differing_crossings) {
             fprintf(stderr, "rtoracle raymarch: empty-space skipping changed %" PRIu64 " pixels and %" PRIu64
                     " crossings\n", st->differing_pixels, st->differing_crossings);

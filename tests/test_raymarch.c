@@ -406,8 +406,10 @@ static void test_check_faults(void **state)
      * image. */
     memcpy(img, ref.image, ref.stats.pixels * 4 * sizeof(float));
     const float tw = ref.tolerance_wall[pix];
-    img[4 * pix] += tw == tw ? 4.0f * fmaxf(ref.tolerance[pix], tw) + 0.01f + fabsf(ref.image_wall[4 * pix] - img[4 * pix])
-                             : 4.0f * ref.tolerance[pix] + 0.01f; /* far from the wall outcome too */
+    if (tw == tw) /* far from the wall outcome too */
+        img[4 * pix] += 4.0f * fmaxf(ref.tolerance[pix], tw) + 0.01f + fabsf(ref.image_wall[4 * pix] - img[4 * pix]);
+    else
+        img[4 * pix] += 4.0f * ref.tolerance[pix] + 0.01f;
     d = dump_of(&ref);
     d.image = img;
     assert_int_equal(rto_raymarch_check(&ref, &d, &res, &msg), RTO_OK);

@@ -20,7 +20,8 @@ const out = process.argv[2];
 fs.mkdirSync(out, {recursive: true});
 const {device, adapter} = await openDevice();
 const info = adapter.info || {};
-fs.writeFileSync(path.join(out, 'adapter.txt'), `${info.vendor} ${info.architecture} ${info.device} ${info.description}\n`);
+fs.writeFileSync(path.join(out, 'adapter.txt'),
+  `${info.vendor} ${info.architecture} ${info.device} ${info.description}\n`);
 
 function f16(x) { // round-to-nearest-even binary16 bits of a double (normal range only)
   const f = new Float32Array([x]); const u = new Uint32Array(f.buffer)[0];
@@ -32,7 +33,11 @@ function f16(x) { // round-to-nearest-even binary16 bits of a double (normal ran
   return h;
 }
 let seed = 12345;
-const rnd = () => { seed = (seed * 1103515245 + 12345) >>> 0; return ((seed >>> 8) & 0xffff) / 65536 + ((seed >>> 24) / 16777216); };
+/** A uniform value in [0, 1) from a linear congruential generator (the probe's inputs are written out with it). */
+function rnd() {
+  seed = (seed * 1103515245 + 12345) >>> 0;
+  return ((seed >>> 8) & 0xffff) / 65536 + (seed >>> 24) / 16777216;
+}
 
 // Part 1: filtering. Texture A 8^3: R = x&1, G = 1000 + 0.5*(x&1), B = y&1, A = z&1. Texture B 8^3 random in [0, 2].
 const N = 8;
@@ -121,7 +126,8 @@ const tpipe = device.createComputePipeline({layout: 'auto', compute: {module: tm
 for (let a = 3; a < process.argv.length;) {
   const dir = process.argv[a++];
   const pix = [];
-  while (a < process.argv.length && /^\d+,\d+$/.test(process.argv[a])) pix.push(process.argv[a++].split(',').map(Number));
+  while (a < process.argv.length && /^\d+,\d+$/.test(process.argv[a]))
+    pix.push(process.argv[a++].split(',').map(Number));
   const u = readNpy(path.join(dir, 'rm_params.npy')).data;
   const fp = readNpy(path.join(dir, 'fluid_params.npy')).data;
   const vol = readNpy(path.join(dir, 'volume_f16.npy'));

@@ -20,7 +20,7 @@
 #define RM_SHORT_STEPS 4u     /* refraction heuristic: 4 samples */
 #define RM_SHORT_MAX 2.0f     /* ... over at most this distance */
 #define RM_EPS 1.0e-4f        /* samples with uvw <= eps or >= 1 - eps read -densityOffset */
-#define RM_WEIGHT_ERR (1.0 / 512.0 + 1.0 / 4096.0) /* a GPU's lerp weight error per axis (8 bits rounded + coordinates) */
+#define RM_WEIGHT_ERR (1.0 / 512.0 + 1.0 / 4096.0) /* a GPU's lerp weight error per axis: 8 bits rounded, + coords */
 #define RM_COORD_ERR (1.0 / 4096.0)                 /* ... of it the coordinate's: the texels a sample may read */
 
 uint32_t rto__rm_levels(uint32_t O, uint64_t level_offset[12], uint32_t level_res[12], uint64_t *words)
