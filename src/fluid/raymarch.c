@@ -380,23 +380,15 @@ static float density_unbanded(const rm_shared *S, const float q[3])
     return (trilin_g(S, g, S->quant) - S->u->density_offset) * S->u->density_multiplier;
 }
 
-/* Where a ray leaves the box: [*te0, *te1], from leaving the box shrunk by eps to leaving the box; 0 when it does not
- * leave it ahead. */
-static int band_exit(const rm_shared *S, const float o[3], const float d[3], float *te0, float *te1)
+/* Where a ray leaves the box shrunk by eps on every side (where its eps band begins; ray_box's t1 is where it ends). */
+static float band_exit(const rm_shared *S, const float o[3], const float d[3])
 {
-    float tn = -INFINITY, tf = INFINITY, tfe = INFINITY;
+    float tf = INFINITY;
     for (int a = 0; a < 3; a++) {
-        const float inv = 1.0f / d[a];
-        const float ta = (S->bmin[a] - o[a]) * inv, tb = (S->bmax[a] - o[a]) * inv;
-        const float e = RM_EPS * S->ext[a];
-        const float tea = (S->bmin[a] + e - o[a]) * inv, teb = (S->bmax[a] - e - o[a]) * inv;
-        tn = maxnan(tn, minnan(ta, tb));
-        tf = minnan(tf, maxnan(ta, tb));
-        tfe = minnan(tfe, maxnan(tea, teb));
+        const float inv = 1.0f / d[a], e = RM_EPS * S->ext[a];
+        tf = minnan(tf, maxnan((S->bmin[a] + e - o[a]) * inv, (S->bmax[a] - e - o[a]) * inv));
     }
-    *te0 = tfe;
-    *te1 = tf;
-    return tf > 0.0f && tfe <= tf && tfe == tfe;
+    return tf;
 }
 
 typedef struct rm_hit {
@@ -448,24 +440,20 @@ static rm_hit search(rm_state *st, const float o[3], const float d[3], int exiti
                 st->uncertain = 1;
         }
         const int found = exiting ? v < 0.0f : v > 0.0f;
-        if (found && !primary && exiting && wall_band(S, p)) {
-            /* A wall event (§12.5.1), outcome "wall": the exit found in the box's eps band. The other outcome: the
-             * sample a hair inside the band, and the ray leaving the box. */
+        /* A wall event (§12.5.1), outcome "wall": the exit found in the box's eps band. The other outcome: the sample
+         * a hair inside the band, and the ray leaving the box. */
+        const int wall = found && !primary && exiting && wall_band(S, p);
+        if (wall) {
             st->wall = 1;
             if (st->wall_alt == 1) {
                 st->wall_alt = 2;
                 h.depth = h.depth + density_unbanded(S, p) * step;
                 return h;
             }
-            h.found = 1;
-            h.k = RM_WALL_K;
-            h.t = t;
-            memcpy(h.p, p, sizeof p);
-            return h;
         }
         if (found) {
             h.found = 1;
-            h.k = k;
+            h.k = wall ? RM_WALL_K : k;
             h.t = t;
             memcpy(h.p, p, sizeof p);
             return h;
@@ -479,15 +467,13 @@ static rm_hit search(rm_state *st, const float o[3], const float d[3], int exiti
      * found in the band, where this ray crosses it. */
     if (!primary && exiting && k < RM_MAX_STEPS) {
         st->wall = 1;
-        if (st->wall_alt == 1) {
-            float te0, te1;
-            if (band_exit(S, o, d, &te0, &te1)) {
-                st->wall_alt = 2;
-                h.found = 1;
-                h.k = RM_WALL_K;
-                h.t = 0.5f * (te0 + te1);
-                at(o, d, h.t, h.p);
-            }
+        const float te = st->wall_alt == 1 ? band_exit(S, o, d) : NAN;
+        if (te <= t1) {
+            st->wall_alt = 2;
+            h.found = 1;
+            h.k = RM_WALL_K;
+            h.t = 0.5f * (te + t1);
+            at(o, d, h.t, h.p);
         }
     }
     return h;
