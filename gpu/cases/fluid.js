@@ -216,6 +216,26 @@ export function writeSplatDump(dir, inp, s) {
  * 0 (crossing_noskip, steps), so that check-raymarch compares skipping with not skipping on one device.
  * The texture is the bundle's volume_f16.npy uploaded as it is (the volume the reference marched): a device whose
  * resolve truncates binary16 (llvmpipe) would otherwise march another volume than the oracle's. */
+/** A raymarch bundle's volume_f16.npy as the raymarch's density texture: rgba16float (nx, ny, nz), texels (density, 0,
+ * 0, 1), uploaded as it is. */
+export function densityTexture(device, rmBundle) {
+  const {nx, ny, nz} = splatInputs(rmBundle, {particles: false});
+  const vol = rmBundle.npy('volume_f16.npy').data;
+  if (vol.length !== nx * ny * nz) throw new Error(`${rmBundle.dir}: volume_f16.npy holds ${vol.length} voxels`);
+  const texels = new Uint16Array(nx * ny * nz * 4);
+  for (let i = 0; i < vol.length; i++) texels.set([vol[i], 0, 0, 0x3C00], 4 * i);
+  const tex = device.createTexture({size: [nx, ny, nz], dimension: '3d', format: 'rgba16float', label: 'density',
+    usage: GPUTextureUsage.TEXTURE_BINDING | GPUTextureUsage.COPY_DST});
+  device.queue.writeTexture({texture: tex}, texels, {bytesPerRow: 8 * nx, rowsPerImage: ny}, [nx, ny, nz]);
+  return tex;
+}
+
+/** The raymarch's sampler: linear min/mag/mip filtering, clamp-to-edge on u, v and w. */
+export function linearSampler(device) {
+  return device.createSampler({magFilter: 'linear', minFilter: 'linear', mipmapFilter: 'linear',
+    addressModeU: 'clamp-to-edge', addressModeV: 'clamp-to-edge', addressModeW: 'clamp-to-edge'});
+}
+
 export async function runRaymarch(device, rmBundle, {timer = null, texture = null} = {}) {
   const u = rmBundle.npy('rm_params.npy').data;
   if (!(u instanceof Float32Array) || u.length !== 64)
@@ -223,19 +243,9 @@ export async function runRaymarch(device, rmBundle, {timer = null, texture = nul
   const [W, H] = [u[56], u[57]];
   if (!Number.isInteger(W) || !Number.isInteger(H) || W < 1 || H < 1 || W * H > 4096 * 4096)
     throw new Error(`${rmBundle.dir}: rm_params.npy: ${W}x${H} pixels`);
-  const inp = splatInputs(rmBundle, {particles: false});
-  const {nx, ny, nz} = inp;
-  const vol = rmBundle.npy('volume_f16.npy').data;
-  if (vol.length !== nx * ny * nz) throw new Error(`${rmBundle.dir}: volume_f16.npy holds ${vol.length} voxels`);
   const occWords = rmBundle.words('occupancy.npy');
-  const texels = new Uint16Array(nx * ny * nz * 4);
-  for (let i = 0; i < vol.length; i++) texels.set([vol[i], 0, 0, 0x3C00], 4 * i);
-  const tex = texture || device.createTexture({size: [nx, ny, nz], dimension: '3d', format: 'rgba16float',
-    label: 'density', usage: GPUTextureUsage.TEXTURE_BINDING | GPUTextureUsage.COPY_DST});
-  if (!texture)
-    device.queue.writeTexture({texture: tex}, texels, {bytesPerRow: 8 * nx, rowsPerImage: ny}, [nx, ny, nz]);
-  const sampler = device.createSampler({magFilter: 'linear', minFilter: 'linear', mipmapFilter: 'linear',
-    addressModeU: 'clamp-to-edge', addressModeV: 'clamp-to-edge', addressModeW: 'clamp-to-edge'});
+  const tex = texture || densityTexture(device, rmBundle);
+  const sampler = linearSampler(device);
   const bufs = [];
   const keep = (b) => (bufs.push(b), b);
   const occ = keep(buffer(device, occWords.byteLength, {data: occWords, label: 'occupancy'}));

@@ -13,7 +13,8 @@
 import fs from 'node:fs';
 import path from 'node:path';
 import {openDevice} from '../lib/device.js';
-import {readNpy} from '../lib/npy.js';
+import {Bundle} from '../lib/bundle.js';
+import {densityTexture, linearSampler} from '../cases/fluid.js';
 import {buffer, readBack} from '../lib/gpu.js';
 
 const out = process.argv[2];
@@ -74,8 +75,7 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
 }`;
 const mod = device.createShaderModule({code: FILTER});
 const pipe = device.createComputePipeline({layout: 'auto', compute: {module: mod, entryPoint: 'main'}});
-const sampler = device.createSampler({magFilter: 'linear', minFilter: 'linear', mipmapFilter: 'linear',
-  addressModeU: 'clamp-to-edge', addressModeV: 'clamp-to-edge', addressModeW: 'clamp-to-edge'});
+const sampler = linearSampler(device);
 for (const [name, data] of [['A', texA], ['B', texB]]) {
   const tex = device.createTexture({size: [N, N, N], dimension: '3d', format: 'rgba16float',
     usage: GPUTextureUsage.TEXTURE_BINDING | GPUTextureUsage.COPY_DST});
@@ -128,16 +128,10 @@ for (let a = 3; a < process.argv.length;) {
   const pix = [];
   while (a < process.argv.length && /^\d+,\d+$/.test(process.argv[a]))
     pix.push(process.argv[a++].split(',').map(Number));
-  const u = readNpy(path.join(dir, 'rm_params.npy')).data;
-  const fp = readNpy(path.join(dir, 'fluid_params.npy')).data;
-  const vol = readNpy(path.join(dir, 'volume_f16.npy'));
-  const [nx, ny, nz] = [u[60], u[61], u[62]];
-  const occ = readNpy(path.join(dir, 'occupancy.npy')).data;
-  const texels = new Uint16Array(nx * ny * nz * 4);
-  for (let i = 0; i < nx * ny * nz; i++) texels.set([vol.data[i], 0, 0, 0x3C00], 4 * i);
-  const tex = device.createTexture({size: [nx, ny, nz], dimension: '3d', format: 'rgba16float',
-    usage: GPUTextureUsage.TEXTURE_BINDING | GPUTextureUsage.COPY_DST});
-  device.queue.writeTexture({texture: tex}, texels, {bytesPerRow: 8 * nx, rowsPerImage: ny}, [nx, ny, nz]);
+  const rm = new Bundle(dir);
+  const u = rm.npy('rm_params.npy').data;
+  const occ = rm.words('occupancy.npy');
+  const tex = densityTexture(device, rm);
   const [W, H] = [u[56], u[57]];
   const tg = new Uint32Array(pix.map(([x, y]) => y * W + x));
   for (const skip of [u[58], 0]) {
