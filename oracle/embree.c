@@ -490,11 +490,57 @@ typedef struct trace_job {
     const rto_wf_ray *rays;
     rto_hit_record *hits;
     size_t begin, end;
+    emb_api api;
 } trace_job;
+
+/* Rays [begin, end) as streams of STREAM rays: rtcIntersect1M (rtcOccluded1M for a run of TERMINATE_ON_FIRST_HIT
+ * rays), each ray's record as trace_one writes it. */
+#define STREAM 256
+static void trace_stream(const emb_scene *s, const rto_wf_ray *rays, size_t begin, size_t end, bool coherent,
+                         rto_hit_record *hits)
+{
+    struct RTCRayHit rh[STREAM];
+    emb_ctx c;
+    rtcInitIntersectContext(&c.ctx);
+    c.ctx.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    c.ray = NULL; /* no filter runs: emb_trace refuses culling rays in a stream */
+    c.s = s;
+    for (size_t i = begin; i < end;) {
+        const bool occ = (rays[i].flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0;
+        unsigned m = 0;
+        while (i + m < end && m < STREAM && ((rays[i + m].flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0) == occ) {
+            to_rtc(&rays[i + m], &rh[m].ray);
+            rh[m].hit.geomID = rh[m].hit.primID = rh[m].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            m++;
+        }
+        if (occ)
+            rtcOccluded1M(s->top, &c.ctx, &rh[0].ray, m, sizeof rh[0]);
+        else
+            rtcIntersect1M(s->top, &c.ctx, rh, m, sizeof rh[0]);
+        for (unsigned k = 0; k < m; k++) {
+            rto_hit_record *h = &hits[i + k];
+            if (occ && rh[k].ray.tfar < 0 && isinf(rh[k].ray.tfar)) {
+                memset(h, 0, sizeof *h);
+                h->t = -INFINITY;
+                h->instance_id = h->prim_id = h->hit_group = h->custom_index = UINT32_MAX;
+            } else if (occ || rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+                record_miss(h, rays[i + k].t_max);
+            } else {
+                record_hit(s->scene, h, rh[k].ray.tfar, rh[k].hit.instID[0], rh[k].hit.primID, rh[k].hit.u,
+                           rh[k].hit.v);
+            }
+        }
+        i += m;
+    }
+}
 
 static void *trace_range(void *arg)
 {
     const trace_job *j = arg;
+    if (j->api != EMB_API_SINGLE) {
+        trace_stream(j->s, j->rays, j->begin, j->end, j->api == EMB_API_STREAM_COHERENT, j->hits);
+        return NULL;
+    }
     for (size_t i = j->begin; i < j->end; i++)
         trace_one(j->s, &j->rays[i], false, &j->hits[i]);
     return NULL;
@@ -503,9 +549,17 @@ static void *trace_range(void *arg)
 rto_status emb_trace(const emb_scene *s, emb_device *d, const rto_wf_ray *rays, size_t n, uint32_t threads,
                      rto_hit_record *hits, rto_msg *msg)
 {
+    return emb_trace_api(s, d, rays, n, threads, EMB_API_SINGLE, hits, msg);
+}
+
+rto_status emb_trace_api(const emb_scene *s, emb_device *d, const rto_wf_ray *rays, size_t n, uint32_t threads,
+                         emb_api api, rto_hit_record *hits, rto_msg *msg)
+{
     rto_status st = emb_rays_check(s, d, rays, n, msg);
     if (st)
         return st;
+    if (api != EMB_API_SINGLE && s->desc.culling)
+        return rto_msg_set(msg, RTO_ERR_UNSUPPORTED, "a ray stream through an Embree mirror made with culling");
     uint32_t t = emb_thread_count(threads);
     if ((size_t)t > n)
         t = n ? (uint32_t)n : 1;
@@ -518,7 +572,7 @@ rto_status emb_trace(const emb_scene *s, emb_device *d, const rto_wf_ray *rays, 
     }
     uint32_t started = 0;
     for (uint32_t k = 0; k < t; k++) {
-        jobs[k] = (trace_job){s, rays, hits, 0, 0};
+        jobs[k] = (trace_job){s, rays, hits, 0, 0, api};
         emb_partition(n, t, k, &jobs[k].begin, &jobs[k].end);
     }
     /* The calling thread takes part 0, so one thread means no thread is created at all. */

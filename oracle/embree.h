@@ -102,6 +102,14 @@ rto_status emb_rays_check(const emb_scene *s, const emb_device *d, const rto_wf_
  */
 rto_status emb_trace(const emb_scene *s, emb_device *d, const rto_wf_ray *rays, size_t n, uint32_t threads,
                      rto_hit_record *hits, rto_msg *msg);
+/** How emb_trace_api calls Embree: per ray (rtcIntersect1 / rtcOccluded1, emb_trace), or in streams of 256 rays
+ * (rtcIntersect1M / rtcOccluded1M), with the context flag that says the rays are incoherent (Embree's default) or
+ * coherent. */
+typedef enum emb_api { EMB_API_SINGLE = 0, EMB_API_STREAM = 1, EMB_API_STREAM_COHERENT = 2 } emb_api;
+/** emb_trace through one of the APIs; the same records. A stream needs a mirror without culling (its filters read
+ * one ray per context): RTO_ERR_UNSUPPORTED otherwise. */
+rto_status emb_trace_api(const emb_scene *s, emb_device *d, const rto_wf_ray *rays, size_t n, uint32_t threads,
+                         emb_api api, rto_hit_record *hits, rto_msg *msg);
 /** One ray, closest hit (rtcIntersect1) whatever its flags: how crosscheck asks which triangle occluded a
  * TERMINATE_ON_FIRST_HIT ray. No checks. */
 void emb_trace_closest(const emb_scene *s, const rto_wf_ray *ray, rto_hit_record *hit);

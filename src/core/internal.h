@@ -51,6 +51,11 @@ static inline void rto__key_put(rto_key_format f, void *keys, size_t i, uint64_t
 static inline float rto__minf(float a, float b) { return a < b ? a : b; }
 static inline float rto__maxf(float a, float b) { return a > b ? a : b; }
 
+/** Whether this CPU runs AVX2, and AVX-512 F, BW, DQ and VL (core/cpu.c): the SIMD paths chosen at run time. 0 on
+ * other architectures. */
+int rto__cpu_avx2(void);
+int rto__cpu_avx512(void);
+
 /* Static thread partitioning (core/threads.c, DESIGN.md §2). */
 
 /** Most threads a parallel stage starts. */

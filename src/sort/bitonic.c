@@ -176,15 +176,7 @@ int rto__bitonic_isa_supported(rto__bitonic_isa isa)
         return 1;
     if ((unsigned)isa >= RTO__BITONIC_ISA_COUNT || !rto__bitonic_simd_kernels(isa, 4))
         return 0;
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-    __builtin_cpu_init();
-    if (isa == RTO__BITONIC_AVX2)
-        return __builtin_cpu_supports("avx2");
-    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-#else
-    return 0;
-#endif
+    return isa == RTO__BITONIC_AVX2 ? rto__cpu_avx2() : rto__cpu_avx512();
 }
 
 /* AUTO: the widest supported path, capped by RTO_BITONIC_ISA (baseline, avx2, avx512) when set, so that a user or a

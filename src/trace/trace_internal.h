@@ -9,6 +9,52 @@
 #pragma GCC visibility push(hidden)
 #endif
 
+/* The tracer (trace/traverse.c) and its SIMD lanes (trace/lanes.c). */
+
+/** Instruction-set paths of rto_trace. Every path runs §6 per ray and gives the same hit records and counters. */
+typedef enum rto__trace_isa {
+    RTO__TRACE_AUTO = 0,   /* the widest the CPU has, capped by RTO_TRACE_ISA from the environment when set */
+    RTO__TRACE_SCALAR = 1, /* one ray at a time: the reference the lanes are tested against */
+    RTO__TRACE_AVX2 = 2,   /* 8 lanes */
+    RTO__TRACE_AVX512 = 3, /* 16 lanes (AVX-512 F, BW, DQ and VL) */
+    RTO__TRACE_ISA_COUNT = 4
+} rto__trace_isa;
+
+/** "auto", "scalar", "avx2", "avx512". */
+const char *rto__trace_isa_name(rto__trace_isa isa);
+/** Whether this CPU (and build) can run the path; AUTO and SCALAR always can. */
+int rto__trace_isa_supported(rto__trace_isa isa);
+/** The path AUTO runs here: the widest supported one, capped by RTO_TRACE_ISA (scalar, avx2, avx512) when set. */
+rto__trace_isa rto__trace_isa_resolve(void);
+/** rto_trace on a chosen path (an unsupported one is refused: RTO_ERR_UNSUPPORTED). */
+rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
+                           rto__trace_isa isa, rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg);
+
+/** A traversal stack entry: a node reference (its meaning depends on the tree) and the entry t of its box. */
+typedef struct rto__trace_entry {
+    uint32_t ref;
+    float t;
+} rto__trace_entry;
+
+/** What every path of one rto_trace call reads. */
+typedef struct rto__tracer {
+    const rto_accel *accel;
+    const rto_scene *scene;
+    const rto_accel_tlas *tlas;
+    size_t stack_cap; /* entries per stack: enough for the deepest tree */
+} rto__tracer;
+
+/** A lane kernel: rays [begin, end) in W lanes, each lane one ray running §6 with its own stacks; a lane that
+ * finishes takes the next ray. scratch holds scratch_size(stack_cap) bytes, 64-byte aligned. */
+typedef struct rto__trace_lanes {
+    uint32_t width;
+    size_t (*scratch_size)(size_t stack_cap);
+    void (*trace)(const rto__tracer *tr, const rto_wf_ray *rays, size_t begin, size_t end, rto_hit_record *hits,
+                  rto_trace_counters *counters, void *scratch);
+} rto__trace_lanes;
+/** The lane kernel of a path (trace/lanes.c), NULL when the build has none. */
+const rto__trace_lanes *rto__trace_lanes_kernel(rto__trace_isa isa);
+
 /** Whether the ray flags cull a triangle of this det (> 0 front, < 0 back; decided in object space, §6). */
 int rto__triangle_culled(uint32_t flags, float det);
 /** Möller–Trumbore of triangle prim of a mesh with an object-space ray, then culling: 1 for an accepted hit. */

@@ -2,7 +2,8 @@
  * with the ray in that instance's object space. A stack of (node, entry t) pairs: a popped node whose entry t is
  * beyond the best hit so far is skipped; at an internal node both children are slab-tested and pushed farther
  * first, so the nearer is visited first, and on equal entry t the left child first. Triangles must beat the best t
- * strictly, so the first hit found wins a tie. One ray at a time, rays split statically over threads (§2). */
+ * strictly, so the first hit found wins a tie. One ray at a time here, the reference; trace/lanes.c runs 8 or 16 rays
+ * side by side with the same operations, chosen at run time. Rays are split statically over threads (§2). */
 #include "internal.h"
 #include "trace_internal.h"
 
@@ -10,18 +11,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* A stack entry: a node reference (meaning depends on the tree) and the entry t of its box. */
-typedef struct entry {
-    uint32_t ref;
-    float t;
-} entry;
-
-typedef struct tracer {
-    const rto_accel *accel;
-    const rto_scene *scene;
-    const rto_accel_tlas *tlas;
-    size_t stack_cap; /* entries per stack: enough for the deepest tree */
-} tracer;
+typedef rto__trace_entry entry;
+typedef rto__tracer tracer;
 
 /* Per-ray state: the world ray, its best hit so far, counters, and the two stacks (TLAS and the BLAS in hand). */
 typedef struct ray_state {
@@ -191,15 +182,22 @@ typedef struct trace_job {
     const rto_wf_ray *rays;
     rto_hit_record *hits;
     rto_trace_counters *counters;
-    entry *stacks; /* 2 * stack_cap entries per worker */
+    const rto__trace_lanes *lanes; /* NULL: the scalar tracer */
+    unsigned char *scratch;        /* per worker: 2 * stack_cap entries (scalar) or the lanes' scratch */
+    size_t scratch_size;           /* per worker, a multiple of 64 */
 } trace_job;
 
 static void trace_range(void *ctx, uint32_t worker, size_t begin, size_t end)
 {
     const trace_job *job = ctx;
     const tracer *tr = job->tr;
+    void *scratch = job->scratch + (size_t)worker * job->scratch_size;
+    if (job->lanes) {
+        job->lanes->trace(tr, job->rays, begin, end, job->hits, job->counters, scratch);
+        return;
+    }
     ray_state st;
-    st.tstack = job->stacks + (size_t)worker * 2 * tr->stack_cap;
+    st.tstack = scratch;
     st.bstack = st.tstack + tr->stack_cap;
     for (size_t i = begin; i < end; i++) {
         st.ray = &job->rays[i];
@@ -218,18 +216,52 @@ static void trace_range(void *ctx, uint32_t worker, size_t begin, size_t end)
     }
 }
 
-rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
-                     rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg)
+const char *rto__trace_isa_name(rto__trace_isa isa)
+{
+    static const char *const names[RTO__TRACE_ISA_COUNT] = {"auto", "scalar", "avx2", "avx512"};
+    return (unsigned)isa < RTO__TRACE_ISA_COUNT ? names[isa] : "?";
+}
+
+int rto__trace_isa_supported(rto__trace_isa isa)
+{
+    if (isa == RTO__TRACE_AUTO || isa == RTO__TRACE_SCALAR)
+        return 1;
+    if ((unsigned)isa >= RTO__TRACE_ISA_COUNT || !rto__trace_lanes_kernel(isa))
+        return 0;
+    return isa == RTO__TRACE_AVX2 ? rto__cpu_avx2() : rto__cpu_avx512();
+}
+
+rto__trace_isa rto__trace_isa_resolve(void)
+{
+    rto__trace_isa cap = RTO__TRACE_AVX512;
+    const char *env = getenv("RTO_TRACE_ISA");
+    if (env && *env)
+        for (int i = RTO__TRACE_SCALAR; i < RTO__TRACE_ISA_COUNT; i++)
+            if (strcmp(env, rto__trace_isa_name((rto__trace_isa)i)) == 0)
+                cap = (rto__trace_isa)i;
+    for (int i = cap; i > RTO__TRACE_SCALAR; i--)
+        if (rto__trace_isa_supported((rto__trace_isa)i))
+            return (rto__trace_isa)i;
+    return RTO__TRACE_SCALAR;
+}
+
+rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
+                           rto__trace_isa isa, rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg)
 {
     if (!accel)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel");
     if (n && !hits)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL hit output");
+    if (!rto__trace_isa_supported(isa))
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "trace path '%s' is not supported on this CPU",
+                         rto__trace_isa_name(isa));
     rto_status s = rto__rays_check(rays, n, msg);
     if (s)
         return s;
     if (!n)
         return RTO_OK;
+    if (isa == RTO__TRACE_AUTO)
+        isa = rto__trace_isa_resolve();
     tracer tr = {accel, rto_accel_scene(accel), rto_accel_get_tlas(accel), 0};
     /* Ordered traversal pops one entry and pushes at most two, so a stack never holds more than depth + 1 entries. */
     uint32_t depth = tr.tlas->stats.depth;
@@ -239,11 +271,22 @@ rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, c
     }
     tr.stack_cap = (size_t)depth + 2;
     const uint32_t threads = rto__thread_count(desc ? desc->threads : 0);
-    entry *stacks = rto__alloc((size_t)threads * 2 * tr.stack_cap, sizeof *stacks);
-    if (!stacks)
+    const rto__trace_lanes *lanes = rto__trace_lanes_kernel(isa);
+    size_t size = lanes ? lanes->scratch_size(tr.stack_cap) : 2 * tr.stack_cap * sizeof(entry);
+    size = (size + 63) & ~(size_t)63;
+    /* One block for every worker, 64-byte aligned (the lanes' vectors): 64 bytes more than the workers' slices. */
+    unsigned char *block = rto__alloc((size_t)threads * size + 64, 1);
+    if (!block)
         return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u traversal stacks", threads);
-    trace_job job = {&tr, rays, hits, counters, stacks};
+    unsigned char *aligned = block + ((64 - (uintptr_t)block % 64) % 64);
+    trace_job job = {&tr, rays, hits, counters, lanes, aligned, size};
     rto__parallel_ranges(n, threads, trace_range, &job);
-    free(stacks);
+    free(block);
     return RTO_OK;
+}
+
+rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
+                     rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg)
+{
+    return rto__trace_with(accel, rays, n, desc, RTO__TRACE_AUTO, hits, counters, msg);
 }

@@ -1,0 +1,175 @@
+/* The tracer's SIMD lanes (trace/lanes_kernel.h, DESIGN.md §6): 8 rays at a time with AVX2, 16 with AVX-512,
+ * compiled for those instruction sets function by function (the library itself targets baseline x86-64) and chosen at
+ * run time by traverse.c. Each lane is one ray with its own stacks and its own traversal order, as a GPU thread is;
+ * only the slab tests and the Möller–Trumbore tests of the lanes that reached one run side by side, lane-wise, with
+ * the scalar tracer's operations in its order. Records and counters equal the scalar tracer's bit for bit
+ * (unit.trace holds them to it on every ray set). */
+#include "internal.h"
+#include "trace_internal.h"
+
+#include <string.h>
+
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+
+/* What a lane wants next. */
+enum { LANE_NONE = 0, LANE_BOX = 1, LANE_TRIANGLE = 2 };
+
+/* One lane's ray and traversal: the ray's record so far, its counters, its stacks, the BLAS in hand. */
+typedef struct rto__lane {
+    const rto_wf_ray *ray; /* NULL: none in flight */
+    size_t index;          /* of the ray, and of its record */
+    float winv[3];         /* the world ray's inverse direction */
+    int found, done, object; /* a hit so far; TERMINATE_ON_FIRST_HIT hit; the lane holds the object-space ray */
+    uint32_t inst;           /* the instance entered */
+    const rto_accel_blas *blas;
+    const rto_mesh *mesh;
+    uint32_t prim;                     /* the staged triangle */
+    uint32_t inst_hit, prim_hit;       /* the best hit */
+    rto_tri_hit h;
+    rto_trace_counters c;
+    rto__trace_entry *tstack, *bstack;
+    uint32_t ttop, btop;
+    uint32_t lref, rref; /* the staged box pair's children, */
+    int lvalid, rvalid;  /* whether each is tested (a sweep TLAS's EMPTY child is not), */
+    int blas_pair;       /* and whose stack they go on */
+} rto__lane;
+
+/* After a box pair's slab tests: the children hit pushed farther first (§6; equal entry t: left visited first). */
+static inline void rto__lane_push(rto__lane *s, int hl, float tl, int hr, float tr)
+{
+    rto__trace_entry *stack = s->blas_pair ? s->bstack : s->tstack;
+    uint32_t *top = s->blas_pair ? &s->btop : &s->ttop;
+    s->c.box_tests += (uint32_t)(s->lvalid + s->rvalid);
+    hl = hl && s->lvalid;
+    hr = hr && s->rvalid;
+    if (hl && hr) {
+        if (tl <= tr) {
+            stack[(*top)++] = (rto__trace_entry){s->rref, tr};
+            stack[(*top)++] = (rto__trace_entry){s->lref, tl};
+        } else {
+            stack[(*top)++] = (rto__trace_entry){s->lref, tl};
+            stack[(*top)++] = (rto__trace_entry){s->rref, tr};
+        }
+    } else if (hl) {
+        stack[(*top)++] = (rto__trace_entry){s->lref, tl};
+    } else if (hr) {
+        stack[(*top)++] = (rto__trace_entry){s->rref, tr};
+    }
+}
+
+/* After a triangle's test: culling, then the hit taken as the best (1: the caller sets the lane's best t). */
+static inline int rto__lane_take(rto__lane *s, int ok, const rto_tri_hit *h)
+{
+    s->c.triangle_tests++;
+    if (!ok || rto__triangle_culled(s->ray->flags, h->det))
+        return 0;
+    s->h = *h;
+    s->inst_hit = s->inst;
+    s->prim_hit = s->prim;
+    s->found = 1;
+    if (s->ray->flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) { /* the whole traversal ends */
+        s->done = 1;
+        s->btop = 0;
+    }
+    return 1;
+}
+
+#define PN_(p, x) p##_##x
+#define PN__(p, x) PN_(p, x)
+#define PN(x) PN__(LANES_PREFIX, x)
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* clang ignores GCC's target pragma; its own attribute pragma gives every function below the same target. */
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+
+#define W 8
+#define LANES_PREFIX lanes8
+#define VF __m256
+#define VLD _mm256_load_ps
+#define VST _mm256_store_ps
+#define VSET1 _mm256_set1_ps
+#define VADD _mm256_add_ps
+#define VSUB _mm256_sub_ps
+#define VMUL _mm256_mul_ps
+#define VDIV _mm256_div_ps
+#define VMIN _mm256_min_ps
+#define VMAX _mm256_max_ps
+#define VCMP_(a, b, p) ((uint32_t)_mm256_movemask_ps(_mm256_cmp_ps((a), (b), (p))))
+#define VLE(a, b) VCMP_(a, b, _CMP_LE_OQ)
+#define VLT(a, b) VCMP_(a, b, _CMP_LT_OQ)
+#define VGE(a, b) VCMP_(a, b, _CMP_GE_OQ)
+#define VNEQ(a, b) VCMP_(a, b, _CMP_NEQ_UQ)
+#include "lanes_kernel.h"
+#undef W
+#undef LANES_PREFIX
+#undef VF
+#undef VLD
+#undef VST
+#undef VSET1
+#undef VADD
+#undef VSUB
+#undef VMUL
+#undef VDIV
+#undef VMIN
+#undef VMAX
+#undef VCMP_
+
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx512f,avx512bw,avx512dq,avx512vl"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx512f,avx512bw,avx512dq,avx512vl")
+#endif
+
+#define W 16
+#define LANES_PREFIX lanes16
+#define VF __m512
+#define VLD _mm512_load_ps
+#define VST _mm512_store_ps
+#define VSET1 _mm512_set1_ps
+#define VADD _mm512_add_ps
+#define VSUB _mm512_sub_ps
+#define VMUL _mm512_mul_ps
+#define VDIV _mm512_div_ps
+#define VMIN _mm512_min_ps
+#define VMAX _mm512_max_ps
+#define VCMP_(a, b, p) ((uint32_t)_mm512_cmp_ps_mask((a), (b), (p)))
+#include "lanes_kernel.h"
+
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+
+const rto__trace_lanes *rto__trace_lanes_kernel(rto__trace_isa isa)
+{
+    if (isa == RTO__TRACE_AVX2)
+        return &lanes8_kernel;
+    if (isa == RTO__TRACE_AVX512)
+        return &lanes16_kernel;
+    return NULL;
+}
+
+#else
+
+const rto__trace_lanes *rto__trace_lanes_kernel(rto__trace_isa isa)
+{
+    (void)isa;
+    return NULL;
+}
+
+#endif

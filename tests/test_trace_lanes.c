@@ -1,0 +1,228 @@
+/* The tracer's SIMD lanes (trace/lanes.c) against the scalar tracer they must equal bit for bit (hit records and
+ * counters, every ray): every ray set of the library and the tests' own mixed-flag rays, both TLAS layouts, masks,
+ * one-triangle BLASes and one-instance TLASes, 1 to 33 threads. A path this CPU cannot run is reported and skipped. */
+#include "testutil.h"
+#include "trace/trace_internal.h"
+
+static rto_accel *build(const rto_scene *s, rto_tlas_kind kind)
+{
+    rto_accel_desc d = {kind, 0};
+    rto_accel *a = NULL;
+    rto_msg msg = {{0}};
+    if (rto_accel_build(s, &d, &a, &msg))
+        fail_msg("build: %s", msg.text);
+    return a;
+}
+
+/* Rays of every kind in one batch, so that neighbouring lanes disagree: origins in and around the bounds, directions
+ * random or axis-parallel (+0 and -0 components), each ray's flags, cull mask and [tMin, tMax] drawn on its own. */
+static rto_wf_ray *mixed_rays(const rto_scene *s, uint64_t seed, size_t n)
+{
+    static const uint32_t flag_sets[] = {RTO_RAY_FLAG_OPAQUE,
+                                         RTO_RAY_FLAG_OPAQUE | RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT,
+                                         RTO_RAY_FLAG_CULL_BACK_FACING,
+                                         RTO_RAY_FLAG_CULL_FRONT_FACING | RTO_RAY_FLAG_SKIP_CLOSEST_HIT,
+                                         RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT | RTO_RAY_FLAG_CULL_BACK_FACING};
+    static const uint32_t masks[] = {0xFF, 0xFF, 0xFF, 0x01, 0x02, 0x00};
+    rto_wf_ray *rays = calloc(n ? n : 1, sizeof *rays);
+    assert_non_null(rays);
+    const rto_aabb b = rto_scene_aabb(s);
+    const float lo[3] = {b.min.x, b.min.y, b.min.z}, hi[3] = {b.max.x, b.max.y, b.max.z};
+    uint64_t r = seed;
+    for (size_t i = 0; i < n; i++) {
+        rto_wf_ray *ray = &rays[i];
+        for (int a = 0; a < 3; a++) {
+            const float ext = hi[a] - lo[a];
+            ray->origin[a] = lo[a] - 0.25f * ext + 1.5f * ext * (float)tu_rng_unit(&r);
+            ray->dir[a] = (float)(2.0 * tu_rng_unit(&r) - 1.0);
+        }
+        if (i % 7 == 3) { /* axis-parallel, with signed zeros */
+            const int keep = (int)(tu_rng_next(&r) % 3);
+            for (int a = 0; a < 3; a++)
+                if (a != keep)
+                    ray->dir[a] = tu_rng_next(&r) & 1 ? -0.0f : 0.0f;
+        }
+        ray->t_min = i % 5 == 0 ? (float)tu_rng_unit(&r) : 0.0f;
+        ray->t_max = i % 4 == 0 ? ray->t_min + (float)(tu_rng_unit(&r) * 4.0) : 1e30f;
+        ray->flags = flag_sets[tu_rng_next(&r) % 5];
+        ray->cull_mask = masks[tu_rng_next(&r) % 6];
+        ray->pixel = (uint32_t)i;
+    }
+    return rays;
+}
+
+/* The first ray whose record or counters differ, named with its field, or the test passes. */
+static void compare(const char *what, const rto_hit_record *want, const rto_trace_counters *wc,
+                    const rto_hit_record *got, const rto_trace_counters *gc, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        if (memcmp(&want[i], &got[i], sizeof want[i]))
+            fail_msg("%s: ray %zu: record differs (scalar t %.9g instance %u prim %u miss %u, lanes t %.9g instance %u "
+                     "prim %u miss %u)", what, i, (double)want[i].t, want[i].instance_id, want[i].prim_id,
+                     want[i].miss_flag, (double)got[i].t, got[i].instance_id, got[i].prim_id, got[i].miss_flag);
+        if (memcmp(&wc[i], &gc[i], sizeof wc[i]))
+            fail_msg("%s: ray %zu: counters differ (scalar nodes %u boxes %u triangles %u entries %u, lanes %u %u %u %u)",
+                     what, i, wc[i].nodes_visited, wc[i].box_tests, wc[i].triangle_tests, wc[i].instance_entries,
+                     gc[i].nodes_visited, gc[i].box_tests, gc[i].triangle_tests, gc[i].instance_entries);
+    }
+}
+
+/* Every supported lane path against the scalar tracer on these rays, with each thread count. */
+static void check_rays(const char *what, const rto_accel *acc, const rto_wf_ray *rays, size_t n,
+                       const uint32_t *threads, size_t nthreads)
+{
+    rto_hit_record *want = malloc((n ? n : 1) * sizeof *want), *got = malloc((n ? n : 1) * sizeof *got);
+    rto_trace_counters *wc = malloc((n ? n : 1) * sizeof *wc), *gc = malloc((n ? n : 1) * sizeof *gc);
+    assert_true(want && got && wc && gc);
+    rto_msg msg = {{0}};
+    rto_trace_desc one = {1};
+    if (rto__trace_with(acc, rays, n, &one, RTO__TRACE_SCALAR, want, wc, &msg))
+        fail_msg("%s: scalar: %s", what, msg.text);
+    size_t hits = 0;
+    for (size_t i = 0; i < n; i++)
+        hits += !want[i].miss_flag;
+    for (int isa = RTO__TRACE_AVX2; isa < RTO__TRACE_ISA_COUNT; isa++) {
+        if (!rto__trace_isa_supported((rto__trace_isa)isa))
+            continue;
+        for (size_t k = 0; k < nthreads; k++) {
+            char label[160];
+            snprintf(label, sizeof label, "%s, %s, %u threads (%zu of %zu rays hit)", what,
+                     rto__trace_isa_name((rto__trace_isa)isa), threads[k], hits, n);
+            rto_trace_desc d = {threads[k]};
+            memset(got, 0xA5, n * sizeof *got);
+            memset(gc, 0xA5, n * sizeof *gc);
+            if (rto__trace_with(acc, rays, n, &d, (rto__trace_isa)isa, got, gc, &msg))
+                fail_msg("%s: %s", label, msg.text);
+            compare(label, want, wc, got, gc, n);
+        }
+    }
+    free(want);
+    free(got);
+    free(wc);
+    free(gc);
+}
+
+static const uint32_t one_thread[] = {1}, many_threads[] = {1, 2, 3, 33};
+
+/* The library's ray sets (primary, shadow, random, grazing, axis) and the mixed rays on a scene, both TLAS layouts. */
+static void check_scene(const char *spec, uint32_t width, uint32_t height, size_t count)
+{
+    rto_scene *s = tu_load(spec);
+    for (int kind = 0; kind < 2; kind++) {
+        rto_accel *acc = build(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
+        for (int set = RTO_RAYS_PRIMARY; set <= RTO_RAYS_AXIS; set++) {
+            rto_rays_desc d;
+            memset(&d, 0, sizeof d);
+            d.set = (rto_ray_set)set;
+            d.seed = 7;
+            d.width = width;
+            d.height = height;
+            d.count = count;
+            const size_t cap = rto_rays_capacity(&d);
+            rto_wf_ray *rays = malloc((cap ? cap : 1) * sizeof *rays);
+            size_t n = 0;
+            rto_msg msg = {{0}};
+            assert_non_null(rays);
+            if (rto_rays_generate(acc, &d, rays, cap, &n, NULL, &msg))
+                fail_msg("%s: rays: %s", spec, msg.text);
+            char what[128];
+            snprintf(what, sizeof what, "%s, %s TLAS, %s rays", spec, kind ? "karras" : "sweep",
+                     rto_ray_set_name((rto_ray_set)set));
+            check_rays(what, acc, rays, n, one_thread, 1);
+            free(rays);
+        }
+        rto_wf_ray *rays = mixed_rays(s, 11, count);
+        char what[128];
+        snprintf(what, sizeof what, "%s, %s TLAS, mixed rays", spec, kind ? "karras" : "sweep");
+        check_rays(what, acc, rays, count, many_threads, 4);
+        free(rays);
+        rto_accel_destroy(acc);
+    }
+    rto_scene_destroy(s);
+}
+
+static void test_paths_reported(void **state)
+{
+    (void)state;
+    for (int isa = RTO__TRACE_SCALAR; isa < RTO__TRACE_ISA_COUNT; isa++)
+        print_message("trace path %s: %s\n", rto__trace_isa_name((rto__trace_isa)isa),
+                      rto__trace_isa_supported((rto__trace_isa)isa) ? "tested" : "not on this CPU");
+    print_message("rto_trace runs: %s\n", rto__trace_isa_name(rto__trace_isa_resolve()));
+}
+
+/* One instance of one triangle: a Karras TLAS with one key (straight to the instance) and a BLAS without nodes. */
+static void test_one_triangle(void **state)
+{
+    (void)state;
+    check_scene("triangle", 64, 48, 4000);
+}
+
+/* Instanced scenes: a sweep TLAS padded with EMPTY leaves (27 and 64 instances), mirrored and masked instances. */
+static void test_instanced(void **state)
+{
+    (void)state;
+    check_scene("rtstress:3", 96, 64, TU_SIZED(20000, 4000));
+    check_scene("rtstress:4", 96, 64, TU_SIZED(20000, 4000));
+    check_scene("random:3", 64, 48, TU_SIZED(20000, 4000));
+    check_scene("random:8", 64, 48, TU_SIZED(20000, 4000));
+}
+
+/* A deep BLAS of a real mesh and closed meshes. */
+static void test_meshes(void **state)
+{
+    (void)state;
+    check_scene("StanfordBunny/bunny.gltf", TU_SIZED(160, 64), TU_SIZED(120, 48), TU_SIZED(20000, 4000));
+    check_scene("sphere:3:9", 64, 48, TU_SIZED(10000, 3000));
+}
+
+/* Masks: instances on two bits, rays with one, the other or none. */
+static void test_masks(void **state)
+{
+    (void)state;
+    rto_scene *s = tu_load("rtstress:3");
+    for (uint32_t k = 0; k < s->instance_count; k++)
+        s->instances[k].mask = k % 3 == 0 ? 0x01 : 0x02;
+    for (int kind = 0; kind < 2; kind++) {
+        rto_accel *acc = build(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
+        rto_wf_ray *rays = mixed_rays(s, 5, 6000);
+        check_rays(kind ? "rtstress:3 masked, karras" : "rtstress:3 masked, sweep", acc, rays, 6000, many_threads, 4);
+        free(rays);
+        rto_accel_destroy(acc);
+    }
+    rto_scene_destroy(s);
+}
+
+/* RTO_TRACE_ISA caps rto_trace's path; an unknown path is refused by rto__trace_with. */
+static void test_isa_choice(void **state)
+{
+    (void)state;
+    static const char *const names[] = {"scalar", "avx2", "avx512"};
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(setenv("RTO_TRACE_ISA", names[i], 1), 0);
+        const rto__trace_isa got = rto__trace_isa_resolve();
+        assert_true(got <= (rto__trace_isa)(RTO__TRACE_SCALAR + i));
+        if (rto__trace_isa_supported((rto__trace_isa)(RTO__TRACE_SCALAR + i)))
+            assert_int_equal(got, RTO__TRACE_SCALAR + i);
+    }
+    unsetenv("RTO_TRACE_ISA");
+    rto_scene *s = tu_load("triangle");
+    rto_accel *acc = build(s, RTO_TLAS_SWEEP);
+    rto_wf_ray *rays = mixed_rays(s, 3, 4);
+    rto_hit_record h[4];
+    rto_msg msg = {{0}};
+    assert_int_equal(rto__trace_with(acc, rays, 4, NULL, (rto__trace_isa)9, h, NULL, &msg), RTO_ERR_UNSUPPORTED);
+    assert_non_null(strstr(msg.text, "not supported"));
+    free(rays);
+    rto_accel_destroy(acc);
+    rto_scene_destroy(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_paths_reported), cmocka_unit_test(test_isa_choice),
+        cmocka_unit_test(test_one_triangle),   cmocka_unit_test(test_masks),
+        cmocka_unit_test(test_instanced),      cmocka_unit_test(test_meshes),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
