@@ -452,6 +452,18 @@ static void to_rtc(const rto_wf_ray *r, struct RTCRay *out)
     out->flags = 0;
 }
 
+/* The record of a TERMINATE_ON_FIRST_HIT ray after rtcOccluded: Embree marks an occluded ray with tfar = -inf. */
+static void record_occluded(rto_hit_record *h, const struct RTCRay *ray, float t_max)
+{
+    if (ray->tfar < 0 && isinf(ray->tfar)) {
+        memset(h, 0, sizeof *h);
+        h->t = -INFINITY;
+        h->instance_id = h->prim_id = h->hit_group = h->custom_index = UINT32_MAX;
+    } else {
+        record_miss(h, t_max);
+    }
+}
+
 static void trace_one(const emb_scene *s, const rto_wf_ray *r, bool closest, rto_hit_record *h)
 {
     emb_ctx c;
@@ -462,13 +474,7 @@ static void trace_one(const emb_scene *s, const rto_wf_ray *r, bool closest, rto
         struct RTCRay ray;
         to_rtc(r, &ray);
         rtcOccluded1(s->top, &c.ctx, &ray);
-        if (ray.tfar < 0 && isinf(ray.tfar)) { /* Embree marks an occluded ray with tfar = -inf */
-            memset(h, 0, sizeof *h);
-            h->t = -INFINITY;
-            h->instance_id = h->prim_id = h->hit_group = h->custom_index = UINT32_MAX;
-        } else {
-            record_miss(h, r->t_max);
-        }
+        record_occluded(h, &ray, r->t_max);
         return;
     }
     struct RTCRayHit rh;
@@ -519,16 +525,13 @@ static void trace_stream(const emb_scene *s, const rto_wf_ray *rays, size_t begi
             rtcIntersect1M(s->top, &c.ctx, rh, m, sizeof rh[0]);
         for (unsigned k = 0; k < m; k++) {
             rto_hit_record *h = &hits[i + k];
-            if (occ && rh[k].ray.tfar < 0 && isinf(rh[k].ray.tfar)) {
-                memset(h, 0, sizeof *h);
-                h->t = -INFINITY;
-                h->instance_id = h->prim_id = h->hit_group = h->custom_index = UINT32_MAX;
-            } else if (occ || rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+            if (occ)
+                record_occluded(h, &rh[k].ray, rays[i + k].t_max);
+            else if (rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID)
                 record_miss(h, rays[i + k].t_max);
-            } else {
+            else
                 record_hit(s->scene, h, rh[k].ray.tfar, rh[k].hit.instID[0], rh[k].hit.primID, rh[k].hit.u,
                            rh[k].hit.v);
-            }
         }
         i += m;
     }

@@ -429,6 +429,54 @@ static void test_partition_and_threads(void **state)
     fixture_free(&f);
 }
 
+/* Embree's stream API (rtcIntersect1M / rtcOccluded1M, as bench_trace times it) gives the records of its per-ray
+ * API on rays that mix closest-hit and first-hit rays, masks and tMin / tMax, across stream boundaries (256 rays),
+ * coherent or not, with 1 and 3 threads; a mirror made with culling is refused. */
+static void test_stream_api(void **state)
+{
+    (void)state;
+    fixture f = fixture_make(false, false);
+    enum { N = 1237 };
+    rto_wf_ray *r = malloc(N * sizeof *r);
+    rto_hit_record *ref = malloc(N * sizeof *ref), *h = malloc(N * sizeof *h);
+    assert_true(r && ref && h);
+    for (uint32_t i = 0; i < N; i++) {
+        r[i] = ray_make(rto_unit(7, 3 * i) * 8 - 1, rto_unit(7, 3 * i + 1) * 3 - 1, 1, 0, 0, -1);
+        const uint32_t k = rto_hash32(i * 2654435761u) % 8;
+        if (k < 3 || (i / 300) % 2) /* runs of first-hit rays longer and shorter than a stream */
+            r[i].flags |= RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT;
+        if (k == 4)
+            r[i].cull_mask = 0x05;
+        if (k == 5)
+            r[i].t_min = 1.5f, r[i].t_max = 3.0f;
+    }
+    rto_msg msg = {{0}};
+    assert_int_equal(emb_trace_api(f.e, f.d, r, N, 1, EMB_API_SINGLE, ref, &msg), RTO_OK);
+    size_t hits = 0, occluded = 0;
+    for (uint32_t i = 0; i < N; i++) {
+        hits += ref[i].miss_flag == 0;
+        occluded += ref[i].t == -INFINITY;
+    }
+    assert_true(hits > N / 10 && occluded > N / 10); /* the rays do hit, both ways */
+    const emb_api apis[2] = {EMB_API_STREAM, EMB_API_STREAM_COHERENT};
+    for (int a = 0; a < 2; a++)
+        for (uint32_t threads = 1; threads <= 3; threads += 2) {
+            memset(h, 0xA5, N * sizeof *h);
+            assert_int_equal(emb_trace_api(f.e, f.d, r, N, threads, apis[a], h, &msg), RTO_OK);
+            for (uint32_t i = 0; i < N; i++)
+                if (memcmp(&h[i], &ref[i], sizeof *h))
+                    fail_msg("stream api %d, %u threads: ray %u's record differs from rtcIntersect1's", (int)apis[a],
+                             threads, i);
+        }
+    fixture_free(&f);
+    fixture c = fixture_make(true, false);
+    assert_int_equal(emb_trace_api(c.e, c.d, r, N, 1, EMB_API_STREAM, h, &msg), RTO_ERR_UNSUPPORTED);
+    fixture_free(&c);
+    free(r);
+    free(ref);
+    free(h);
+}
+
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Embree on fixtures against a binary64 brute-force tracer                                                         */
 
@@ -539,6 +587,7 @@ int main(void)
         cmocka_unit_test(test_mirror_refusals),
         cmocka_unit_test(test_device_errors),
         cmocka_unit_test(test_partition_and_threads),
+        cmocka_unit_test(test_stream_api),
         cmocka_unit_test(test_class_agree),
         cmocka_unit_test(test_class_tie),
         cmocka_unit_test(test_class_coplanar),

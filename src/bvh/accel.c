@@ -430,7 +430,7 @@ static rto_status blas_alloc(blas_work *W, const rto_mesh *mesh, uint32_t index,
      * pages cost more than building the tree. One built by a team takes 4 KiB pages, whose first touches the team
      * shares out (blas_stages); a huge page is cleared by the one thread that touches it first, and on the 16-core
      * Xeon that made the bunny's 16-thread build 0.5 ms slower. */
-    W->nodes = workers > 1 && n >= BIG_MESH ? rto__alloc(b->node_count, sizeof *W->nodes)
+    W->nodes = workers > 1 && n >= BIG_MESH ? rto__alloc_lines(b->node_count, sizeof *W->nodes)
                                             : rto__alloc_large(b->node_count, sizeof *W->nodes);
     b->prim_aabbs = W->boxes;
     b->sorted_keys = W->sorted;
@@ -450,9 +450,9 @@ static rto_status tlas_alloc(build_ctx *c)
     t->sorted_keys = rto__alloc(np, sizeof(uint32_t));
     c->tlas_tmp = rto__alloc(n, sizeof(uint32_t));
     if (c->kind == RTO_TLAS_SWEEP)
-        t->sweep_nodes = rto__alloc(rto_tlas_sweep_node_count(n), sizeof(rto_tlas_node));
+        t->sweep_nodes = rto__alloc_lines(rto_tlas_sweep_node_count(n), sizeof(rto_tlas_node));
     else
-        t->karras_nodes = rto__alloc(n >= 2 ? n - 1 : 0, sizeof(rto_bvh_node));
+        t->karras_nodes = rto__alloc_lines(n >= 2 ? n - 1 : 0, sizeof(rto_bvh_node));
     return t->instance_aabbs && t->keys && t->sorted_keys && c->tlas_tmp && (t->sweep_nodes || t->karras_nodes)
                ? RTO_OK
                : RTO_ERR_OUT_OF_MEMORY;

@@ -92,6 +92,9 @@ void *rto__alloc(size_t count, size_t size);
 /** rto__alloc for big buffers (frames): from 4 MiB up aligned to 2 MiB and advised as transparent huge pages, which
  * makes their first touch several times cheaper. Release with free(). */
 void *rto__alloc_large(size_t count, size_t size);
+/** rto__alloc aligned to a cache line (64 bytes), for arrays of 64-byte tree nodes that a traversal reads one node
+ * at a time: each node then costs one line, not two. Release with free(). */
+void *rto__alloc_lines(size_t count, size_t size);
 
 #if defined(__GNUC__)
 #pragma GCC visibility pop

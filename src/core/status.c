@@ -46,9 +46,18 @@ void *rto__alloc(size_t count, size_t size)
     return malloc(bytes ? bytes : 1);
 }
 
+void *rto__alloc_lines(size_t count, size_t size)
+{
+    if (size != 0 && count > SIZE_MAX / size)
+        return NULL;
+    const size_t bytes = count * size;
+    void *p = NULL;
+    return posix_memalign(&p, 64, bytes ? bytes : 1) ? NULL : p;
+}
+
 /* Buffers from 4 MiB up are aligned to 2 MiB and advised as transparent huge pages (the kernel's default mode on
  * Debian is "madvise"): a 1080p frame touches about a GiB of new memory, and first-touch page faults on 4 KiB pages
- * cost more than tracing it. Plain malloc'ed memory either way, so free() releases it. */
+ * cost more than tracing it. Smaller ones are cache-line aligned (rto__alloc_lines). Either way free() releases it. */
 #define HUGE_FROM ((size_t)4 << 20)
 #define HUGE_PAGE ((size_t)2 << 20)
 
@@ -58,7 +67,7 @@ void *rto__alloc_large(size_t count, size_t size)
         return NULL;
     const size_t bytes = count * size;
     if (bytes < HUGE_FROM)
-        return malloc(bytes ? bytes : 1);
+        return rto__alloc_lines(count, size);
     void *p = NULL;
     if (posix_memalign(&p, HUGE_PAGE, bytes))
         return NULL;

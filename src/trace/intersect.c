@@ -40,19 +40,11 @@ void rto_ray_inv_dir(const float dir[3], float inv_dir[3])
 int rto_slab_test(const float bmin[3], const float bmax[3], const float origin[3], const float inv_dir[3],
                   float t_min, float best_t, float *t_entry)
 {
-    float lo[3], hi[3];
-    for (int a = 0; a < 3; a++) {
-        const float t0 = (bmin[a] - origin[a]) * inv_dir[a];
-        const float t1 = (bmax[a] - origin[a]) * inv_dir[a];
-        lo[a] = rto__minf(t0, t1);
-        hi[a] = rto__maxf(t0, t1);
-    }
-    const float t_near = rto__maxf(rto__maxf(rto__maxf(lo[0], lo[1]), lo[2]), t_min);
-    const float t_far = rto__minf(rto__minf(rto__minf(hi[0], hi[1]), hi[2]), best_t);
-    if (!(t_near <= t_far))
+    float t;
+    if (!rto__slab(bmin, bmax, origin, inv_dir, t_min, best_t, &t))
         return 0;
     if (t_entry)
-        *t_entry = t_near;
+        *t_entry = t;
     return 1;
 }
 

@@ -105,7 +105,11 @@ static inline int rto__lane_take(rto__lane *s, int ok, const rto_tri_hit *h)
 #define VLT(a, b) VCMP_(a, b, _CMP_LT_OQ)
 #define VGE(a, b) VCMP_(a, b, _CMP_GE_OQ)
 #define VNEQ(a, b) VCMP_(a, b, _CMP_NEQ_UQ)
+#define VGATHER(rows, f)                                                                                             \
+    _mm256_i32gather_ps((rows), _mm256_add_epi32(_mm256_setr_epi32(0, 16, 32, 48, 64, 80, 96, 112),                 \
+                                                 _mm256_set1_epi32(f)), 4)
 #include "lanes_kernel.h"
+#undef VGATHER
 #undef W
 #undef LANES_PREFIX
 #undef VF
@@ -147,6 +151,9 @@ static inline int rto__lane_take(rto__lane *s, int ok, const rto_tri_hit *h)
 #define VMIN _mm512_min_ps
 #define VMAX _mm512_max_ps
 #define VCMP_(a, b, p) ((uint32_t)_mm512_cmp_ps_mask((a), (b), (p)))
+#define VGATHER(rows, f)                                                                                             \
+    _mm512_i32gather_ps(_mm512_add_epi32(_mm512_setr_epi32(0, 16, 32, 48, 64, 80, 96, 112, 128, 144, 160, 176, 192,  \
+                                                           208, 224, 240), _mm512_set1_epi32(f)), (rows), 4)
 #include "lanes_kernel.h"
 
 #if defined(__clang__)

@@ -1,5 +1,6 @@
 /* One lane kernel of the tracer (trace/lanes.c includes this once per instruction set). Before it: W (lanes), PN(x)
- * (a prefixed name) and the vector operations on VF (W floats): VLD / VST (aligned), VSUB, VMUL, VDIV, VADD, VMIN,
+ * (a prefixed name) and the vector operations on VF (W floats): VLD / VST (aligned), VGATHER(rows, f) (float f of
+ * each lane's 16-float row), VSUB, VMUL, VDIV, VADD, VMIN,
  * VMAX (the second operand when unordered or equal, as rto__minf / rto__maxf), VSET1, and VLE / VLT / VGE / VNEQ
  * giving a bit mask of lanes (bit l for lane l; ordered compares, VNEQ unordered as C's !=).
  *
@@ -10,9 +11,11 @@
  * the same as the scalar tracer's, so a lane computes the bits the scalar tracer does. */
 
 typedef struct PN(lanes) {
+    /* The box pair of each lane as it lies in memory (64 bytes: a BLAS or Karras node, or a sweep node's two
+     * children): lmin at float 0, lmax at 4, rmin at 8, rmax at 12. box_pair gathers them by field. */
+    float row[W][16];
     /* The ray in the lane's current space (world in the TLAS, object space in a BLAS), its tMin and best t. */
     float o[3][W], d[3][W], inv[3][W], tmin[W], best[W];
-    float box[12][W];                /* the pair's boxes: lmin, lmax, rmin, rmax */
     float v0[3][W], v1[3][W], v2[3][W]; /* the triangle */
     float tl[W], tr[W];              /* box_pair: entry t of each box */
     float ht[W], hu[W], hv[W], hdet[W]; /* triangle: t, u, v, det */
@@ -32,19 +35,10 @@ static inline void PN(set_ray)(PN(lanes) *L, uint32_t l, const float o[3], const
     }
 }
 
-static inline void PN(stage_box)(PN(lanes) *L, uint32_t l, int k, const float mn[3], const float mx[3])
-{
-    for (int a = 0; a < 3; a++) {
-        L->box[6 * k + a][l] = mn[a];
-        L->box[6 * k + 3 + a][l] = mx[a];
-    }
-}
-
 /* A Karras node (BLAS or TLAS): both children are tested. */
 static inline void PN(stage_node)(PN(lanes) *L, uint32_t l, rto__lane *s, const rto_bvh_node *n)
 {
-    PN(stage_box)(L, l, 0, n->lmin, n->lmax);
-    PN(stage_box)(L, l, 1, n->rmin, n->rmax);
+    memcpy(L->row[l], n, sizeof *n);
     s->lref = n->left;
     s->rref = n->right;
     s->lvalid = s->rvalid = 1;
@@ -117,7 +111,7 @@ static inline int PN(start)(const rto__tracer *tr, PN(lanes) *L, uint32_t l, rto
     float t;
     if (root->item != RTO_TLAS_EMPTY) {
         s->c.box_tests++;
-        if (rto_slab_test(root->min, root->max, ray->origin, s->winv, ray->t_min, ray->t_max, &t))
+        if (rto__slab(root->min, root->max, ray->origin, s->winv, ray->t_min, ray->t_max, &t))
             s->tstack[s->ttop++] = (rto__trace_entry){0, t};
     }
     return LANE_NONE;
@@ -191,8 +185,7 @@ static int PN(step)(const rto__tracer *tr, PN(lanes) *L, uint32_t l, const rto_w
         s->rref = 2 * e.ref + 2;
         s->lvalid = nodes[s->lref].item != RTO_TLAS_EMPTY;
         s->rvalid = nodes[s->rref].item != RTO_TLAS_EMPTY;
-        PN(stage_box)(L, l, 0, nodes[s->lref].min, nodes[s->lref].max);
-        PN(stage_box)(L, l, 1, nodes[s->rref].min, nodes[s->rref].max);
+        memcpy(L->row[l], &nodes[s->lref], 2 * sizeof *nodes); /* the two children lie side by side */
         return LANE_BOX;
     }
 }
@@ -205,11 +198,12 @@ static inline uint32_t PN(box_pair)(PN(lanes) *L, uint32_t *right_hits)
     const VF i0 = VLD(L->inv[0]), i1 = VLD(L->inv[1]), i2 = VLD(L->inv[2]);
     const VF tmin = VLD(L->tmin), best = VLD(L->best);
     uint32_t hits[2];
+    const float *rows = &L->row[0][0];
     for (int k = 0; k < 2; k++) {
-        float(*b)[W] = &L->box[6 * k];
-        const VF a0 = VMUL(VSUB(VLD(b[0]), o0), i0), c0 = VMUL(VSUB(VLD(b[3]), o0), i0);
-        const VF a1 = VMUL(VSUB(VLD(b[1]), o1), i1), c1 = VMUL(VSUB(VLD(b[4]), o1), i1);
-        const VF a2 = VMUL(VSUB(VLD(b[2]), o2), i2), c2 = VMUL(VSUB(VLD(b[5]), o2), i2);
+        const int f = 8 * k; /* the box's min at float f of each row, its max at f + 4 */
+        const VF a0 = VMUL(VSUB(VGATHER(rows, f), o0), i0), c0 = VMUL(VSUB(VGATHER(rows, f + 4), o0), i0);
+        const VF a1 = VMUL(VSUB(VGATHER(rows, f + 1), o1), i1), c1 = VMUL(VSUB(VGATHER(rows, f + 5), o1), i1);
+        const VF a2 = VMUL(VSUB(VGATHER(rows, f + 2), o2), i2), c2 = VMUL(VSUB(VGATHER(rows, f + 6), o2), i2);
         const VF near = VMAX(VMAX(VMAX(VMIN(a0, c0), VMIN(a1, c1)), VMIN(a2, c2)), tmin);
         const VF far = VMIN(VMIN(VMIN(VMAX(a0, c0), VMAX(a1, c1)), VMAX(a2, c2)), best);
         hits[k] = VLE(near, far);
@@ -250,6 +244,31 @@ static inline uint32_t PN(triangle)(PN(lanes) *L)
     return ok;
 }
 
+/* The node a lane pops next, fetched into the cache while the other lanes work: random rays' nodes are rarely
+ * cached, and a lane would otherwise wait for each of them in turn. */
+static inline void PN(prefetch)(const rto__tracer *tr, const rto__lane *s)
+{
+    if (s->btop) {
+        const uint32_t ref = s->bstack[s->btop - 1].ref;
+        if (ref & RTO_BVH_LEAF_BIT)
+            __builtin_prefetch(&s->blas->order[ref & ~RTO_BVH_LEAF_BIT]);
+        else
+            __builtin_prefetch(&s->blas->nodes[ref]);
+        return;
+    }
+    if (!s->ttop || s->done)
+        return;
+    const uint32_t ref = s->tstack[s->ttop - 1].ref;
+    const rto_accel_tlas *tl = tr->tlas;
+    if (tl->kind == RTO_TLAS_KARRAS) {
+        if (!(ref & RTO_BVH_LEAF_BIT))
+            __builtin_prefetch(&tl->karras_nodes[ref]);
+    } else if (ref < tl->n_padded - 1) { /* its two children, 64 bytes from an odd index: two lines */
+        __builtin_prefetch(&tl->sweep_nodes[2 * (size_t)ref + 1]);
+        __builtin_prefetch(&tl->sweep_nodes[2 * (size_t)ref + 2]);
+    }
+}
+
 static void PN(trace)(const rto__tracer *tr, const rto_wf_ray *rays, size_t begin, size_t end, rto_hit_record *hits,
                       rto_trace_counters *counters, void *scratch)
 {
@@ -280,6 +299,7 @@ static void PN(trace)(const rto__tracer *tr, const rto_wf_ray *rays, size_t begi
             for (uint32_t m = box; m; m &= m - 1) {
                 const uint32_t l = (uint32_t)__builtin_ctz(m);
                 rto__lane_push(&L->s[l], (hl >> l) & 1, L->tl[l], (hr >> l) & 1, L->tr[l]);
+                PN(prefetch)(tr, &L->s[l]);
             }
         }
         if (tri) {
@@ -289,6 +309,7 @@ static void PN(trace)(const rto__tracer *tr, const rto_wf_ray *rays, size_t begi
                 const rto_tri_hit h = {L->ht[l], L->hu[l], L->hv[l], L->hdet[l]};
                 if (rto__lane_take(&L->s[l], (ok >> l) & 1, &h))
                     L->best[l] = h.t;
+                PN(prefetch)(tr, &L->s[l]);
             }
         }
     }

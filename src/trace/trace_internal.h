@@ -55,6 +55,28 @@ typedef struct rto__trace_lanes {
 /** The lane kernel of a path (trace/lanes.c), NULL when the build has none. */
 const rto__trace_lanes *rto__trace_lanes_kernel(rto__trace_isa isa);
 
+/** rto_slab_test's body (§6), inlined into the traversal loops: the same binary32 operations in the same order
+ * (min / max: the second operand when unordered or equal, as rto__minf / rto__maxf). */
+static inline int rto__slab(const float bmin[3], const float bmax[3], const float origin[3], const float inv_dir[3],
+                            float t_min, float best_t, float *t_entry)
+{
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        const float t0 = (bmin[a] - origin[a]) * inv_dir[a];
+        const float t1 = (bmax[a] - origin[a]) * inv_dir[a];
+        lo[a] = t0 < t1 ? t0 : t1;
+        hi[a] = t0 > t1 ? t0 : t1;
+    }
+    float t_near = lo[0] > lo[1] ? lo[0] : lo[1];
+    t_near = t_near > lo[2] ? t_near : lo[2];
+    t_near = t_near > t_min ? t_near : t_min;
+    float t_far = hi[0] < hi[1] ? hi[0] : hi[1];
+    t_far = t_far < hi[2] ? t_far : hi[2];
+    t_far = t_far < best_t ? t_far : best_t;
+    *t_entry = t_near;
+    return t_near <= t_far;
+}
+
 /** Whether the ray flags cull a triangle of this det (> 0 front, < 0 back; decided in object space, §6). */
 int rto__triangle_culled(uint32_t flags, float det);
 /** Möller–Trumbore of triangle prim of a mesh with an object-space ray, then culling: 1 for an accepted hit. */

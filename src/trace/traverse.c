@@ -95,8 +95,8 @@ static void trace_blas(const tracer *tr, ray_state *st, uint32_t inst)
         const rto_bvh_node *n = &b->nodes[e.ref];
         float tl = 0.0f, trr = 0.0f;
         st->c.box_tests += 2;
-        const int hl = rto_slab_test(n->lmin, n->lmax, o, inv, ray->t_min, st->best_t, &tl);
-        const int hr = rto_slab_test(n->rmin, n->rmax, o, inv, ray->t_min, st->best_t, &trr);
+        const int hl = rto__slab(n->lmin, n->lmax, o, inv, ray->t_min, st->best_t, &tl);
+        const int hr = rto__slab(n->rmin, n->rmax, o, inv, ray->t_min, st->best_t, &trr);
         top = push_pair(stack, top, hl, n->left, tl, hr, n->right, trr);
     }
 }
@@ -119,7 +119,7 @@ static void trace_sweep(const tracer *tr, ray_state *st)
     /* The root box is tested like any node; an EMPTY node is skipped by its item, never by a box test. */
     if (nodes[0].item != RTO_TLAS_EMPTY) {
         st->c.box_tests++;
-        if (rto_slab_test(nodes[0].min, nodes[0].max, ray->origin, st->inv, ray->t_min, st->best_t, &t))
+        if (rto__slab(nodes[0].min, nodes[0].max, ray->origin, st->inv, ray->t_min, st->best_t, &t))
             stack[top++] = (entry){0, t};
     }
     while (top && !st->done) {
@@ -136,11 +136,11 @@ static void trace_sweep(const tracer *tr, ray_state *st)
         int hl = 0, hr = 0;
         if (nodes[l].item != RTO_TLAS_EMPTY) {
             st->c.box_tests++;
-            hl = rto_slab_test(nodes[l].min, nodes[l].max, ray->origin, st->inv, ray->t_min, st->best_t, &tl);
+            hl = rto__slab(nodes[l].min, nodes[l].max, ray->origin, st->inv, ray->t_min, st->best_t, &tl);
         }
         if (nodes[r].item != RTO_TLAS_EMPTY) {
             st->c.box_tests++;
-            hr = rto_slab_test(nodes[r].min, nodes[r].max, ray->origin, st->inv, ray->t_min, st->best_t, &trr);
+            hr = rto__slab(nodes[r].min, nodes[r].max, ray->origin, st->inv, ray->t_min, st->best_t, &trr);
         }
         top = push_pair(stack, top, hl, l, tl, hr, r, trr);
     }
@@ -171,8 +171,8 @@ static void trace_karras_tlas(const tracer *tr, ray_state *st)
         const rto_bvh_node *n = &tl->karras_nodes[e.ref];
         float t0 = 0.0f, t1 = 0.0f;
         st->c.box_tests += 2;
-        const int hl = rto_slab_test(n->lmin, n->lmax, ray->origin, st->inv, ray->t_min, st->best_t, &t0);
-        const int hr = rto_slab_test(n->rmin, n->rmax, ray->origin, st->inv, ray->t_min, st->best_t, &t1);
+        const int hl = rto__slab(n->lmin, n->lmax, ray->origin, st->inv, ray->t_min, st->best_t, &t0);
+        const int hr = rto__slab(n->rmin, n->rmax, ray->origin, st->inv, ray->t_min, st->best_t, &t1);
         top = push_pair(stack, top, hl, n->left, t0, hr, n->right, t1);
     }
 }
