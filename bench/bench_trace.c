@@ -2,7 +2,10 @@
  *
  * Table 1: Mrays/s for primary, shadow and random rays on the Stanford bunny, 2CylinderEngine and rtstress:16 at
  * 1920x1080 (random: 1920 * 1080 rays; shadow: one per primary hit), with 1 thread and with all threads:
- *   - the oracle: rto_trace with rto_trace_desc.threads 1, or 0 (one thread per online CPU);
+ *   - the oracle: rto_trace with rto_trace_desc.threads 1, or 0 (one thread per online CPU), on each of its paths
+ *     the CPU has (RTO_TRACE_ISA = scalar, avx2, avx512: the scalar reference, 8 or 16 ray lanes); every path's
+ *     records are compared with the scalar path's after the runs, and the ratios use the path rto_trace takes by
+ *     default (scalar);
  *   - Embree: rtcIntersect1 per ray (rtcOccluded1 for the TERMINATE_ON_FIRST_HIT shadow rays) through the scene
  *     mirror of oracle/embree.c (one RTCScene per mesh, one instance geometry per instance, as crosscheck builds
  *     it). 1 thread: a device with "threads=1", traced in the calling thread. All threads: a device with Embree's
@@ -10,14 +13,15 @@
  *     ([k n / T, (k + 1) n / T)), so both sides get identical slices of work.
  *   Embree is built with RTC_BUILD_QUALITY_HIGH (SAH with spatial splits, its fastest structure to trace) and its
  *   default, non-robust intersection; a second column gives Embree with RTC_SCENE_FLAG_ROBUST, the mode crosscheck
- *   compares against (same build quality).
+ *   compares against (same build quality), and a third its stream API (rtcIntersect1M / rtcOccluded1M on streams
+ *   of 256 rays), timed with the coherent and the incoherent context flag and shown at the faster of the two.
  * Table 2: the oracle's trace time for rtstress:N, N = 8, 16, 24, 32, 40 (512 to 64,000 instances), primary rays at
  *   1920x1080, 1 thread and all threads, relative to N = 8, with the sweep TLAS (the default) and a Karras TLAS: the
  *   sweep tree's leaves follow the sorted keys in a complete binary tree, so its subtrees match Morton cells only
  *   when the instance count is a power of two and fills the grid (N = 8, 16, 32); the Karras tree splits where the
  *   keys' bits change.
  * The timed region is the tracing call alone: scenes, trees, Embree mirrors and rays are made before the clock starts,
- * and the hit records are allocated once. Each figure is the median of RUNS runs, oracle and Embree interleaved.
+ * and the hit records are allocated once. Each figure is the median of RUNS runs, every side interleaved.
  * oracle/embree is time(oracle) / time(Embree): > 1 means the oracle is slower. Hits of both sides are counted
  * outside the clock and printed, so a reader sees both traced the same rays to the same surfaces.
  * Usage: bench_trace [--width W] [--height H] [--json] [--stress-only] [bunny.gltf] [2CylinderEngine.glb]. */
@@ -67,23 +71,42 @@ static rayset make_rays(const rto_accel *acc, rto_ray_set set)
     return r;
 }
 
-static double time_oracle(const rto_accel *acc, const rayset *r, uint32_t threads, rto_hit_record *hits)
-{
-    rto_msg msg = {{0}};
-    rto_trace_desc td = {threads};
-    double t0 = now();
-    if (rto_trace(acc, r->rays, r->n, &td, hits, NULL, &msg))
-        die("rto_trace", &msg);
-    return now() - t0;
-}
+/* What Table 1 times on each ray set: the oracle's paths (RTO_TRACE_ISA set to each in turn; one the CPU lacks is
+ * skipped) and Embree's calls. */
+typedef struct side {
+    const char *name;
+    const char *isa; /* an oracle path, or NULL for Embree */
+    emb_api api;
+    int robust;
+} side;
+enum { SIDE_SCALAR, SIDE_AVX2, SIDE_AVX512, SIDE_EMBREE, SIDE_ROBUST, SIDE_STREAM, SIDE_STREAM_COHERENT, SIDES };
+static const side sides[SIDES] = {
+    {"scalar", "scalar", EMB_API_SINGLE, 0},
+    {"avx2", "avx2", EMB_API_SINGLE, 0},
+    {"avx512", "avx512", EMB_API_SINGLE, 0},
+    {"embree", NULL, EMB_API_SINGLE, 0},
+    {"embree robust", NULL, EMB_API_SINGLE, 1},
+    {"embree stream", NULL, EMB_API_STREAM, 0},
+    {"embree stream coherent", NULL, EMB_API_STREAM_COHERENT, 0},
+};
+static int side_ok[SIDES];
+static int default_side; /* the path rto_trace takes without RTO_TRACE_ISA */
 
-static double time_embree(const emb_scene *e, emb_device *d, const rayset *r, uint32_t threads, rto_hit_record *hits)
+static double time_side(int k, const rto_accel *acc, emb_scene *const e[2], emb_device *d, const rayset *r,
+                        uint32_t threads, rto_hit_record *hits)
 {
     rto_msg msg = {{0}};
-    double t0 = now();
-    if (emb_trace(e, d, r->rays, r->n, threads, hits, &msg))
-        die("emb_trace", &msg);
-    return now() - t0;
+    const side *sd = &sides[k];
+    if (sd->isa && setenv("RTO_TRACE_ISA", sd->isa, 1))
+        die("setenv", NULL);
+    rto_trace_desc td = {threads};
+    const double t0 = now();
+    if (sd->isa ? rto_trace(acc, r->rays, r->n, &td, hits, NULL, &msg) != RTO_OK
+                : emb_trace_api(e[sd->robust], d, r->rays, r->n, threads, sd->api, hits, &msg) != RTO_OK)
+        die(sd->name, &msg);
+    const double t = now() - t0;
+    unsetenv("RTO_TRACE_ISA");
+    return t;
 }
 
 static size_t count_hits(const rto_hit_record *h, size_t n)
@@ -116,38 +139,65 @@ static void bench_scene(const char *spec, const char *label)
     const rto_ray_set sets[3] = {RTO_RAYS_PRIMARY, RTO_RAYS_SHADOW, RTO_RAYS_RANDOM};
     for (int k = 0; k < 3; k++) {
         rayset r = make_rays(acc, sets[k]);
-        rto_hit_record *ho = malloc((r.n ? r.n : 1) * sizeof *ho), *he = malloc((r.n ? r.n : 1) * sizeof *he);
-        if (!ho || !he)
-            die("out of memory", NULL);
+        const size_t bytes = (r.n ? r.n : 1) * sizeof(rto_hit_record);
+        rto_hit_record *h[SIDES];
+        for (int i = 0; i < SIDES; i++)
+            if (!(h[i] = malloc(bytes)))
+                die("out of memory", NULL);
         for (int d = 0; d < 2; d++) {
-            uint32_t threads = d ? 0 : 1;
-            double to[RUNS], te[RUNS], tr[RUNS];
-            for (int run = 0; run < RUNS; run++) {
-                to[run] = time_oracle(acc, &r, threads, ho);
-                te[run] = time_embree(e[d][0], devices[d], &r, threads, he);
-                tr[run] = time_embree(e[d][1], devices[d], &r, threads, he);
-            }
-            size_t hits_o = count_hits(ho, r.n), hits_e = count_hits(he, r.n);
-            double mo = median(to), me = median(te), mr = median(tr);
-            double n = (double)r.n;
-            char th[16];
+            const uint32_t threads = d ? 0 : 1;
+            double t[SIDES][RUNS], m[SIDES] = {0};
+            for (int run = 0; run < RUNS; run++)
+                for (int i = 0; i < SIDES; i++)
+                    if (side_ok[i])
+                        t[i][run] = time_side(i, acc, e[d], devices[d], &r, threads, h[i]);
+            for (int i = 0; i < SIDES; i++)
+                if (side_ok[i]) {
+                    m[i] = median(t[i]);
+                    /* every oracle path writes the scalar tracer's bytes (unit.trace_lanes holds them to it too) */
+                    if (sides[i].isa && memcmp(h[i], h[SIDE_SCALAR], r.n * sizeof *h[i]))
+                        die(sides[i].name, &(rto_msg){{"records differ from the scalar path's"}});
+                }
+            /* Embree's stream API at its faster context flag: the fairer reference */
+            const int st = m[SIDE_STREAM_COHERENT] < m[SIDE_STREAM] ? SIDE_STREAM_COHERENT : SIDE_STREAM;
+            const double n = (double)r.n, mo = m[default_side];
+            char th[16], kase[96];
             snprintf(th, sizeof th, d ? "all(%d)" : "1", hw_threads);
-            printf("%-16s %-8s %8s %9zu %9zu %9zu %9.1f %8.2f %9.1f %8.2f %7.2f %9.1f %8.2f %7.2f\n", label,
-                   rto_ray_set_name(sets[k]), th, r.n, hits_o, hits_e, mo * 1e3, n / mo * 1e-6, me * 1e3,
-                   n / me * 1e-6, mo / me, mr * 1e3, n / mr * 1e-6, mo / mr);
-            char kase[96];
+            printf("%-16s %-7s %7s %8zu %8zu %8zu |", label, rto_ray_set_name(sets[k]), th, r.n,
+                   count_hits(h[SIDE_SCALAR], r.n), count_hits(h[SIDE_EMBREE], r.n));
+            for (int i = 0; i < SIDES; i++) {
+                if (i == SIDE_STREAM_COHERENT)
+                    continue;
+                if (side_ok[i])
+                    printf(" %7.2f", n / m[i == SIDE_STREAM ? st : i] * 1e-6);
+                else
+                    printf(" %7s", "-");
+            }
+            printf(" | %6.2f %6.2f %6.2f\n", mo / m[SIDE_EMBREE], mo / m[SIDE_ROBUST], mo / m[st]);
             snprintf(kase, sizeof kase, "%s %s", label, rto_ray_set_name(sets[k]));
-            bench_row("trace", kase, "embree", d ? 0 : 1, mo, me);
-            bench_row("trace", kase, "embree robust", d ? 0 : 1, mo, mr);
-            json_array_append_new(jrows, json_pack("{s:s, s:s, s:i, s:I, s:I, s:I, s:f, s:f, s:f, s:f, s:f, s:f}",
-                "scene", label, "rays", rto_ray_set_name(sets[k]), "threads", d ? hw_threads : 1, "count",
-                (json_int_t)r.n, "oracle_hits", (json_int_t)hits_o, "embree_hits", (json_int_t)hits_e,
-                "oracle_ms", mo * 1e3, "oracle_mrays", n / mo * 1e-6, "embree_ms", me * 1e3, "embree_mrays",
-                n / me * 1e-6, "embree_robust_ms", mr * 1e3, "embree_robust_mrays", n / mr * 1e-6));
+            json_t *ms = json_object();
+            for (int i = 0; i < SIDES; i++) {
+                if (!side_ok[i])
+                    continue;
+                json_object_set_new(ms, sides[i].name, json_real(m[i] * 1e3));
+                if (sides[i].isa) { /* each oracle path against rtcIntersect1 */
+                    char group[32];
+                    snprintf(group, sizeof group, "trace %s", sides[i].name);
+                    bench_row(group, kase, "embree", d ? 0 : 1, m[i], m[SIDE_EMBREE]);
+                }
+            }
+            char group[32];
+            snprintf(group, sizeof group, "trace %s", sides[default_side].name);
+            bench_row(group, kase, "embree robust", d ? 0 : 1, mo, m[SIDE_ROBUST]);
+            bench_row(group, kase, sides[st].name, d ? 0 : 1, mo, m[st]);
+            json_array_append_new(jrows, json_pack("{s:s, s:s, s:i, s:I, s:I, s:I, s:s, s:o}", "scene", label, "rays",
+                rto_ray_set_name(sets[k]), "threads", d ? hw_threads : 1, "count", (json_int_t)r.n, "oracle_hits",
+                (json_int_t)count_hits(h[SIDE_SCALAR], r.n), "embree_hits",
+                (json_int_t)count_hits(h[SIDE_EMBREE], r.n), "default_path", sides[default_side].name, "ms", ms));
             fflush(stdout);
         }
-        free(ho);
-        free(he);
+        for (int i = 0; i < SIDES; i++)
+            free(h[i]);
         free(r.rays);
     }
     for (int d = 0; d < 2; d++)
@@ -155,6 +205,16 @@ static void bench_scene(const char *spec, const char *label)
             emb_scene_destroy(e[d][rb]);
     rto_accel_destroy(acc);
     rto_scene_destroy(s);
+}
+
+static double time_oracle(const rto_accel *acc, const rayset *r, uint32_t threads, rto_hit_record *hits)
+{
+    rto_msg msg = {{0}};
+    rto_trace_desc td = {threads};
+    double t0 = now();
+    if (rto_trace(acc, r->rays, r->n, &td, hits, NULL, &msg))
+        die("rto_trace", &msg);
+    return now() - t0;
 }
 
 static void bench_stress(void)
@@ -242,14 +302,20 @@ int main(int argc, char **argv)
     jrows = json_array();
     jstress = json_array();
     print_load("before");
-    printf("rays at %ux%u (random: %u rays; shadow: one per primary hit), median of %d runs; Embree %d.%d.%d, build "
-           "quality %s; oracle/x = time(oracle) / time(x)\n", width, height, width * height, RUNS, RTC_VERSION_MAJOR,
-           RTC_VERSION_MINOR, RTC_VERSION_PATCH, emb_quality_name(EMB_QUALITY_HIGH));
-    printf("%-16s %-8s %8s %9s %9s %9s %9s %8s %9s %8s %7s %9s %8s %7s\n", "scene", "rays", "threads", "count",
-           "hits", "emb hits", "oracle ms", "Mrays/s", "embree ms", "Mrays/s", "oracle/", "robust ms", "Mrays/s",
-           "oracle/");
-    printf("%-16s %-8s %8s %9s %9s %9s %9s %8s %9s %8s %7s %9s %8s %7s\n", "", "", "", "", "(oracle)", "", "", "",
-           "", "", "embree", "", "", "robust");
+    __builtin_cpu_init();
+    for (int i = 0; i < SIDES; i++)
+        side_ok[i] = 1;
+    side_ok[SIDE_AVX2] = __builtin_cpu_supports("avx2");
+    side_ok[SIDE_AVX512] = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+    default_side = SIDE_SCALAR;
+    printf("rays at %ux%u (random: %u rays; shadow: one per primary hit), median of %d runs, interleaved; Embree "
+           "%d.%d.%d, build quality %s. Mrays/s of the oracle's paths (RTO_TRACE_ISA; rto_trace takes %s here) and "
+           "of Embree: rtcIntersect1, robust, and rtcIntersect1M streams at their faster context flag; oracle/x = "
+           "time(%s) / time(x)\n", width, height, width * height, RUNS, RTC_VERSION_MAJOR, RTC_VERSION_MINOR,
+           RTC_VERSION_PATCH, emb_quality_name(EMB_QUALITY_HIGH), sides[default_side].name, sides[default_side].name);
+    printf("%-16s %-7s %7s %8s %8s %8s | %7s %7s %7s %7s %7s %7s | %6s %6s %6s\n", "scene", "rays", "threads", "count",
+           "hits", "emb hits", "scalar", "avx2", "avx512", "embree", "robust", "stream", "/emb", "/robust", "/stream");
     for (int i = 0; i < nscenes && !stress_only; i++) {
         const char *base = strrchr(scenes[i], '/');
         bench_scene(scenes[i], base ? base + 1 : scenes[i]);

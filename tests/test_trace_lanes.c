@@ -192,10 +192,15 @@ static void test_masks(void **state)
     rto_scene_destroy(s);
 }
 
-/* RTO_TRACE_ISA caps rto_trace's path; an unknown path is refused by rto__trace_with. */
+/* rto_trace takes the scalar tracer unless RTO_TRACE_ISA asks for lanes, and then the widest the CPU has up to
+ * those; an unknown path is refused by rto__trace_with. */
 static void test_isa_choice(void **state)
 {
     (void)state;
+    unsetenv("RTO_TRACE_ISA");
+    assert_int_equal(rto__trace_isa_resolve(), RTO__TRACE_SCALAR);
+    assert_int_equal(setenv("RTO_TRACE_ISA", "avx1024", 1), 0);
+    assert_int_equal(rto__trace_isa_resolve(), RTO__TRACE_SCALAR);
     static const char *const names[] = {"scalar", "avx2", "avx512"};
     for (int i = 0; i < 3; i++) {
         assert_int_equal(setenv("RTO_TRACE_ISA", names[i], 1), 0);

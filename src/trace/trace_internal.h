@@ -13,7 +13,7 @@
 
 /** Instruction-set paths of rto_trace. Every path runs §6 per ray and gives the same hit records and counters. */
 typedef enum rto__trace_isa {
-    RTO__TRACE_AUTO = 0,   /* the widest the CPU has, capped by RTO_TRACE_ISA from the environment when set */
+    RTO__TRACE_AUTO = 0,   /* scalar, or the lanes RTO_TRACE_ISA from the environment asks for (see resolve) */
     RTO__TRACE_SCALAR = 1, /* one ray at a time: the reference the lanes are tested against */
     RTO__TRACE_AVX2 = 2,   /* 8 lanes */
     RTO__TRACE_AVX512 = 3, /* 16 lanes (AVX-512 F, BW, DQ and VL) */
@@ -24,7 +24,8 @@ typedef enum rto__trace_isa {
 const char *rto__trace_isa_name(rto__trace_isa isa);
 /** Whether this CPU (and build) can run the path; AUTO and SCALAR always can. */
 int rto__trace_isa_supported(rto__trace_isa isa);
-/** The path AUTO runs here: the widest supported one, capped by RTO_TRACE_ISA (scalar, avx2, avx512) when set. */
+/** The path AUTO runs here: the scalar tracer, the faster on every ray set bench_trace measures on the machines of
+ * docs/results/trace.md; with RTO_TRACE_ISA = avx2 or avx512, the widest lanes the CPU has up to that one. */
 rto__trace_isa rto__trace_isa_resolve(void);
 /** rto_trace on a chosen path (an unsupported one is refused: RTO_ERR_UNSUPPORTED). */
 rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,

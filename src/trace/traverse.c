@@ -233,7 +233,7 @@ int rto__trace_isa_supported(rto__trace_isa isa)
 
 rto__trace_isa rto__trace_isa_resolve(void)
 {
-    rto__trace_isa cap = RTO__TRACE_AVX512;
+    rto__trace_isa cap = RTO__TRACE_SCALAR;
     const char *env = getenv("RTO_TRACE_ISA");
     if (env && *env)
         for (int i = RTO__TRACE_SCALAR; i < RTO__TRACE_ISA_COUNT; i++)
