@@ -24,7 +24,8 @@
  * and the hit records are allocated once. Each figure is the median of RUNS runs, every side interleaved.
  * oracle/embree is time(oracle) / time(Embree): > 1 means the oracle is slower. Hits of both sides are counted
  * outside the clock and printed, so a reader sees both traced the same rays to the same surfaces.
- * Usage: bench_trace [--width W] [--height H] [--json] [--stress-only] [bunny.gltf] [2CylinderEngine.glb]. */
+ * Usage: bench_trace [--width W] [--height H] [--json] [--stress-only | --table1-only] [bunny.gltf]
+ *                    [2CylinderEngine.glb]. */
 #define _GNU_SOURCE
 #include "bench_util.h"
 #include "embree.h"
@@ -282,7 +283,7 @@ int main(int argc, char **argv)
 {
     const char *scenes[8];
     int nscenes = 0;
-    int stress_only = 0;
+    int stress_only = 0, table1_only = 0;
     bench_init(&argc, argv);
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--width") && i + 1 < argc)
@@ -291,6 +292,8 @@ int main(int argc, char **argv)
             height = arg_u32(argv[++i]);
         else if (!strcmp(argv[i], "--stress-only"))
             stress_only = 1;
+        else if (!strcmp(argv[i], "--table1-only"))
+            table1_only = 1;
         else if (nscenes < 6)
             scenes[nscenes++] = argv[i];
     }
@@ -322,7 +325,8 @@ int main(int argc, char **argv)
     }
     if (!stress_only)
         bench_scene("rtstress:16", "rtstress:16");
-    bench_stress();
+    if (!table1_only)
+        bench_stress();
     print_load("after");
     bench_finish("trace", RUNS, json_pack("{s:i, s:i, s:i, s:o, s:o}", "width", (int)width, "height", (int)height,
                                     "threads", hw_threads, "rays", jrows, "rtstress", jstress));
