@@ -179,6 +179,43 @@ def bench_rows(name, heading, doc_ref):
     return [(heading, "\n".join(lines), [])]
 
 
+TRACE_SIDES = ("scalar", "avx2", "avx512", "embree", "embree robust")
+
+
+def trace_bench(name):
+    """bench_trace's two tables from a recorded --json document: Mrays/s per path and reference, and rtstress:N."""
+    d = load(name)
+    rec, det = d["recorded"], d["detail"]
+    lines = ["| scene | rays | threads | count | " + " | ".join(TRACE_SIDES) + " | embree stream | "
+             "scalar/embree | scalar/robust | scalar/stream |", "|---|---|---:|---:|" + "---:|" * 9]
+    for r in det["rays"]:
+        ms = r["ms"]
+        stream = min(ms["embree stream"], ms["embree stream coherent"])
+        flag = "coherent" if ms["embree stream coherent"] < ms["embree stream"] else "incoherent"
+        cell = [f"{r['count'] / ms[k] * 1e-3:.2f}" if k in ms else "-" for k in TRACE_SIDES]
+        o = ms[r["default_path"]]
+        lines.append(f"| {r['scene']} | {r['rays']} | {r['threads']} | {r['count']} | " + " | ".join(cell) +
+                     f" | {r['count'] / stream * 1e-3:.2f} ({flag}) | {o / ms['embree']:.2f} | "
+                     f"{o / ms['embree robust']:.2f} | {o / stream:.2f} |")
+    stress = ["| scene | TLAS | instances | 1 thread ms | vs N=8 | all threads ms | vs N=8 |",
+              "|---|---|---:|---:|---:|---:|---:|"]
+    for r in det["rtstress"]:
+        stress.append(f"| {r['scene']} | {r['tlas']} | {r['instances']} | {r['ms_1_thread']:.1f} | "
+                      f"{r['rel_1_thread']:.2f} | {r['ms_all_threads']:.1f} | {r['rel_all_threads']:.2f} |")
+    text = (para(f"`bench_trace --json` at {det['width']}×{det['height']}, median of {d['runs']} runs with every side "
+                 f"interleaved, at {rec['commit']} ({rec['date']}) on {rec['machine']}, {det['threads']} hardware "
+                 f"threads (`{RESULTS}/{name}`; docs/trace.md, \"Benchmark\", says what each column times). "
+                 "Mrays/s of the oracle's paths (`RTO_TRACE_ISA`: the scalar tracer, rto_trace's default, and the "
+                 "8- and 16-ray lanes) and of Embree 3 (`rtcIntersect1` / `rtcOccluded1`, the same in robust mode, "
+                 "and `rtcIntersect1M` / `rtcOccluded1M` streams at their faster context flag); the ratios are "
+                 "time(scalar) / time(Embree), above 1 the oracle is slower. Every path's records equal the scalar "
+                 "path's (the benchmark compares them).") + "\n\n" + "\n".join(lines) + "\n\n" +
+            para("The oracle's primary-ray trace time for `rtstress:N` with the sweep TLAS (the seeds' layout, the "
+                 "default) and a Karras TLAS, against N = 8 (DESIGN.md §5 says why the sweep tree costs more at "
+                 "N = 24 and 40).") + "\n\n" + "\n".join(stress))
+    return [(f"`bench_trace` on {rec['machine'].split(',')[0].split(' with ')[0]}", text, [])]
+
+
 def trace_area():
     sections = []
     if exists("conformance-family.json"):
@@ -200,7 +237,9 @@ def trace_area():
                  "that failed on it (docs/trace.md, \"Tracer faults and the tests that catch them\").")
             + "\n\n" + block("tracer-mutations"),
             [lambda doc, src=src: mut.table(src, doc)]))
-    sections += bench_rows("trace", "`bench_trace`", "docs/trace.md, \"Benchmark\",")
+    for name in ("bench-trace.json", "bench-trace-xeon16.json"):
+        if exists(name):
+            sections += trace_bench(name)
     return {"title": "Results: tracing and checking hits",
             "intro": "Counts from the conformance tests and the tracer mutations, and the tracing benchmark when a run "
                      "is recorded.",
