@@ -1245,7 +1245,9 @@ typedef struct rto_trace_desc {
  * counter records. TERMINATE_ON_FIRST_HIT rays stop at the first triangle hit found; CULL_BACK_FACING /
  * CULL_FRONT_FACING skip triangles by the sign of det in object space; an instance is entered only when
  * instance.mask & ray.cullMask. Rays whose origin, direction, tMin or tMax is not finite, or whose tMin > tMax, are
- * refused (RTO_ERR_INVALID_ARGUMENT naming the first such ray) before anything is traced.
+ * refused (RTO_ERR_INVALID_ARGUMENT naming the first such ray) before anything is traced. One ray at a time per
+ * thread; with RTO_TRACE_ISA=avx2 or avx512 in the environment, 8 or 16 in SIMD lanes where the CPU has them (the
+ * same bytes; docs/trace.md, "Lanes").
  */
 rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
                      rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg);

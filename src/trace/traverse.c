@@ -2,8 +2,9 @@
  * with the ray in that instance's object space. A stack of (node, entry t) pairs: a popped node whose entry t is
  * beyond the best hit so far is skipped; at an internal node both children are slab-tested and pushed farther
  * first, so the nearer is visited first, and on equal entry t the left child first. Triangles must beat the best t
- * strictly, so the first hit found wins a tie. One ray at a time here, the reference; trace/lanes.c runs 8 or 16 rays
- * side by side with the same operations, chosen at run time. Rays are split statically over threads (§2). */
+ * strictly, so the first hit found wins a tie. One ray at a time here, the reference and the default; trace/lanes.c
+ * runs 8 or 16 rays side by side with the same operations when RTO_TRACE_ISA asks. Rays are split statically over
+ * threads (§2). */
 #include "internal.h"
 #include "trace_internal.h"
 

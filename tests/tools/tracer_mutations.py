@@ -18,8 +18,8 @@ import os
 import subprocess
 import sys
 
-TESTS = ["unit.trace", "unit.check_hits", "unit.conformance", "unit.rays", "unit.embree", "cli.check_hits",
-         "cli.crosscheck"]
+TESTS = ["unit.trace", "unit.trace_lanes", "unit.check_hits", "unit.conformance", "unit.rays", "unit.embree",
+         "cli.check_hits", "cli.crosscheck"]
 
 # (name, file, exact text, replacement): each text must occur exactly once.
 MUTATIONS = [
@@ -38,9 +38,8 @@ MUTATIONS = [
      "h.bary[0] = hit->u;\n    h.bary[1] = hit->v;", "h.bary[0] = hit->v;\n    h.bary[1] = hit->u;"),
     ("CULL_BACK_FACING culls front faces", "src/trace/intersect.c",
      "((flags & RTO_RAY_FLAG_CULL_BACK_FACING) && det < 0.0f)", "((flags & RTO_RAY_FLAG_CULL_BACK_FACING) && det > 0.0f)"),
-    ("slab tNear ignores tMin", "src/trace/intersect.c",
-     "const float t_near = rto__maxf(rto__maxf(rto__maxf(lo[0], lo[1]), lo[2]), t_min);",
-     "const float t_near = rto__maxf(rto__maxf(lo[0], lo[1]), lo[2]);"),
+    ("slab tNear ignores tMin", "src/trace/trace_internal.h",
+     "    t_near = t_near > t_min ? t_near : t_min;\n", ""),
     ("farther child visited first", "src/trace/traverse.c",
      "if (tl <= tr) {", "if (tl > tr) {"),
     ("BLAS pop-time skip dropped (t > bestT)", "src/trace/traverse.c",
@@ -52,6 +51,14 @@ MUTATIONS = [
      "h.custom_index = instance->custom_index;", "h.custom_index = instance->custom_index + 1;"),
     ("hitGroup from the mask", "src/trace/intersect.c",
      "h.hit_group = instance->sbt_offset;", "h.hit_group = instance->mask;"),
+    ("lanes: farther child visited first", "src/trace/lanes.c", "if (tl <= tr) {", "if (tl > tr) {"),
+    ("lanes: slab tNear ignores tMin", "src/trace/lanes_kernel.h",
+     "const VF near = VMAX(VMAX(VMAX(VMIN(a0, c0), VMIN(a1, c1)), VMIN(a2, c2)), tmin);",
+     "const VF near = VMAX(VMAX(VMIN(a0, c0), VMIN(a1, c1)), VMIN(a2, c2));"),
+    ("lanes: t <= bestT (ties keep the later triangle)", "src/trace/lanes_kernel.h",
+     "VLT(t, VLD(L->best))", "VLE(t, VLD(L->best))"),
+    ("lanes: the right box gathered from the left's fields", "src/trace/lanes_kernel.h",
+     "const int f = 8 * k;", "const int f = 0 * k;"),
     ("objToWorld translation dropped", "src/trace/intersect.c",
      "for (int c = 0; c < 4; c++)\n        for (int r = 0; r < 3; r++)\n            h.obj_to_world[c][r] = instance->obj_to_world.m[r][c];",
      "for (int c = 0; c < 3; c++)\n        for (int r = 0; r < 3; r++)\n            h.obj_to_world[c][r] = instance->obj_to_world.m[r][c];"),
