@@ -8,15 +8,6 @@
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Helpers                                                                                                          */
 
-static rto_accel *build(const rto_scene *s)
-{
-    rto_accel *a = NULL;
-    rto_msg msg = {{0}};
-    if (rto_accel_build(s, NULL, &a, &msg))
-        fail_msg("rto_accel_build(%s): %s", s->source, msg.text);
-    return a;
-}
-
 /* Generates a set into a fresh array of rto_rays_capacity records, or fails the test with the library's message. */
 static rto_wf_ray *gen(const rto_accel *a, const rto_rays_desc *d, size_t *n, rto_camera_uniforms *cam)
 {
@@ -91,7 +82,7 @@ void test_random_rays(void **state)
     (void)state;
     for (size_t sc = 0; sc < sizeof set_scenes / sizeof set_scenes[0]; sc++) {
         rto_scene *s = tu_load(set_scenes[sc]);
-        rto_accel *a = build(s);
+        rto_accel *a = tu_accel(s, RTO_TLAS_SWEEP);
         check_determinism(a, RTO_RAYS_RANDOM, 500);
         rto_rays_desc d = {0};
         d.set = RTO_RAYS_RANDOM;
@@ -186,7 +177,7 @@ void test_grazing_rays(void **state)
     (void)state;
     for (size_t sc = 0; sc < sizeof set_scenes / sizeof set_scenes[0]; sc++) {
         rto_scene *s = tu_load(set_scenes[sc]);
-        rto_accel *a = build(s);
+        rto_accel *a = tu_accel(s, RTO_TLAS_SWEEP);
         check_determinism(a, RTO_RAYS_GRAZING, 300);
         rto_rays_desc d = {0};
         d.set = RTO_RAYS_GRAZING;
@@ -238,7 +229,7 @@ void test_axis_rays(void **state)
     (void)state;
     for (size_t sc = 0; sc < sizeof set_scenes / sizeof set_scenes[0]; sc++) {
         rto_scene *s = tu_load(set_scenes[sc]);
-        rto_accel *a = build(s);
+        rto_accel *a = tu_accel(s, RTO_TLAS_SWEEP);
         check_determinism(a, RTO_RAYS_AXIS, 300);
         rto_rays_desc d = {0};
         d.set = RTO_RAYS_AXIS;
@@ -296,7 +287,7 @@ void test_primary_rays(void **state)
 {
     (void)state;
     rto_scene *s = tu_load("rtstress:2");
-    rto_accel *a = build(s);
+    rto_accel *a = tu_accel(s, RTO_TLAS_SWEEP);
     rto_rays_desc d = {0};
     d.set = RTO_RAYS_PRIMARY;
     d.width = 33;
@@ -346,7 +337,7 @@ void test_empty_scenes(void **state)
     /* No instances at all, and instances of an empty mesh only (a glTF mesh without triangles loads so; here the
      * cube's instances are given a scene of their own with the mesh emptied). */
     rto_scene *s = tu_load("instances:uniform:0");
-    rto_accel *a = build(s);
+    rto_accel *a = tu_accel(s, RTO_TLAS_SWEEP);
     for (int set = RTO_RAYS_RANDOM; set <= RTO_RAYS_AXIS; set++) {
         rto_rays_desc d = {0};
         d.set = (rto_ray_set)set;
@@ -375,7 +366,7 @@ void test_empty_scenes(void **state)
 
     s = tu_load("rtstress:1");
     s->meshes[0].triangle_count = 0; /* the scene's only mesh, emptied: its instance is skipped */
-    a = build(s);
+    a = tu_accel(s, RTO_TLAS_SWEEP);
     for (int set = RTO_RAYS_RANDOM; set <= RTO_RAYS_AXIS; set++) {
         rto_rays_desc e = {0};
         e.set = (rto_ray_set)set;
@@ -411,7 +402,7 @@ static void light_d(const float given[3], double l[3])
 static void check_shadow(const char *spec, uint32_t w, uint32_t h, const float light[3])
 {
     rto_scene *s = tu_load(spec);
-    rto_accel *a = build(s);
+    rto_accel *a = tu_accel(s, RTO_TLAS_SWEEP);
     rto_rays_desc d = {0};
     d.set = RTO_RAYS_PRIMARY;
     d.width = w;
@@ -500,7 +491,7 @@ void test_shadow_offset(void **state)
 {
     (void)state;
     rto_scene *s = tu_load("sphere:3");
-    rto_accel *a = build(s);
+    rto_accel *a = tu_accel(s, RTO_TLAS_SWEEP);
     rto_rays_desc d = {0};
     d.set = RTO_RAYS_SHADOW;
     d.width = 64;
@@ -581,7 +572,7 @@ void test_generate_refusals(void **state)
 {
     (void)state;
     rto_scene *s = tu_load("triangle");
-    rto_accel *a = build(s);
+    rto_accel *a = tu_accel(s, RTO_TLAS_SWEEP);
     rto_wf_ray r[64];
     rto_rays_desc d = {0};
     d.set = RTO_RAYS_RANDOM;

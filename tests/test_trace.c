@@ -21,16 +21,6 @@ static rto_wf_ray make_ray(const float o[3], const float d[3], uint32_t flags)
     return r;
 }
 
-static rto_accel *build(const rto_scene *s, rto_tlas_kind kind)
-{
-    rto_accel_desc d = {kind, 0};
-    rto_accel *a = NULL;
-    rto_msg msg = {{0}};
-    if (rto_accel_build(s, &d, &a, &msg))
-        fail_msg("build: %s", msg.text);
-    return a;
-}
-
 /* A world-space point of triangle p of instance k: barycentric (b1, b2), through objToWorld in binary64. */
 static void world_point(const rto_scene *s, uint32_t k, uint32_t p, double b1, double b2, double out[3])
 {
@@ -204,7 +194,7 @@ static void check_scene(const char *spec, uint64_t seed, size_t n)
 {
     rto_scene *s = tu_load(spec);
     for (int kind = 0; kind < 2; kind++) {
-        rto_accel *acc = build(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
+        rto_accel *acc = tu_accel(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
         rto_wf_ray *rays = test_rays(s, seed, n, RTO_RAY_FLAG_OPAQUE);
         char what[256];
         snprintf(what, sizeof what, "%s, %s TLAS", spec, kind ? "karras" : "sweep");
@@ -275,7 +265,7 @@ static void test_triangle_by_hand(void **state)
 {
     (void)state;
     rto_scene *s = tu_load("triangle");
-    rto_accel *acc = build(s, RTO_TLAS_SWEEP);
+    rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
     const float o[3] = {0.0f, 0.5f, 5.0f}, d[3] = {0.0f, 0.0f, -1.0f};
     rto_wf_ray rays[3] = {make_ray(o, d, 0), make_ray(o, d, RTO_RAY_FLAG_CULL_FRONT_FACING), make_ray(o, d, 0)};
     rays[2].t_max = 4.0f; /* the box lies beyond tMax: one box test, nothing else */
@@ -344,7 +334,7 @@ static void test_threads_byte_identical(void **state)
 {
     (void)state;
     rto_scene *s = tu_load("rtstress:4");
-    rto_accel *acc = build(s, RTO_TLAS_SWEEP);
+    rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
     const size_t n = 20000;
     rto_wf_ray *rays = test_rays(s, 77, n, RTO_RAY_FLAG_OPAQUE);
     rto_hit_record *h1 = calloc(n, sizeof *h1), *h2 = calloc(n, sizeof *h2);
@@ -382,7 +372,7 @@ static void test_masks(void **state)
     rto_scene *s = tu_load("rtstress:3");
     for (uint32_t k = 0; k < s->instance_count; k++)
         s->instances[k].mask = k % 3 == 0 ? 0x01 : 0x02;
-    rto_accel *acc = build(s, RTO_TLAS_SWEEP);
+    rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
     const size_t n = 3000;
     rto_wf_ray *rays = test_rays(s, 5, n, 0);
     for (size_t i = 0; i < n; i++)
@@ -412,7 +402,7 @@ static void test_bad_rays(void **state)
 {
     (void)state;
     rto_scene *s = tu_load("triangle");
-    rto_accel *acc = build(s, RTO_TLAS_SWEEP);
+    rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
     const float o[3] = {0, 0, 5}, d[3] = {0, 0, -1};
     rto_wf_ray rays[2] = {make_ray(o, d, 0), make_ray(o, d, 0)};
     rto_hit_record h[2];

@@ -4,16 +4,6 @@
 #include "testutil.h"
 #include "trace/trace_internal.h"
 
-static rto_accel *build(const rto_scene *s, rto_tlas_kind kind)
-{
-    rto_accel_desc d = {kind, 0};
-    rto_accel *a = NULL;
-    rto_msg msg = {{0}};
-    if (rto_accel_build(s, &d, &a, &msg))
-        fail_msg("build: %s", msg.text);
-    return a;
-}
-
 /* Rays of every kind in one batch, so that neighbouring lanes disagree: origins in and around the bounds, directions
  * random or axis-parallel (+0 and -0 components), each ray's flags, cull mask and [tMin, tMax] drawn on its own. */
 static rto_wf_ray *mixed_rays(const rto_scene *s, uint64_t seed, size_t n)
@@ -109,7 +99,7 @@ static void check_scene(const char *spec, uint32_t width, uint32_t height, size_
 {
     rto_scene *s = tu_load(spec);
     for (int kind = 0; kind < 2; kind++) {
-        rto_accel *acc = build(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
+        rto_accel *acc = tu_accel(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
         for (int set = RTO_RAYS_PRIMARY; set <= RTO_RAYS_AXIS; set++) {
             rto_rays_desc d;
             memset(&d, 0, sizeof d);
@@ -183,7 +173,7 @@ static void test_masks(void **state)
     for (uint32_t k = 0; k < s->instance_count; k++)
         s->instances[k].mask = k % 3 == 0 ? 0x01 : 0x02;
     for (int kind = 0; kind < 2; kind++) {
-        rto_accel *acc = build(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
+        rto_accel *acc = tu_accel(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
         rto_wf_ray *rays = mixed_rays(s, 5, 6000);
         check_rays(kind ? "rtstress:3 masked, karras" : "rtstress:3 masked, sweep", acc, rays, 6000, many_threads, 4);
         free(rays);
@@ -211,7 +201,7 @@ static void test_isa_choice(void **state)
     }
     unsetenv("RTO_TRACE_ISA");
     rto_scene *s = tu_load("triangle");
-    rto_accel *acc = build(s, RTO_TLAS_SWEEP);
+    rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
     rto_wf_ray *rays = mixed_rays(s, 3, 4);
     rto_hit_record h[4];
     rto_msg msg = {{0}};

@@ -228,6 +228,17 @@ static inline rto_scene *tu_load(const char *spec)
     return s;
 }
 
+/* The accel of a scene with a TLAS of the given kind, or the test fails with the library's message. */
+static inline rto_accel *tu_accel(const rto_scene *s, rto_tlas_kind kind)
+{
+    rto_accel_desc d = {kind, 0};
+    rto_accel *a = NULL;
+    rto_msg msg = {{0}};
+    if (rto_accel_build(s, &d, &a, &msg))
+        fail_msg("rto_accel_build(%s): %s", s->source, msg.text);
+    return a;
+}
+
 /* Vertex c (0..2) of triangle p of instance k in world space: objToWorld applied in binary64. */
 static inline void tu_world_vertex(const rto_scene *s, uint32_t k, uint32_t p, int c, double out[3])
 {

@@ -22,6 +22,19 @@
 #define RTO_PRINTF(a, b)
 #endif
 
+/* Code between RTO__TARGET_BEGIN("avx2") (or another target string) and RTO__TARGET_END is compiled for that
+ * instruction set, function by function, while the library itself targets baseline x86-64: the SIMD paths that run
+ * only where the CPU has them (sort/bitonic_simd.c, trace/lanes.c). clang ignores GCC's target pragma; its own
+ * attribute pragma gives every function in between the same target. */
+#define RTO__PRAGMA(x) _Pragma(#x)
+#if defined(__clang__)
+#define RTO__TARGET_BEGIN(isa) RTO__PRAGMA(clang attribute push(__attribute__((target(isa))), apply_to = function))
+#define RTO__TARGET_END RTO__PRAGMA(clang attribute pop)
+#else
+#define RTO__TARGET_BEGIN(isa) RTO__PRAGMA(GCC push_options) RTO__PRAGMA(GCC target(isa))
+#define RTO__TARGET_END RTO__PRAGMA(GCC pop_options)
+#endif
+
 /** The library's name for rto_msg_set (public): writes a one-line reason into m (if non-NULL) and returns s. */
 #define rto__fail rto_msg_set
 

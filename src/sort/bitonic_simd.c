@@ -161,13 +161,7 @@
     static const rto__bitonic_kernels P##_kernels = {(W), P##_pass1, P##_pass2, P##_pass3, P##_small, P##_tail};
 
 /* ---------------------------------------------------------------------------------------------------------------- */
-/* clang ignores GCC's target pragma; its own attribute pragma gives every function below the same target. */
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
-#else
-#pragma GCC push_options
-#pragma GCC target("avx2")
-#endif
+RTO__TARGET_BEGIN("avx2")
 
 /* AVX2, 32-bit keys: 8 keys and 8 indices per vector. */
 typedef struct {
@@ -316,20 +310,10 @@ static inline a2d_v a2d_inregd(a2d_v x, size_t k, size_t j, size_t p, const int 
 #define a2d_VPASS(JV) P_VPASS(a2d, 4, JV)
 DEFINE_KERNELS(a2d, 4)
 
-#if defined(__clang__)
-#pragma clang attribute pop
-#else
-#pragma GCC pop_options
-#endif
+RTO__TARGET_END
 
 /* ---------------------------------------------------------------------------------------------------------------- */
-/* clang ignores GCC's target pragma; its own attribute pragma gives every function below the same target. */
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx512f,avx512bw,avx512dq,avx512vl"))), apply_to = function)
-#else
-#pragma GCC push_options
-#pragma GCC target("avx512f,avx512bw,avx512dq,avx512vl")
-#endif
+RTO__TARGET_BEGIN("avx512f,avx512bw,avx512dq,avx512vl")
 
 /* AVX-512, 32-bit keys: 16 keys and 16 indices per vector; masks in mask registers. */
 typedef struct {
@@ -430,11 +414,7 @@ static inline a5d_v a5d_inreg(a5d_v x, size_t k, size_t j, size_t p)
 #define a5d_VPASS(JV) P_VPASS(a5d, 8, JV)
 DEFINE_KERNELS(a5d, 8)
 
-#if defined(__clang__)
-#pragma clang attribute pop
-#else
-#pragma GCC pop_options
-#endif
+RTO__TARGET_END
 
 const rto__bitonic_kernels *rto__bitonic_simd_kernels(rto__bitonic_isa isa, size_t key_size)
 {

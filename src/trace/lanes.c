@@ -81,13 +81,7 @@ static inline int rto__lane_take(rto__lane *s, int ok, const rto_tri_hit *h)
 #define PN(x) PN__(LANES_PREFIX, x)
 
 /* ---------------------------------------------------------------------------------------------------------------- */
-/* clang ignores GCC's target pragma; its own attribute pragma gives every function below the same target. */
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
-#else
-#pragma GCC push_options
-#pragma GCC target("avx2")
-#endif
+RTO__TARGET_BEGIN("avx2")
 
 #define W 8
 #define LANES_PREFIX lanes8
@@ -125,19 +119,10 @@ static inline int rto__lane_take(rto__lane *s, int ok, const rto_tri_hit *h)
 #undef VMAX
 #undef VCMP_
 
-#if defined(__clang__)
-#pragma clang attribute pop
-#else
-#pragma GCC pop_options
-#endif
+RTO__TARGET_END
 
 /* ---------------------------------------------------------------------------------------------------------------- */
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx512f,avx512bw,avx512dq,avx512vl"))), apply_to = function)
-#else
-#pragma GCC push_options
-#pragma GCC target("avx512f,avx512bw,avx512dq,avx512vl")
-#endif
+RTO__TARGET_BEGIN("avx512f,avx512bw,avx512dq,avx512vl")
 
 #define W 16
 #define LANES_PREFIX lanes16
@@ -157,11 +142,7 @@ static inline int rto__lane_take(rto__lane *s, int ok, const rto_tri_hit *h)
                                                            208, 224, 240), _mm512_set1_epi32(f)), (rows), 4)
 #include "lanes_kernel.h"
 
-#if defined(__clang__)
-#pragma clang attribute pop
-#else
-#pragma GCC pop_options
-#endif
+RTO__TARGET_END
 
 const rto__trace_lanes *rto__trace_lanes_kernel(rto__trace_isa isa)
 {
