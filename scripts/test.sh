@@ -59,7 +59,8 @@ CC=clang-14 CXX=clang++-14 rto_build build-asan --werror --buildtype=plain -Db_s
 # the optimised build above ran them whole.
 # golden (committed bundles, byte for byte) runs in the optimised build; here the same writers run under the
 # sanitizers in the command-line tests, and the determinism stage holds this build's bundles to the others' bytes.
-RTO_TEST_SANITIZED=1 meson test -C build-asan --print-errorlogs --num-processes 2 --no-suite golden
+# The scripts suite (Python and shell alone, no rtoracle code) ran in the optimised build.
+RTO_TEST_SANITIZED=1 meson test -C build-asan --print-errorlogs --num-processes 2 --no-suite golden --no-suite scripts
 
 stage "gpu: waiting for the background run"
 gpu_status=0
