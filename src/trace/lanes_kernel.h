@@ -315,4 +315,4 @@ static void PN(trace)(const rto__tracer *tr, const rto_wf_ray *rays, size_t begi
     }
 }
 
-static const rto__trace_lanes PN(kernel) = {W, PN(scratch_size), PN(trace)};
+static const rto__trace_lanes PN(kernel) = {PN(scratch_size), PN(trace)};

@@ -3,7 +3,7 @@
 #ifndef RTO_TRACE_INTERNAL_H
 #define RTO_TRACE_INTERNAL_H
 
-#include "rtoracle.h"
+#include "../core/internal.h"
 
 #if defined(__GNUC__)
 #pragma GCC visibility push(hidden)
@@ -48,7 +48,6 @@ typedef struct rto__tracer {
 /** A lane kernel: rays [begin, end) in W lanes, each lane one ray running §6 with its own stacks; a lane that
  * finishes takes the next ray. scratch holds scratch_size(stack_cap) bytes, 64-byte aligned. */
 typedef struct rto__trace_lanes {
-    uint32_t width;
     size_t (*scratch_size)(size_t stack_cap);
     void (*trace)(const rto__tracer *tr, const rto_wf_ray *rays, size_t begin, size_t end, rto_hit_record *hits,
                   rto_trace_counters *counters, void *scratch);
@@ -56,8 +55,7 @@ typedef struct rto__trace_lanes {
 /** The lane kernel of a path (trace/lanes.c), NULL when the build has none. */
 const rto__trace_lanes *rto__trace_lanes_kernel(rto__trace_isa isa);
 
-/** rto_slab_test's body (§6), inlined into the traversal loops: the same binary32 operations in the same order
- * (min / max: the second operand when unordered or equal, as rto__minf / rto__maxf). */
+/** rto_slab_test's body (§6), inlined into the traversal loops: the same binary32 operations in the same order. */
 static inline int rto__slab(const float bmin[3], const float bmax[3], const float origin[3], const float inv_dir[3],
                             float t_min, float best_t, float *t_entry)
 {
@@ -65,15 +63,11 @@ static inline int rto__slab(const float bmin[3], const float bmax[3], const floa
     for (int a = 0; a < 3; a++) {
         const float t0 = (bmin[a] - origin[a]) * inv_dir[a];
         const float t1 = (bmax[a] - origin[a]) * inv_dir[a];
-        lo[a] = t0 < t1 ? t0 : t1;
-        hi[a] = t0 > t1 ? t0 : t1;
+        lo[a] = rto__minf(t0, t1);
+        hi[a] = rto__maxf(t0, t1);
     }
-    float t_near = lo[0] > lo[1] ? lo[0] : lo[1];
-    t_near = t_near > lo[2] ? t_near : lo[2];
-    t_near = t_near > t_min ? t_near : t_min;
-    float t_far = hi[0] < hi[1] ? hi[0] : hi[1];
-    t_far = t_far < hi[2] ? t_far : hi[2];
-    t_far = t_far < best_t ? t_far : best_t;
+    const float t_near = rto__maxf(rto__maxf(rto__maxf(lo[0], lo[1]), lo[2]), t_min);
+    const float t_far = rto__minf(rto__minf(rto__minf(hi[0], hi[1]), hi[2]), best_t);
     *t_entry = t_near;
     return t_near <= t_far;
 }
