@@ -179,15 +179,17 @@ def bench_rows(name, heading, doc_ref):
     return [(heading, "\n".join(lines), [])]
 
 
-TRACE_SIDES = ("scalar", "avx2", "avx512", "embree", "embree robust")
+TRACE_SIDES = ("scalar", "sse2", "avx2", "avx512", "embree", "embree robust")
 
 
 def trace_bench(name):
     """bench_trace's two tables from a recorded --json document: Mrays/s per path and reference, and rtstress:N."""
     d = load(name)
     rec, det = d["recorded"], d["detail"]
+    paths = sorted({r["default_path"] for r in det["rays"]})
+    dp = paths[0] if len(paths) == 1 else "default"
     lines = ["| scene | rays | threads | count | " + " | ".join(TRACE_SIDES) + " | embree stream | "
-             "scalar/embree | scalar/robust | scalar/stream |", "|---|---|---:|---:|" + "---:|" * 9]
+             f"{dp}/embree | {dp}/robust | {dp}/stream |", "|---|---|---:|---:|" + "---:|" * (len(TRACE_SIDES) + 4)]
     for r in det["rays"]:
         ms = r["ms"]
         stream = min(ms["embree stream"], ms["embree stream coherent"])
@@ -205,11 +207,11 @@ def trace_bench(name):
     text = (para(f"`bench_trace --json` at {det['width']}×{det['height']}, median of {d['runs']} runs with every side "
                  f"interleaved, at {rec['commit']} ({rec['date']}) on {rec['machine']}, {det['threads']} hardware "
                  f"threads (`{RESULTS}/{name}`; docs/trace.md, \"Benchmark\", says what each column times). "
-                 "Mrays/s of the oracle's paths (`RTO_TRACE_ISA`: the scalar tracer, rto_trace's default, and the "
-                 "8- and 16-ray lanes) and of Embree 3 (`rtcIntersect1` / `rtcOccluded1`, the same in robust mode, "
-                 "and `rtcIntersect1M` / `rtcOccluded1M` streams at their faster context flag); the ratios are "
-                 "time(scalar) / time(Embree), above 1 the oracle is slower. Every path's records equal the scalar "
-                 "path's (the benchmark compares them).") + "\n\n" + "\n".join(lines) + "\n\n" +
+                 "Mrays/s of the oracle's paths (`RTO_TRACE_ISA`: the scalar reference, the packed path `sse2`, and "
+                 "the 8- and 16-ray lanes; a path missing from a run shows -) and of Embree 3 (`rtcIntersect1` / "
+                 "`rtcOccluded1`, the same in robust mode, and `rtcIntersect1M` / `rtcOccluded1M` streams at their "
+                 f"faster context flag); the ratios are time({dp}, the path rto_trace took) / time(Embree), above 1 "
+                 "the oracle is slower. Every path's records equal the scalar path's (the benchmark compares them).") + "\n\n" + "\n".join(lines) + "\n\n" +
             para("The oracle's primary-ray trace time for `rtstress:N` with the sweep TLAS (the seeds' layout, the "
                  "default) and a Karras TLAS, against N = 8 (DESIGN.md §5 says why the sweep tree costs more at "
                  "N = 24 and 40).") + "\n\n" + "\n".join(stress))

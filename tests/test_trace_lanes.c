@@ -1,7 +1,11 @@
-/* The tracer's SIMD lanes (trace/lanes.c) against the scalar tracer they must equal bit for bit (hit records and
- * counters, every ray): every ray set of the library and the tests' own mixed-flag rays, both TLAS layouts, masks,
- * one-triangle BLASes and one-instance TLASes, 1 to 33 threads. A path this CPU cannot run is reported and skipped. */
+/* The tracer's other paths, the packed one (trace/packed.c, the default on x86-64) and the SIMD lanes (trace/lanes.c),
+ * against the scalar tracer they must equal bit for bit (hit records and counters, every ray): every ray set of the
+ * library and the tests' own mixed-flag rays, both TLAS layouts, masks, one-triangle BLASes and one-instance TLASes,
+ * 1 to 33 threads, and threads that trace one accel at once before its packed copy exists. A path this CPU cannot
+ * run is reported and skipped. */
 #include "testutil.h"
+
+#include <pthread.h>
 #include "trace/trace_internal.h"
 
 /* Rays of every kind in one batch, so that neighbouring lanes disagree: origins in and around the bounds, directions
@@ -47,17 +51,17 @@ static void compare(const char *what, const rto_hit_record *want, const rto_trac
 {
     for (size_t i = 0; i < n; i++) {
         if (memcmp(&want[i], &got[i], sizeof want[i]))
-            fail_msg("%s: ray %zu: record differs (scalar t %.9g instance %u prim %u miss %u, lanes t %.9g instance %u "
+            fail_msg("%s: ray %zu: record differs (scalar t %.9g instance %u prim %u miss %u, path t %.9g instance %u "
                      "prim %u miss %u)", what, i, (double)want[i].t, want[i].instance_id, want[i].prim_id,
                      want[i].miss_flag, (double)got[i].t, got[i].instance_id, got[i].prim_id, got[i].miss_flag);
         if (memcmp(&wc[i], &gc[i], sizeof wc[i]))
-            fail_msg("%s: ray %zu: counters differ (scalar nodes %u boxes %u triangles %u entries %u, lanes %u %u %u %u)",
+            fail_msg("%s: ray %zu: counters differ (scalar nodes %u boxes %u triangles %u entries %u, path %u %u %u %u)",
                      what, i, wc[i].nodes_visited, wc[i].box_tests, wc[i].triangle_tests, wc[i].instance_entries,
                      gc[i].nodes_visited, gc[i].box_tests, gc[i].triangle_tests, gc[i].instance_entries);
     }
 }
 
-/* Every supported lane path against the scalar tracer on these rays, with each thread count. */
+/* Every other supported path against the scalar tracer on these rays, with each thread count. */
 static void check_rays(const char *what, const rto_accel *acc, const rto_wf_ray *rays, size_t n,
                        const uint32_t *threads, size_t nthreads)
 {
@@ -71,7 +75,7 @@ static void check_rays(const char *what, const rto_accel *acc, const rto_wf_ray 
     size_t hits = 0;
     for (size_t i = 0; i < n; i++)
         hits += !want[i].miss_flag;
-    for (int isa = RTO__TRACE_AVX2; isa < RTO__TRACE_ISA_COUNT; isa++) {
+    for (int isa = RTO__TRACE_SCALAR + 1; isa < RTO__TRACE_ISA_COUNT; isa++) {
         if (!rto__trace_isa_supported((rto__trace_isa)isa))
             continue;
         for (size_t k = 0; k < nthreads; k++) {
@@ -182,17 +186,22 @@ static void test_masks(void **state)
     rto_scene_destroy(s);
 }
 
-/* rto_trace takes the scalar tracer unless RTO_TRACE_ISA asks for lanes, and then the widest the CPU has up to
- * those; an unknown path is refused by rto__trace_with. */
+/* rto_trace takes the packed path where the build has it, else the scalar tracer; RTO_TRACE_ISA asks for a path,
+ * and gets it or the best the CPU has below it; an unknown name is ignored and an unknown path refused by
+ * rto__trace_with. */
 static void test_isa_choice(void **state)
 {
     (void)state;
+    const rto__trace_isa def = rto__trace_isa_supported(RTO__TRACE_SSE2) ? RTO__TRACE_SSE2 : RTO__TRACE_SCALAR;
+#if defined(__x86_64__)
+    assert_int_equal(def, RTO__TRACE_SSE2); /* SSE2 is baseline x86-64 */
+#endif
     unsetenv("RTO_TRACE_ISA");
-    assert_int_equal(rto__trace_isa_resolve(), RTO__TRACE_SCALAR);
+    assert_int_equal(rto__trace_isa_resolve(), def);
     assert_int_equal(setenv("RTO_TRACE_ISA", "avx1024", 1), 0);
-    assert_int_equal(rto__trace_isa_resolve(), RTO__TRACE_SCALAR);
-    static const char *const names[] = {"scalar", "avx2", "avx512"};
-    for (int i = 0; i < 3; i++) {
+    assert_int_equal(rto__trace_isa_resolve(), def);
+    static const char *const names[] = {"scalar", "sse2", "avx2", "avx512"};
+    for (int i = 0; i < 4; i++) {
         assert_int_equal(setenv("RTO_TRACE_ISA", names[i], 1), 0);
         const rto__trace_isa got = rto__trace_isa_resolve();
         assert_true(got <= (rto__trace_isa)(RTO__TRACE_SCALAR + i));
@@ -212,12 +221,108 @@ static void test_isa_choice(void **state)
     rto_scene_destroy(s);
 }
 
+/* Threads that trace one accel at once, each with its own rto_trace call, before any has made the packed copy of its
+ * trees: the copy is made once (rto__accel_derived) and every thread's records equal the scalar tracer's. */
+typedef struct racer {
+    const rto_accel *acc;
+    const rto_wf_ray *rays;
+    size_t n;
+    rto_hit_record *hits;
+    rto_status status;
+} racer;
+
+static void *race(void *p)
+{
+    racer *r = p;
+    rto_msg msg = {{0}};
+    rto_trace_desc one = {1};
+    r->status = rto__trace_with(r->acc, r->rays, r->n, &one, RTO__TRACE_AUTO, r->hits, NULL, &msg);
+    return NULL;
+}
+
+static void test_first_use_race(void **state)
+{
+    (void)state;
+    enum { RACERS = 8, N = 3000 };
+    rto_scene *s = tu_load("StanfordBunny/bunny.gltf");
+    for (int round = 0; round < 4; round++) {
+        rto_accel *acc = tu_accel(s, round % 2 ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
+        rto_wf_ray *rays = mixed_rays(s, 17 + (uint64_t)round, N);
+        rto_hit_record *want = malloc(N * sizeof *want);
+        racer r[RACERS];
+        pthread_t t[RACERS];
+        rto_msg msg = {{0}};
+        assert_non_null(want);
+        for (int k = 0; k < RACERS; k++) {
+            r[k] = (racer){acc, rays, N, malloc(N * sizeof(rto_hit_record)), RTO_ERR_MISMATCH};
+            assert_non_null(r[k].hits);
+        }
+        for (int k = 0; k < RACERS; k++)
+            assert_int_equal(pthread_create(&t[k], NULL, race, &r[k]), 0);
+        for (int k = 0; k < RACERS; k++)
+            assert_int_equal(pthread_join(t[k], NULL), 0);
+        assert_int_equal(rto__trace_with(acc, rays, N, NULL, RTO__TRACE_SCALAR, want, NULL, &msg), RTO_OK);
+        for (int k = 0; k < RACERS; k++) {
+            assert_int_equal(r[k].status, RTO_OK);
+            for (size_t i = 0; i < N; i++)
+                if (memcmp(&want[i], &r[k].hits[i], sizeof want[i]))
+                    fail_msg("round %d, thread %d: ray %zu: record differs from the scalar tracer's", round, k, i);
+            free(r[k].hits);
+        }
+        free(want);
+        free(rays);
+        rto_accel_destroy(acc);
+    }
+    rto_scene_destroy(s);
+}
+
+/* rto__accel_derived: make runs once, its result is shared, release frees it with the accel; a make that fails
+ * (returns NULL) is not retried, and release gets NULL. */
+static int makes, releases;
+static void *make_ok(const rto_accel *a)
+{
+    (void)a;
+    makes++;
+    return malloc(16);
+}
+static void *make_fail(const rto_accel *a)
+{
+    (void)a;
+    makes++;
+    return NULL;
+}
+static void release(void *p)
+{
+    releases++;
+    free(p);
+}
+
+static void test_accel_derived(void **state)
+{
+    (void)state;
+    rto_scene *s = tu_load("triangle");
+    for (int fail = 0; fail < 2; fail++) {
+        makes = releases = 0;
+        rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
+        void *(*make)(const rto_accel *) = fail ? make_fail : make_ok;
+        void *first = rto__accel_derived(acc, make, release);
+        assert_true(fail ? first == NULL : first != NULL);
+        assert_ptr_equal(rto__accel_derived(acc, make, release), first);
+        assert_int_equal(makes, 1);
+        assert_int_equal(releases, 0);
+        rto_accel_destroy(acc);
+        assert_int_equal(releases, 1);
+    }
+    rto_scene_destroy(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_paths_reported), cmocka_unit_test(test_isa_choice),
         cmocka_unit_test(test_one_triangle),   cmocka_unit_test(test_masks),
         cmocka_unit_test(test_instanced),      cmocka_unit_test(test_meshes),
+        cmocka_unit_test(test_first_use_race), cmocka_unit_test(test_accel_derived),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

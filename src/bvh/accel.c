@@ -12,6 +12,7 @@
 #include "sort/sort_internal.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,6 +22,10 @@ struct rto_accel {
     rto_accel_tlas tlas;
     uint32_t blas_count;
     rto_accel_blas *blas;
+    /* A reader's derived copy of the trees (rto__accel_derived): made once, on first use, under the lock. */
+    pthread_mutex_t derived_lock;
+    void *derived;
+    void (*derived_free)(void *);
 };
 
 /* The view structs hold const pointers for the reader; the accel owns and frees them. */
@@ -42,7 +47,27 @@ void rto_accel_destroy(rto_accel *a)
         free_const(a->blas[m].nodes);
     }
     free(a->blas);
+    if (a->derived_free)
+        a->derived_free(a->derived);
+    pthread_mutex_destroy(&a->derived_lock);
     free(a);
+}
+
+void *rto__accel_derived(const rto_accel *ca, void *(*make)(const rto_accel *), void (*release)(void *))
+{
+    rto_accel *a = (rto_accel *)(uintptr_t)ca; /* the copy is a cache: the accel's trees do not change */
+    void *d = __atomic_load_n(&a->derived, __ATOMIC_ACQUIRE);
+    if (d)
+        return d;
+    pthread_mutex_lock(&a->derived_lock);
+    d = a->derived;
+    if (!d && !a->derived_free) { /* a failed make is not retried */
+        d = make(a);
+        a->derived_free = release;
+        __atomic_store_n(&a->derived, d, __ATOMIC_RELEASE);
+    }
+    pthread_mutex_unlock(&a->derived_lock);
+    return d;
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
@@ -542,6 +567,7 @@ rto_status rto_accel_build(const rto_scene *scene, const rto_accel_desc *desc, r
     rto_accel *a = calloc(1, sizeof *a);
     if (!a)
         return oom_or_refusal(scene, msg);
+    pthread_mutex_init(&a->derived_lock, NULL);
     a->scene = scene;
     a->blas_count = scene->mesh_count;
     a->blas = calloc(a->blas_count ? a->blas_count : 1, sizeof *a->blas);

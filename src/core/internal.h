@@ -109,6 +109,11 @@ void *rto__alloc_large(size_t count, size_t size);
  * at a time: each node then costs one line, not two. Release with free(). */
 void *rto__alloc_lines(size_t count, size_t size);
 
+/** What a reader derives from an accel's trees and keeps with it (bvh/accel.c): make(accel) runs once, on the first
+ * call, under the accel's lock (concurrent callers wait for it); release frees it with the accel. NULL when make
+ * returned NULL (out of memory), then and on every later call. */
+void *rto__accel_derived(const rto_accel *accel, void *(*make)(const rto_accel *), void (*release)(void *));
+
 #if defined(__GNUC__)
 #pragma GCC visibility pop
 #endif

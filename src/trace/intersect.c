@@ -8,34 +8,7 @@
 #include <math.h>
 #include <string.h>
 
-/* dot(a, b) = (a.x*b.x + a.y*b.y) + a.z*b.z; cross is the textbook formula. */
-static inline float dot3(const float a[3], const float b[3]) { return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2]; }
-
-static inline void cross3(const float a[3], const float b[3], float out[3])
-{
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-static inline void sub3(const float a[3], const float b[3], float out[3])
-{
-    out[0] = a[0] - b[0];
-    out[1] = a[1] - b[1];
-    out[2] = a[2] - b[2];
-}
-
-void rto_ray_inv_dir(const float dir[3], float inv_dir[3])
-{
-    for (int a = 0; a < 3; a++) {
-        float d = dir[a];
-        /* §2: no slab test may compute 0 * inf. +-0 becomes +1e-20 (the sign of a zero says nothing about which
-         * side the ray leaves), any other tiny component keeps its sign. */
-        if (fabsf(d) < 1e-20f)
-            d = d < 0.0f ? -1e-20f : 1e-20f;
-        inv_dir[a] = 1.0f / d;
-    }
-}
+void rto_ray_inv_dir(const float dir[3], float inv_dir[3]) { rto__ray_inv_dir(dir, inv_dir); }
 
 int rto_slab_test(const float bmin[3], const float bmax[3], const float origin[3], const float inv_dir[3],
                   float t_min, float best_t, float *t_entry)
@@ -51,35 +24,13 @@ int rto_slab_test(const float bmin[3], const float bmax[3], const float origin[3
 int rto_triangle_intersect(const float v0[3], const float v1[3], const float v2[3], const float origin[3],
                            const float dir[3], float t_min, float best_t, rto_tri_hit *hit)
 {
-    rto_tri_hit h = {0.0f, 0.0f, 0.0f, 0.0f};
-    float e1[3], e2[3], p[3], s[3], q[3];
-    sub3(v1, v0, e1);
-    sub3(v2, v0, e2);
-    cross3(dir, e2, p);
-    h.det = dot3(e1, p);
-    int ok = 0;
-    if (h.det != 0.0f) {
-        const float inv = 1.0f / h.det;
-        sub3(origin, v0, s);
-        cross3(s, e1, q);
-        h.u = dot3(s, p) * inv;
-        h.v = dot3(dir, q) * inv;
-        h.t = dot3(e2, q) * inv;
-        ok = h.u >= 0.0f && h.v >= 0.0f && h.u + h.v <= 1.0f && t_min <= h.t && h.t < best_t;
-    }
-    if (hit)
-        *hit = h;
-    return ok;
+    return rto__triangle_intersect(v0, v1, v2, origin, dir, t_min, best_t, hit);
 }
 
 void rto_ray_to_object(const rto_mat34 *world_to_obj, const float origin[3], const float dir[3], float obj_origin[3],
                        float obj_dir[3])
 {
-    const float(*m)[4] = world_to_obj->m;
-    for (int r = 0; r < 3; r++) {
-        obj_origin[r] = ((m[r][0] * origin[0] + m[r][1] * origin[1]) + m[r][2] * origin[2]) + m[r][3];
-        obj_dir[r] = (m[r][0] * dir[0] + m[r][1] * dir[1]) + m[r][2] * dir[2];
-    }
+    rto__ray_to_object(world_to_obj, origin, dir, obj_origin, obj_dir);
 }
 
 rto_hit_record rto_hit_record_miss(float t_max)
@@ -125,7 +76,7 @@ int rto__mesh_triangle_hit(const rto_mesh *mesh, uint32_t prim, const float o[3]
 {
     const uint32_t *ix = &mesh->indices[3 * (size_t)prim];
     const float *p = mesh->positions;
-    if (!rto_triangle_intersect(&p[3 * (size_t)ix[0]], &p[3 * (size_t)ix[1]], &p[3 * (size_t)ix[2]], o, d, t_min,
+    if (!rto__triangle_intersect(&p[3 * (size_t)ix[0]], &p[3 * (size_t)ix[1]], &p[3 * (size_t)ix[2]], o, d, t_min,
                                 best_t, hit))
         return 0;
     return !rto__triangle_culled(flags, hit->det);

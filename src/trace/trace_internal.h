@@ -5,6 +5,8 @@
 
 #include "../core/internal.h"
 
+#include <math.h>
+
 #if defined(__GNUC__)
 #pragma GCC visibility push(hidden)
 #endif
@@ -13,19 +15,22 @@
 
 /** Instruction-set paths of rto_trace. Every path runs §6 per ray and gives the same hit records and counters. */
 typedef enum rto__trace_isa {
-    RTO__TRACE_AUTO = 0,   /* scalar, or the lanes RTO_TRACE_ISA from the environment asks for (see resolve) */
-    RTO__TRACE_SCALAR = 1, /* one ray at a time: the reference the lanes are tested against */
-    RTO__TRACE_AVX2 = 2,   /* 8 lanes */
-    RTO__TRACE_AVX512 = 3, /* 16 lanes (AVX-512 F, BW, DQ and VL) */
-    RTO__TRACE_ISA_COUNT = 4
+    RTO__TRACE_AUTO = 0,   /* the default path, or the one RTO_TRACE_ISA from the environment asks for (see resolve) */
+    RTO__TRACE_SCALAR = 1, /* one ray at a time on the accel's own trees: the reference every other path is tested
+                              against */
+    RTO__TRACE_SSE2 = 2,   /* one ray at a time on the packed copy of the trees, both child boxes in one SSE2 test */
+    RTO__TRACE_AVX2 = 3,   /* 8 lanes */
+    RTO__TRACE_AVX512 = 4, /* 16 lanes (AVX-512 F, BW, DQ and VL) */
+    RTO__TRACE_ISA_COUNT = 5
 } rto__trace_isa;
 
-/** "auto", "scalar", "avx2", "avx512". */
+/** "auto", "scalar", "sse2", "avx2", "avx512". */
 const char *rto__trace_isa_name(rto__trace_isa isa);
 /** Whether this CPU (and build) can run the path; AUTO and SCALAR always can. */
 int rto__trace_isa_supported(rto__trace_isa isa);
-/** The path AUTO runs here: the scalar tracer, the faster on every ray set bench_trace measures on the machines of
- * docs/results/trace.md; with RTO_TRACE_ISA = avx2 or avx512, the widest lanes the CPU has up to that one. */
+/** The path AUTO runs here: sse2 (packed.c) where the build has it (x86-64), the fastest on every ray set
+ * bench_trace measures on the machines of docs/results/trace.md, else scalar; RTO_TRACE_ISA = scalar, sse2, avx2 or
+ * avx512 asks for that path, or the best the CPU has below it. */
 rto__trace_isa rto__trace_isa_resolve(void);
 /** rto_trace on a chosen path (an unsupported one is refused: RTO_ERR_UNSUPPORTED). */
 rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
@@ -55,11 +60,21 @@ typedef struct rto__trace_lanes {
 /** The lane kernel of a path (trace/lanes.c), NULL when the build has none. */
 const rto__trace_lanes *rto__trace_lanes_kernel(rto__trace_isa isa);
 
+/** Whether the build has the packed path (trace/packed.c: x86-64). */
+int rto__trace_packed_built(void);
+/** The packed copy of an accel's trees, made on first use and kept with the accel; NULL when it cannot be made (out
+ * of memory, a tree beyond 31-bit references) or the build has no packed path: then the scalar tracer runs. */
+const void *rto__trace_packed_trees(const rto_accel *accel);
+/** Rays [begin, end) on the packed trees, one at a time; stacks holds two stacks of tr->stack_cap entries. */
+void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,
+                       rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks);
+
 /** rto_slab_test's body (§6), inlined into the traversal loops: the same binary32 operations in the same order. */
 static inline int rto__slab(const float bmin[3], const float bmax[3], const float origin[3], const float inv_dir[3],
                             float t_min, float best_t, float *t_entry)
 {
     float lo[3], hi[3];
+#pragma GCC unroll 3
     for (int a = 0; a < 3; a++) {
         const float t0 = (bmin[a] - origin[a]) * inv_dir[a];
         const float t1 = (bmax[a] - origin[a]) * inv_dir[a];
@@ -70,6 +85,77 @@ static inline int rto__slab(const float bmin[3], const float bmax[3], const floa
     const float t_far = rto__minf(rto__minf(rto__minf(hi[0], hi[1]), hi[2]), best_t);
     *t_entry = t_near;
     return t_near <= t_far;
+}
+
+/* The intersection pieces of §6 (trace/intersect.c exports them as rto_ray_inv_dir, rto_triangle_intersect and
+ * rto_ray_to_object), inlined into the traversal loops. Every product, sum and comparison is one binary32 operation
+ * in the contract's order (-ffp-contract=off keeps them apart). */
+
+/* dot(a, b) = (a.x*b.x + a.y*b.y) + a.z*b.z; cross is the textbook formula. */
+static inline float rto__dot3(const float a[3], const float b[3])
+{
+    return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2];
+}
+
+static inline void rto__cross3(const float a[3], const float b[3], float out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static inline void rto__sub3(const float a[3], const float b[3], float out[3])
+{
+    out[0] = a[0] - b[0];
+    out[1] = a[1] - b[1];
+    out[2] = a[2] - b[2];
+}
+
+static inline void rto__ray_inv_dir(const float dir[3], float inv_dir[3])
+{
+    for (int a = 0; a < 3; a++) {
+        float d = dir[a];
+        /* §2: no slab test may compute 0 * inf. +-0 becomes +1e-20 (the sign of a zero says nothing about which
+         * side the ray leaves), any other tiny component keeps its sign. */
+        if (fabsf(d) < 1e-20f)
+            d = d < 0.0f ? -1e-20f : 1e-20f;
+        inv_dir[a] = 1.0f / d;
+    }
+}
+
+static inline int rto__triangle_intersect(const float v0[3], const float v1[3], const float v2[3],
+                                          const float origin[3], const float dir[3], float t_min, float best_t,
+                                          rto_tri_hit *hit)
+{
+    rto_tri_hit h = {0.0f, 0.0f, 0.0f, 0.0f};
+    float e1[3], e2[3], p[3], s[3], q[3];
+    rto__sub3(v1, v0, e1);
+    rto__sub3(v2, v0, e2);
+    rto__cross3(dir, e2, p);
+    h.det = rto__dot3(e1, p);
+    int ok = 0;
+    if (h.det != 0.0f) {
+        const float inv = 1.0f / h.det;
+        rto__sub3(origin, v0, s);
+        rto__cross3(s, e1, q);
+        h.u = rto__dot3(s, p) * inv;
+        h.v = rto__dot3(dir, q) * inv;
+        h.t = rto__dot3(e2, q) * inv;
+        ok = h.u >= 0.0f && h.v >= 0.0f && h.u + h.v <= 1.0f && t_min <= h.t && h.t < best_t;
+    }
+    if (hit)
+        *hit = h;
+    return ok;
+}
+
+static inline void rto__ray_to_object(const rto_mat34 *world_to_obj, const float origin[3], const float dir[3],
+                                      float obj_origin[3], float obj_dir[3])
+{
+    const float(*m)[4] = world_to_obj->m;
+    for (int r = 0; r < 3; r++) {
+        obj_origin[r] = ((m[r][0] * origin[0] + m[r][1] * origin[1]) + m[r][2] * origin[2]) + m[r][3];
+        obj_dir[r] = (m[r][0] * dir[0] + m[r][1] * dir[1]) + m[r][2] * dir[2];
+    }
 }
 
 /** Whether the ray flags cull a triangle of this det (> 0 front, < 0 back; decided in object space, §6). */

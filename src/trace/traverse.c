@@ -2,9 +2,10 @@
  * with the ray in that instance's object space. A stack of (node, entry t) pairs: a popped node whose entry t is
  * beyond the best hit so far is skipped; at an internal node both children are slab-tested and pushed farther
  * first, so the nearer is visited first, and on equal entry t the left child first. Triangles must beat the best t
- * strictly, so the first hit found wins a tie. One ray at a time here, the reference and the default; trace/lanes.c
- * runs 8 or 16 rays side by side with the same operations when RTO_TRACE_ISA asks. Rays are split statically over
- * threads (§2). */
+ * strictly, so the first hit found wins a tie. One ray at a time here on the accel's own trees: the reference the
+ * other paths are held to. trace/packed.c, the default on x86-64, runs the same operations on a copy of the trees
+ * laid out for a CPU; trace/lanes.c runs 8 or 16 rays side by side when RTO_TRACE_ISA asks. Rays are split
+ * statically over threads (§2). */
 #include "internal.h"
 #include "trace_internal.h"
 
@@ -55,9 +56,9 @@ static void trace_blas(const tracer *tr, ray_state *st, uint32_t inst)
     const rto_mesh *mesh = &tr->scene->meshes[in->blas];
     const rto_wf_ray *ray = st->ray;
     float o[3], d[3], inv[3];
-    rto_ray_to_object(&in->world_to_obj, ray->origin, ray->dir, o, d);
+    rto__ray_to_object(&in->world_to_obj, ray->origin, ray->dir, o, d);
     /* The §2 clamp feeds only the slab tests; Möller–Trumbore takes the unclamped object-space direction. */
-    rto_ray_inv_dir(d, inv);
+    rto__ray_inv_dir(d, inv);
     st->c.instance_entries++;
     rto_tri_hit h;
     if (b->triangle_count == 1) { /* no internal node: straight to the triangle */
@@ -183,8 +184,9 @@ typedef struct trace_job {
     const rto_wf_ray *rays;
     rto_hit_record *hits;
     rto_trace_counters *counters;
-    const rto__trace_lanes *lanes; /* NULL: the scalar tracer */
-    unsigned char *scratch;        /* per worker: 2 * stack_cap entries (scalar) or the lanes' scratch */
+    const rto__trace_lanes *lanes; /* NULL: the scalar tracer or the packed path */
+    const void *packed;            /* the packed trees (trace/packed.c), NULL: not that path */
+    unsigned char *scratch;        /* per worker: 2 * stack_cap entries (scalar, packed) or the lanes' scratch */
     size_t scratch_size;           /* per worker, a multiple of 64 */
 } trace_job;
 
@@ -197,12 +199,16 @@ static void trace_range(void *ctx, uint32_t worker, size_t begin, size_t end)
         job->lanes->trace(tr, job->rays, begin, end, job->hits, job->counters, scratch);
         return;
     }
+    if (job->packed) {
+        rto__trace_packed(tr, job->packed, job->rays, begin, end, job->hits, job->counters, scratch);
+        return;
+    }
     ray_state st;
     st.tstack = scratch;
     st.bstack = st.tstack + tr->stack_cap;
     for (size_t i = begin; i < end; i++) {
         st.ray = &job->rays[i];
-        rto_ray_inv_dir(st.ray->dir, st.inv);
+        rto__ray_inv_dir(st.ray->dir, st.inv);
         st.best_t = st.ray->t_max;
         st.found = 0;
         st.done = 0;
@@ -219,7 +225,7 @@ static void trace_range(void *ctx, uint32_t worker, size_t begin, size_t end)
 
 const char *rto__trace_isa_name(rto__trace_isa isa)
 {
-    static const char *const names[RTO__TRACE_ISA_COUNT] = {"auto", "scalar", "avx2", "avx512"};
+    static const char *const names[RTO__TRACE_ISA_COUNT] = {"auto", "scalar", "sse2", "avx2", "avx512"};
     return (unsigned)isa < RTO__TRACE_ISA_COUNT ? names[isa] : "?";
 }
 
@@ -227,6 +233,8 @@ int rto__trace_isa_supported(rto__trace_isa isa)
 {
     if (isa == RTO__TRACE_AUTO || isa == RTO__TRACE_SCALAR)
         return 1;
+    if (isa == RTO__TRACE_SSE2)
+        return rto__trace_packed_built();
     if ((unsigned)isa >= RTO__TRACE_ISA_COUNT || !rto__trace_lanes_kernel(isa))
         return 0;
     return isa == RTO__TRACE_AVX2 ? rto__cpu_avx2() : rto__cpu_avx512();
@@ -234,7 +242,7 @@ int rto__trace_isa_supported(rto__trace_isa isa)
 
 rto__trace_isa rto__trace_isa_resolve(void)
 {
-    rto__trace_isa cap = RTO__TRACE_SCALAR;
+    rto__trace_isa cap = RTO__TRACE_SSE2;
     const char *env = getenv("RTO_TRACE_ISA");
     if (env && *env)
         for (int i = RTO__TRACE_SCALAR; i < RTO__TRACE_ISA_COUNT; i++)
@@ -280,7 +288,10 @@ rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_
     if (!block)
         return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u traversal stacks", threads);
     unsigned char *aligned = block + ((64 - (uintptr_t)block % 64) % 64);
-    trace_job job = {&tr, rays, hits, counters, lanes, aligned, size};
+    const void *packed = NULL;
+    if (isa == RTO__TRACE_SSE2 && !(packed = rto__trace_packed_trees(accel)))
+        isa = RTO__TRACE_SCALAR; /* no copy of the trees (out of memory): the scalar tracer, the same bytes */
+    trace_job job = {&tr, rays, hits, counters, lanes, packed, aligned, size};
     rto__parallel_ranges(n, threads, trace_range, &job);
     free(block);
     return RTO_OK;

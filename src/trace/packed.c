@@ -1,0 +1,483 @@
+/* The tracer's packed path (DESIGN.md §6), rto_trace's default on x86-64: one ray at a time, as the scalar tracer
+ * (traverse.c), on a copy of the accel's trees laid out for a CPU, made once per accel on first use:
+ *   - every tree's internal nodes in depth-first order (a node, its left subtree, its right subtree), so a node's
+ *     left child is the next cache line;
+ *   - a node's two child boxes side by side per axis ({left min, right min, left max, right max} for x, y and z), so
+ *     both slab tests run as one 4-wide SSE2 computation of the same binary32 operations in the same order, lane by
+ *     lane, as rto__slab's (minps and maxps are the ternaries a < b ? a : b and a > b ? a : b, NaN and all);
+ *   - a BLAS's triangles in the same array, each leaf's three vertices where its parent's subtree is, instead of an
+ *     index, an index buffer and a position buffer apart;
+ *   - the sweep TLAS's heap as the same nodes (its EMPTY children absent, untested and uncounted, as §6 says) and
+ *     its instance leaves as references.
+ * The traversal is §6's, pop for pop: of the children hit, the nearer is visited at once instead of being pushed and
+ * popped straight back (its pop-time check cannot fail: its entry t is at most the best t, which only a triangle
+ * changes). Records and counters equal the scalar tracer's bit for bit: unit.trace_lanes holds every path to them.
+ * Where the copy cannot be made (out of memory, a tree too large for 31-bit slot references) rto_trace runs the
+ * scalar tracer, which gives the same bytes. */
+#include "internal.h"
+#include "trace_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <emmintrin.h>
+
+/* A node: both child boxes per axis a at box[4a .. 4a + 3] = left min, right min, left max, right max; each child a
+ * slot index, or RTO_BVH_LEAF_BIT with a triangle's slot (BLAS) or an instance index (TLAS). */
+typedef struct packed_node {
+    float box[12];
+    uint32_t child[2];
+    uint32_t present; /* bit 0: left, bit 1: right; an absent child (a sweep TLAS's EMPTY node) is never tested */
+    uint32_t tests;   /* box tests the node counts: the children present */
+} packed_node;
+
+/* A BLAS leaf: the triangle's vertices as the mesh holds them, and its index. */
+typedef struct packed_tri {
+    float v[9];
+    uint32_t prim;
+    uint32_t pad[6];
+} packed_tri;
+
+typedef union packed_slot {
+    packed_node node;
+    packed_tri tri;
+} packed_slot;
+RTO_STATIC_ASSERT(sizeof(packed_slot) == 64, "a packed slot is one cache line");
+
+/* One tree: the slots, and where a ray starts. */
+typedef struct packed_tree {
+    packed_slot *slots;
+    uint32_t root;      /* a slot, or a leaf reference for a tree that is one leaf */
+    int root_box;       /* sweep TLAS: the root's own box is tested first (box below) */
+    float box[6];       /* that box: min, max */
+    int empty;          /* no leaf at all */
+} packed_tree;
+
+typedef struct packed_accel {
+    packed_tree tlas;
+    uint32_t blas_count;
+    packed_tree *blas;
+} packed_accel;
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* The copy: a tree walked depth first with an explicit stack (a Karras tree can be deep), every internal node given */
+/* the next slot when reached, a triangle the next slot when its leaf is reached.                                     */
+
+/* What a node of one of the three trees is: its children (a source reference each, valid or absent) and boxes. */
+typedef struct src_tree {
+    int kind; /* 0: Karras BLAS, 1: Karras TLAS, 2: sweep TLAS */
+    const rto_bvh_node *karras;
+    const rto_tlas_node *sweep;
+    size_t first_leaf; /* sweep */
+    const rto_accel_blas *blas;
+    const rto_mesh *mesh;
+    const uint32_t *tlas_sorted_keys;
+} src_tree;
+
+static int src_leaf(const src_tree *t, uint32_t ref)
+{
+    return t->kind == 2 ? ref >= t->first_leaf : (ref & RTO_BVH_LEAF_BIT) != 0;
+}
+
+/* Fills a node's boxes and presence from source node ref; returns its two source children. */
+static void src_node(const src_tree *t, uint32_t ref, packed_node *n, uint32_t child[2])
+{
+    const float *mn[2], *mx[2];
+    n->present = 3;
+    if (t->kind == 2) {
+        for (int c = 0; c < 2; c++) {
+            const rto_tlas_node *s = &t->sweep[2 * (size_t)ref + 1 + c];
+            child[c] = 2 * ref + 1 + (uint32_t)c;
+            mn[c] = s->min;
+            mx[c] = s->max;
+            if (s->item == RTO_TLAS_EMPTY)
+                n->present &= ~(1u << c);
+        }
+    } else {
+        const rto_bvh_node *s = &t->karras[ref];
+        child[0] = s->left;
+        child[1] = s->right;
+        mn[0] = s->lmin;
+        mx[0] = s->lmax;
+        mn[1] = s->rmin;
+        mx[1] = s->rmax;
+    }
+    for (int a = 0; a < 3; a++) {
+        n->box[4 * a + 0] = (n->present & 1) ? mn[0][a] : 0.0f;
+        n->box[4 * a + 1] = (n->present & 2) ? mn[1][a] : 0.0f;
+        n->box[4 * a + 2] = (n->present & 1) ? mx[0][a] : 0.0f;
+        n->box[4 * a + 3] = (n->present & 2) ? mx[1][a] : 0.0f;
+    }
+    n->tests = (n->present & 1) + (n->present >> 1);
+}
+
+/* The packed reference of a source leaf: a triangle slot (BLAS, taken here) or an instance (TLAS). */
+static uint32_t leaf_ref(const src_tree *t, uint32_t ref, packed_slot *slots, uint32_t *next)
+{
+    if (t->kind == 2)
+        return RTO_BVH_LEAF_BIT | t->sweep[ref].item;
+    const uint32_t leaf = ref & ~RTO_BVH_LEAF_BIT;
+    if (t->kind == 1)
+        return RTO_BVH_LEAF_BIT | rto_key_prim(RTO_KEY_U32, t->tlas_sorted_keys[leaf]);
+    const uint32_t me = (*next)++;
+    packed_tri *tri = &slots[me].tri;
+    const uint32_t prim = t->blas->order[leaf];
+    const uint32_t *ix = &t->mesh->indices[3 * (size_t)prim];
+    memset(tri, 0, sizeof *tri);
+    for (int v = 0; v < 3; v++)
+        memcpy(&tri->v[3 * v], &t->mesh->positions[3 * (size_t)ix[v]], 3 * sizeof(float));
+    tri->prim = prim;
+    return RTO_BVH_LEAF_BIT | me;
+}
+
+/* Depth-first copy from source node root (internal). stack holds depth + 1 entries. */
+static void copy_tree(const src_tree *t, uint32_t root, packed_slot *slots, uint32_t *stack_ref, uint32_t *stack_at)
+{
+    uint32_t next = 0;
+    size_t top = 0;
+    stack_ref[top] = root;
+    stack_at[top++] = UINT32_MAX; /* where the parent keeps the reference: slot * 2 + side */
+    while (top) {
+        const uint32_t ref = stack_ref[--top], at = stack_at[top];
+        uint32_t packed;
+        uint32_t child[2] = {0, 0};
+        if (src_leaf(t, ref)) {
+            packed = leaf_ref(t, ref, slots, &next);
+        } else {
+            packed = next++;
+            packed_node *n = &slots[packed].node;
+            memset(n, 0, sizeof *n);
+            src_node(t, ref, n, child);
+            /* The right child is copied after the whole left subtree: pushed first. */
+            for (int c = 1; c >= 0; c--)
+                if (n->present & (1u << c)) {
+                    stack_ref[top] = child[c];
+                    stack_at[top++] = 2 * packed + (uint32_t)c;
+                }
+        }
+        if (at != UINT32_MAX)
+            slots[at / 2].node.child[at % 2] = packed;
+    }
+}
+
+static void packed_free(void *p)
+{
+    packed_accel *pa = p;
+    if (!pa)
+        return;
+    free(pa->tlas.slots);
+    for (uint32_t m = 0; pa->blas && m < pa->blas_count; m++)
+        free(pa->blas[m].slots);
+    free(pa->blas);
+    free(pa);
+}
+
+/* Slots for a tree of `leaves` leaves (BLAS: its triangles too), or 0 when 31-bit references cannot hold them. */
+static size_t slot_count(size_t internal, size_t triangles)
+{
+    const size_t n = internal + triangles;
+    return n > (size_t)(RTO_BVH_LEAF_BIT - 1) ? 0 : n;
+}
+
+static void *packed_make(const rto_accel *accel)
+{
+    const rto_scene *scene = rto_accel_scene(accel);
+    const rto_accel_tlas *tl = rto_accel_get_tlas(accel);
+    packed_accel *pa = calloc(1, sizeof *pa);
+    if (!pa)
+        return NULL;
+    pa->blas_count = rto_accel_blas_count(accel);
+    pa->blas = calloc(pa->blas_count ? pa->blas_count : 1, sizeof *pa->blas);
+    /* A stack for the deepest tree: a walk holds at most one pending right child per level, plus the root. */
+    uint32_t depth = tl->stats.depth;
+    for (uint32_t m = 0; m < pa->blas_count; m++) {
+        const uint32_t d = rto_accel_get_blas(accel, m)->stats.depth;
+        depth = d > depth ? d : depth;
+    }
+    uint32_t *stack = malloc(2 * ((size_t)depth + 2) * sizeof *stack);
+    int ok = pa->blas && stack;
+    for (uint32_t m = 0; ok && m < pa->blas_count; m++) {
+        const rto_accel_blas *b = rto_accel_get_blas(accel, m);
+        packed_tree *pt = &pa->blas[m];
+        pt->empty = b->triangle_count == 0;
+        if (pt->empty)
+            continue;
+        const size_t n = slot_count(b->node_count, b->triangle_count);
+        pt->slots = n ? rto__alloc_large(n, sizeof *pt->slots) : NULL;
+        ok = pt->slots != NULL;
+        if (!ok)
+            break;
+        const src_tree src = {0, b->nodes, NULL, 0, b, &scene->meshes[m], NULL};
+        if (b->triangle_count == 1) { /* no internal node: the one triangle */
+            uint32_t next = 0;
+            pt->root = leaf_ref(&src, RTO_BVH_LEAF_BIT, pt->slots, &next);
+        } else {
+            copy_tree(&src, 0, pt->slots, stack, stack + depth + 2);
+            pt->root = 0;
+        }
+    }
+    packed_tree *pt = &pa->tlas;
+    if (ok && tl->kind == RTO_TLAS_KARRAS) {
+        const src_tree src = {1, tl->karras_nodes, NULL, 0, NULL, NULL, tl->sorted_keys};
+        pt->empty = tl->key_count == 0;
+        if (tl->key_count == 1) {
+            pt->root = RTO_BVH_LEAF_BIT | rto_key_prim(RTO_KEY_U32, tl->sorted_keys[0]);
+        } else if (tl->key_count > 1) {
+            const size_t n = slot_count(tl->node_count, 0);
+            pt->slots = n ? rto__alloc_large(n, sizeof *pt->slots) : NULL;
+            ok = pt->slots != NULL;
+            if (ok)
+                copy_tree(&src, 0, pt->slots, stack, stack + depth + 2);
+        }
+    } else if (ok) {
+        const rto_tlas_node *nodes = tl->sweep_nodes;
+        const src_tree src = {2, NULL, nodes, (size_t)tl->n_padded - 1, NULL, NULL, NULL};
+        pt->empty = nodes[0].item == RTO_TLAS_EMPTY;
+        pt->root_box = 1;
+        memcpy(pt->box, nodes[0].min, sizeof nodes[0].min);
+        memcpy(pt->box + 3, nodes[0].max, sizeof nodes[0].max);
+        if (!pt->empty && tl->n_padded == 1) {
+            pt->root = RTO_BVH_LEAF_BIT | nodes[0].item;
+        } else if (!pt->empty) {
+            /* Internal nodes not EMPTY: at most n_padded - 1. */
+            pt->slots = rto__alloc_lines((size_t)tl->n_padded - 1, sizeof *pt->slots);
+            ok = pt->slots != NULL;
+            if (ok)
+                copy_tree(&src, 0, pt->slots, stack, stack + depth + 2);
+        }
+    }
+    free(stack);
+    if (!ok) {
+        packed_free(pa);
+        return NULL;
+    }
+    return pa;
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* The traversal.                                                                                                     */
+
+/* A ray against one node's two child boxes (rto__slab's operations, both children at once): bit 0 left hit, bit 1
+ * right hit, among the children present; their entry t in t[0], t[1]. */
+typedef struct vray {
+    __m128 o[3], inv[3], t_min;
+} vray;
+
+static inline vray vray_make(const float o[3], const float inv[3], float t_min)
+{
+    vray v;
+    for (int a = 0; a < 3; a++) {
+        v.o[a] = _mm_set1_ps(o[a]);
+        v.inv[a] = _mm_set1_ps(inv[a]);
+    }
+    v.t_min = _mm_set1_ps(t_min);
+    return v;
+}
+
+static inline int slab_pair(const packed_node *n, const vray *r, float best_t, float t[2])
+{
+    __m128 lo[3], hi[3];
+#pragma GCC unroll 3
+    for (int a = 0; a < 3; a++) {
+        /* {t0 left, t0 right, t1 left, t1 right} = (box - origin) * inverse direction, then min and max of t0, t1 */
+        const __m128 v = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->box[4 * a]), r->o[a]), r->inv[a]);
+        const __m128 w = _mm_shuffle_ps(v, v, _MM_SHUFFLE(1, 0, 3, 2));
+        lo[a] = _mm_min_ps(v, w);
+        hi[a] = _mm_max_ps(v, w);
+    }
+    const __m128 near = _mm_max_ps(_mm_max_ps(_mm_max_ps(lo[0], lo[1]), lo[2]), r->t_min);
+    const __m128 far = _mm_min_ps(_mm_min_ps(_mm_min_ps(hi[0], hi[1]), hi[2]), _mm_set1_ps(best_t));
+    t[0] = _mm_cvtss_f32(near);
+    t[1] = _mm_cvtss_f32(_mm_shuffle_ps(near, near, _MM_SHUFFLE(1, 1, 1, 1)));
+    return _mm_movemask_ps(_mm_cmple_ps(near, far)) & 3;
+}
+
+/* Per-ray state, as the scalar tracer's. */
+typedef struct pray {
+    const rto_wf_ray *ray;
+    float best_t;
+    int found, done;
+    uint32_t inst_hit, prim_hit;
+    rto_tri_hit h;
+    rto_trace_counters c;
+    rto__trace_entry *tstack, *bstack;
+} pray;
+
+/* A node's hit children: the nearer (left on a tie) becomes *cur, the farther is pushed; 0 when none was hit. */
+static inline int descend(const packed_node *n, int hit, const float t[2], rto__trace_entry *stack, size_t *top,
+                          uint32_t *cur)
+{
+    if (hit == 3) {
+        if (t[0] <= t[1]) {
+            stack[(*top)++] = (rto__trace_entry){n->child[1], t[1]};
+            *cur = n->child[0];
+        } else {
+            stack[(*top)++] = (rto__trace_entry){n->child[0], t[0]};
+            *cur = n->child[1];
+        }
+        return 1;
+    }
+    /* Branches, not an index computed from the test: the CPU then fetches the predicted child while the test runs. */
+    if (hit == 1) {
+        *cur = n->child[0];
+        return 1;
+    }
+    if (hit == 2) {
+        *cur = n->child[1];
+        return 1;
+    }
+    return 0;
+}
+
+/* The next entry whose box still starts within the best t, or 0 when the stack is empty. */
+static inline int pop(rto__trace_entry *stack, size_t *top, float best_t, uint32_t *cur)
+{
+    while (*top) {
+        const rto__trace_entry e = stack[--*top];
+        if (e.t > best_t)
+            continue;
+        *cur = e.ref;
+        return 1;
+    }
+    return 0;
+}
+
+static inline void triangle(pray *st, const packed_tri *tri, const float o[3], const float d[3], uint32_t inst)
+{
+    const rto_wf_ray *ray = st->ray;
+    rto_tri_hit h;
+    st->c.triangle_tests++;
+    if (rto__triangle_intersect(&tri->v[0], &tri->v[3], &tri->v[6], o, d, ray->t_min, st->best_t, &h) &&
+        !rto__triangle_culled(ray->flags, h.det)) {
+        st->best_t = h.t;
+        st->h = h;
+        st->inst_hit = inst;
+        st->prim_hit = tri->prim;
+        st->found = 1;
+        st->done = (ray->flags & RTO_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0;
+    }
+}
+
+/* The BLAS of instance inst, entered when its mask meets the ray's: the ray in object space, as traverse.c's. */
+static void trace_blas(const rto__tracer *tr, const packed_accel *pa, pray *st, uint32_t inst)
+{
+    const rto_instance *in = &tr->scene->instances[inst];
+    if (!(in->mask & st->ray->cull_mask))
+        return;
+    const packed_tree *pt = &pa->blas[in->blas];
+    const packed_slot *slots = pt->slots;
+    float o[3], d[3], inv[3];
+    rto__ray_to_object(&in->world_to_obj, st->ray->origin, st->ray->dir, o, d);
+    rto__ray_inv_dir(d, inv);
+    st->c.instance_entries++;
+    if (pt->root & RTO_BVH_LEAF_BIT) { /* no internal node: straight to the triangle */
+        triangle(st, &slots[pt->root & ~RTO_BVH_LEAF_BIT].tri, o, d, inst);
+        return;
+    }
+    const vray vr = vray_make(o, inv, st->ray->t_min);
+    rto__trace_entry *stack = st->bstack;
+    size_t top = 0;
+    uint32_t cur = pt->root; /* entered without a box test of its own: its child boxes are the tests */
+    for (;;) {
+        st->c.nodes_visited++;
+        if (cur & RTO_BVH_LEAF_BIT) {
+            triangle(st, &slots[cur & ~RTO_BVH_LEAF_BIT].tri, o, d, inst);
+            if (st->done)
+                return;
+        } else {
+            const packed_node *n = &slots[cur].node;
+            float t[2];
+            st->c.box_tests += 2;
+            if (descend(n, slab_pair(n, &vr, st->best_t, t), t, stack, &top, &cur))
+                continue;
+        }
+        if (!pop(stack, &top, st->best_t, &cur))
+            return;
+    }
+}
+
+static void trace_tlas(const rto__tracer *tr, const packed_accel *pa, pray *st, const float winv[3])
+{
+    const packed_tree *pt = &pa->tlas;
+    const rto_wf_ray *ray = st->ray;
+    if (pt->empty)
+        return;
+    uint32_t cur = pt->root;
+    if (pt->root_box) { /* the sweep tree's root box is tested like any node */
+        float t;
+        st->c.box_tests++;
+        if (!rto__slab(pt->box, pt->box + 3, ray->origin, winv, ray->t_min, st->best_t, &t))
+            return;
+    } else if (cur & RTO_BVH_LEAF_BIT) { /* a Karras tree of one key: straight to the instance */
+        trace_blas(tr, pa, st, cur & ~RTO_BVH_LEAF_BIT);
+        return;
+    }
+    const vray vr = vray_make(ray->origin, winv, ray->t_min);
+    rto__trace_entry *stack = st->tstack;
+    size_t top = 0;
+    for (;;) {
+        st->c.nodes_visited++;
+        if (cur & RTO_BVH_LEAF_BIT) {
+            trace_blas(tr, pa, st, cur & ~RTO_BVH_LEAF_BIT);
+            if (st->done)
+                return;
+        } else {
+            const packed_node *n = &pt->slots[cur].node;
+            float t[2];
+            st->c.box_tests += n->tests;
+            if (descend(n, slab_pair(n, &vr, st->best_t, t) & (int)n->present, t, stack, &top, &cur))
+                continue;
+        }
+        if (!pop(stack, &top, st->best_t, &cur))
+            return;
+    }
+}
+
+int rto__trace_packed_built(void) { return 1; }
+
+const void *rto__trace_packed_trees(const rto_accel *accel)
+{
+    return rto__accel_derived(accel, packed_make, packed_free);
+}
+
+void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,
+                       rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks)
+{
+    const packed_accel *pa = trees;
+    pray st;
+    st.tstack = stacks;
+    st.bstack = stacks + tr->stack_cap;
+    for (size_t i = begin; i < end; i++) {
+        float winv[3];
+        st.ray = &rays[i];
+        rto__ray_inv_dir(st.ray->dir, winv);
+        st.best_t = st.ray->t_max;
+        st.found = 0;
+        st.done = 0;
+        memset(&st.c, 0, sizeof st.c);
+        trace_tlas(tr, pa, &st, winv);
+        hits[i] = st.found ? rto_hit_record_make(&tr->scene->instances[st.inst_hit], st.inst_hit, st.prim_hit, &st.h)
+                           : rto_hit_record_miss(st.ray->t_max);
+        if (counters)
+            counters[i] = st.c;
+    }
+}
+
+#else
+
+int rto__trace_packed_built(void) { return 0; }
+
+const void *rto__trace_packed_trees(const rto_accel *accel)
+{
+    (void)accel;
+    return NULL;
+}
+
+void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,
+                       rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks)
+{
+    (void)tr, (void)trees, (void)rays, (void)begin, (void)end, (void)hits, (void)counters, (void)stacks;
+}
+
+#endif
