@@ -3,9 +3,9 @@
  * Table 1: Mrays/s for primary, shadow and random rays on the Stanford bunny, 2CylinderEngine and rtstress:16 at
  * 1920x1080 (random: 1920 * 1080 rays; shadow: one per primary hit), with 1 thread and with all threads:
  *   - the oracle: rto_trace with rto_trace_desc.threads 1, or 0 (one thread per online CPU), on each of its paths
- *     the CPU has (RTO_TRACE_ISA = scalar, avx2, avx512: the scalar reference, 8 or 16 ray lanes); every path's
- *     records are compared with the scalar path's after the runs, and the ratios use the path rto_trace takes by
- *     default (scalar);
+ *     the CPU has (RTO_TRACE_ISA = scalar, sse2, avx2, avx512: the scalar reference, the packed path, 8 or 16 ray
+ *     lanes); every path's records are compared with the scalar path's after the runs, and the ratios use the path
+ *     rto_trace takes by default (sse2, the packed path; its copy of the trees is made by an untimed first call);
  *   - Embree: rtcIntersect1 per ray (rtcOccluded1 for the TERMINATE_ON_FIRST_HIT shadow rays) through the scene
  *     mirror of oracle/embree.c (one RTCScene per mesh, one instance geometry per instance, as crosscheck builds
  *     it). 1 thread: a device with "threads=1", traced in the calling thread. All threads: a device with Embree's

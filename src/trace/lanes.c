@@ -1,7 +1,7 @@
 /* The tracer's SIMD lanes (trace/lanes_kernel.h, DESIGN.md §6): 8 rays at a time with AVX2, 16 with AVX-512,
  * compiled for those instruction sets function by function (the library itself targets baseline x86-64) and taken by
- * rto_trace when RTO_TRACE_ISA asks for them and the CPU has them (traverse.c; the scalar tracer is the default, being
- * the faster on the machines measured: docs/trace.md, "Benchmark"). Each lane is one ray with its own stacks and its own traversal order, as a GPU thread is;
+ * rto_trace when RTO_TRACE_ISA asks for them and the CPU has them (traverse.c; the packed path, packed.c, is the
+ * default, being the faster on the machines measured: docs/trace.md, "Benchmark"). Each lane is one ray with its own stacks and its own traversal order, as a GPU thread is;
  * only the slab tests and the Möller–Trumbore tests of the lanes that reached one run side by side, lane-wise, with
  * the scalar tracer's operations in its order. Records and counters equal the scalar tracer's bit for bit
  * (unit.trace_lanes holds them to it on every ray set; bench_trace compares the records too). */
