@@ -67,6 +67,10 @@ static inline float rto__maxf(float a, float b) { return a > b ? a : b; }
 /** Whether this CPU runs AVX2, and AVX-512 F, BW, DQ and VL (core/cpu.c): the SIMD paths chosen at run time. 0 on
  * other architectures. */
 int rto__cpu_avx2(void);
+/** The path a dispatcher runs when asked for none: paths lowest .. count - 1 are ordered from the reference (always
+ * supported) to the widest; the best supported one up to cap, or up to the path environment variable env names
+ * (name(i) of one of them; another value is ignored). */
+int rto__isa_resolve(const char *env, const char *(*name)(int), int (*supported)(int), int lowest, int count, int cap);
 int rto__cpu_avx512(void);
 
 /* Static thread partitioning (core/threads.c, DESIGN.md §2). */

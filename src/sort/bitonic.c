@@ -181,18 +181,13 @@ int rto__bitonic_isa_supported(rto__bitonic_isa isa)
 
 /* AUTO: the widest supported path, capped by RTO_BITONIC_ISA (baseline, avx2, avx512) when set, so that a user or a
  * test can force a narrower path. */
+static const char *isa_name(int i) { return rto__bitonic_isa_name((rto__bitonic_isa)i); }
+static int isa_supported(int i) { return rto__bitonic_isa_supported((rto__bitonic_isa)i); }
+
 static rto__bitonic_isa resolve_isa(void)
 {
-    rto__bitonic_isa cap = RTO__BITONIC_AVX512;
-    const char *env = getenv("RTO_BITONIC_ISA");
-    if (env && *env)
-        for (int i = RTO__BITONIC_BASELINE; i < RTO__BITONIC_ISA_COUNT; i++)
-            if (strcmp(env, rto__bitonic_isa_name((rto__bitonic_isa)i)) == 0)
-                cap = (rto__bitonic_isa)i;
-    for (int i = cap; i > RTO__BITONIC_BASELINE; i--)
-        if (rto__bitonic_isa_supported((rto__bitonic_isa)i))
-            return (rto__bitonic_isa)i;
-    return RTO__BITONIC_BASELINE;
+    return (rto__bitonic_isa)rto__isa_resolve("RTO_BITONIC_ISA", isa_name, isa_supported, RTO__BITONIC_BASELINE,
+                                              RTO__BITONIC_ISA_COUNT, RTO__BITONIC_AVX512);
 }
 
 /* Blocks, in slots: L1 (passes below it run on L1-resident blocks) and L2 (the unit of the parallel block phase),

@@ -240,18 +240,13 @@ int rto__trace_isa_supported(rto__trace_isa isa)
     return isa == RTO__TRACE_AVX2 ? rto__cpu_avx2() : rto__cpu_avx512();
 }
 
+static const char *isa_name(int i) { return rto__trace_isa_name((rto__trace_isa)i); }
+static int isa_supported(int i) { return rto__trace_isa_supported((rto__trace_isa)i); }
+
 rto__trace_isa rto__trace_isa_resolve(void)
 {
-    rto__trace_isa cap = RTO__TRACE_SSE2;
-    const char *env = getenv("RTO_TRACE_ISA");
-    if (env && *env)
-        for (int i = RTO__TRACE_SCALAR; i < RTO__TRACE_ISA_COUNT; i++)
-            if (strcmp(env, rto__trace_isa_name((rto__trace_isa)i)) == 0)
-                cap = (rto__trace_isa)i;
-    for (int i = cap; i > RTO__TRACE_SCALAR; i--)
-        if (rto__trace_isa_supported((rto__trace_isa)i))
-            return (rto__trace_isa)i;
-    return RTO__TRACE_SCALAR;
+    return (rto__trace_isa)rto__isa_resolve("RTO_TRACE_ISA", isa_name, isa_supported, RTO__TRACE_SCALAR,
+                                            RTO__TRACE_ISA_COUNT, RTO__TRACE_SSE2);
 }
 
 rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
