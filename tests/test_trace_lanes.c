@@ -236,7 +236,9 @@ static void *race(void *p)
     racer *r = p;
     rto_msg msg = {{0}};
     rto_trace_desc one = {1};
-    r->status = rto__trace_with(r->acc, r->rays, r->n, &one, RTO__TRACE_AUTO, r->hits, NULL, &msg);
+    /* the packed path asked for: left to choose, rto_trace would not make the copy for so few rays */
+    const rto__trace_isa isa = rto__trace_isa_supported(RTO__TRACE_SSE2) ? RTO__TRACE_SSE2 : RTO__TRACE_SCALAR;
+    r->status = rto__trace_with(r->acc, r->rays, r->n, &one, isa, r->hits, NULL, &msg);
     return NULL;
 }
 
@@ -262,6 +264,7 @@ static void test_first_use_race(void **state)
         for (int k = 0; k < RACERS; k++)
             assert_int_equal(pthread_join(t[k], NULL), 0);
         assert_int_equal(rto__trace_with(acc, rays, N, NULL, RTO__TRACE_SCALAR, want, NULL, &msg), RTO_OK);
+        assert_true((rto__trace_packed_trees(acc, 0) != NULL) == rto__trace_isa_supported(RTO__TRACE_SSE2));
         for (int k = 0; k < RACERS; k++) {
             assert_int_equal(r[k].status, RTO_OK);
             for (size_t i = 0; i < N; i++)
@@ -273,6 +276,55 @@ static void test_first_use_race(void **state)
         free(rays);
         rto_accel_destroy(acc);
     }
+    rto_scene_destroy(s);
+}
+
+/* Left to choose, rto_trace makes the packed copy once the calls on the accel have brought threads * slots rays (the
+ * bunny: 2 slots a triangle, 1 for the one-instance sweep TLAS) and runs the scalar tracer before, the same bytes;
+ * asked for (RTO_TRACE_ISA=sse2) it makes it for any call. */
+static void test_packed_when_worth(void **state)
+{
+    (void)state;
+    if (!rto__trace_isa_supported(RTO__TRACE_SSE2)) {
+        print_message("no packed path in this build\n");
+        return;
+    }
+    rto_scene *s = tu_load("StanfordBunny/bunny.gltf");
+    const size_t slots = 2 * (size_t)s->meshes[0].triangle_count + 1, small = 2000;
+    rto_wf_ray *rays = mixed_rays(s, 23, slots);
+    rto_hit_record *want = malloc(slots * sizeof *want), *got = malloc(slots * sizeof *got);
+    rto_msg msg = {{0}};
+    assert_true(want && got);
+    unsetenv("RTO_TRACE_ISA");
+    for (uint32_t threads = 1; threads <= 2; threads++) {
+        rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
+        rto_trace_desc d = {threads};
+        assert_int_equal(rto__trace_with(acc, rays, slots, &d, RTO__TRACE_SCALAR, want, NULL, &msg), RTO_OK);
+        assert_int_equal(rto_trace(acc, rays, small, &d, got, NULL, &msg), RTO_OK);
+        assert_null(rto__trace_packed_trees(acc, 0));
+        assert_memory_equal(want, got, small * sizeof *got);
+        assert_false(rto__trace_packed_worth(acc, slots - 1, 1));
+        assert_true(rto__trace_packed_worth(acc, slots, 1));
+        /* small + slots rays so far: enough on one thread, not on two */
+        assert_int_equal(rto_trace(acc, rays, slots, &d, got, NULL, &msg), RTO_OK);
+        assert_true((rto__trace_packed_trees(acc, 0) != NULL) == (threads == 1));
+        assert_memory_equal(want, got, slots * sizeof *got);
+        /* small + 2 slots rays, in calls smaller than 2 slots: enough on two */
+        assert_int_equal(rto_trace(acc, rays, slots, &d, got, NULL, &msg), RTO_OK);
+        assert_non_null(rto__trace_packed_trees(acc, 0));
+        assert_memory_equal(want, got, slots * sizeof *got);
+        rto_accel_destroy(acc);
+    }
+    rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
+    assert_int_equal(setenv("RTO_TRACE_ISA", "sse2", 1), 0);
+    assert_int_equal(rto_trace(acc, rays, small, NULL, got, NULL, &msg), RTO_OK);
+    unsetenv("RTO_TRACE_ISA");
+    assert_non_null(rto__trace_packed_trees(acc, 0));
+    assert_memory_equal(want, got, small * sizeof *got);
+    rto_accel_destroy(acc);
+    free(want);
+    free(got);
+    free(rays);
     rto_scene_destroy(s);
 }
 
@@ -305,9 +357,11 @@ static void test_accel_derived(void **state)
         makes = releases = 0;
         rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
         void *(*make)(const rto_accel *) = fail ? make_fail : make_ok;
+        assert_null(rto__accel_derived(acc, NULL, NULL)); /* nothing made yet, and looking makes nothing */
         void *first = rto__accel_derived(acc, make, release);
         assert_true(fail ? first == NULL : first != NULL);
         assert_ptr_equal(rto__accel_derived(acc, make, release), first);
+        assert_ptr_equal(rto__accel_derived(acc, NULL, NULL), first); /* only looks */
         assert_int_equal(makes, 1);
         assert_int_equal(releases, 0);
         rto_accel_destroy(acc);
@@ -323,6 +377,7 @@ int main(void)
         cmocka_unit_test(test_one_triangle),   cmocka_unit_test(test_masks),
         cmocka_unit_test(test_instanced),      cmocka_unit_test(test_meshes),
         cmocka_unit_test(test_first_use_race), cmocka_unit_test(test_accel_derived),
+        cmocka_unit_test(test_packed_when_worth),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

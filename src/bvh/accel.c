@@ -26,6 +26,7 @@ struct rto_accel {
     pthread_mutex_t derived_lock;
     void *derived;
     void (*derived_free)(void *);
+    uint64_t rays_traced; /* rto__accel_rays_traced */
 };
 
 /* The view structs hold const pointers for the reader; the accel owns and frees them. */
@@ -53,11 +54,17 @@ void rto_accel_destroy(rto_accel *a)
     free(a);
 }
 
+uint64_t rto__accel_rays_traced(const rto_accel *ca, uint64_t n)
+{
+    rto_accel *a = (rto_accel *)(uintptr_t)ca; /* a tally, not the trees */
+    return __atomic_add_fetch(&a->rays_traced, n, __ATOMIC_RELAXED);
+}
+
 void *rto__accel_derived(const rto_accel *ca, void *(*make)(const rto_accel *), void (*release)(void *))
 {
     rto_accel *a = (rto_accel *)(uintptr_t)ca; /* the copy is a cache: the accel's trees do not change */
     void *d = __atomic_load_n(&a->derived, __ATOMIC_ACQUIRE);
-    if (d)
+    if (d || !make)
         return d;
     pthread_mutex_lock(&a->derived_lock);
     d = a->derived;

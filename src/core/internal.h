@@ -115,8 +115,10 @@ void *rto__alloc_lines(size_t count, size_t size);
 
 /** What a reader derives from an accel's trees and keeps with it (bvh/accel.c): make(accel) runs once, on the first
  * call, under the accel's lock (concurrent callers wait for it); release frees it with the accel. NULL when make
- * returned NULL (out of memory), then and on every later call. */
+ * returned NULL (out of memory), then and on every later call. With make NULL, only looks: what was made, or NULL. */
 void *rto__accel_derived(const rto_accel *accel, void *(*make)(const rto_accel *), void (*release)(void *));
+/** Adds n to the rays the tracer was given on this accel so far (it chooses a path by them) and returns the sum. */
+uint64_t rto__accel_rays_traced(const rto_accel *accel, uint64_t n);
 
 #if defined(__GNUC__)
 #pragma GCC visibility pop

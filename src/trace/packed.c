@@ -12,8 +12,10 @@
  * The traversal is §6's, pop for pop: of the children hit, the nearer is visited at once instead of being pushed and
  * popped straight back (its pop-time check cannot fail: its entry t is at most the best t, which only a triangle
  * changes). Records and counters equal the scalar tracer's bit for bit: unit.trace_lanes holds every path to them.
- * Where the copy cannot be made (out of memory, a tree too large for 31-bit slot references) rto_trace runs the
- * scalar tracer, which gives the same bytes. */
+ * Making the copy costs about what tracing a ray per slot does, on one thread; so rto_trace, left to choose, makes it
+ * once the calls on the accel have brought threads * slots rays (a frame traces in chunks), and runs the scalar tracer
+ * (the same bytes) until then. Where the copy cannot be made (out of memory, a tree too large for 31-bit slot references) rto_trace runs the
+ * scalar tracer too. */
 #include "internal.h"
 #include "trace_internal.h"
 
@@ -436,9 +438,18 @@ static void trace_tlas(const rto__tracer *tr, const packed_accel *pa, pray *st, 
 
 int rto__trace_packed_built(void) { return 1; }
 
-const void *rto__trace_packed_trees(const rto_accel *accel)
+const void *rto__trace_packed_trees(const rto_accel *accel, int make)
 {
-    return rto__accel_derived(accel, packed_make, packed_free);
+    return make ? rto__accel_derived(accel, packed_make, packed_free) : rto__accel_derived(accel, NULL, NULL);
+}
+
+int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads)
+{
+    const rto_accel_tlas *tl = rto_accel_get_tlas(accel);
+    size_t slots = tl->kind == RTO_TLAS_KARRAS ? tl->node_count : (size_t)tl->n_padded;
+    for (uint32_t m = 0; m < rto_accel_blas_count(accel); m++)
+        slots += 2 * (size_t)rto_accel_get_blas(accel, m)->triangle_count;
+    return n / (threads ? threads : 1) >= (uint64_t)slots;
 }
 
 void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,
@@ -468,10 +479,16 @@ void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ra
 
 int rto__trace_packed_built(void) { return 0; }
 
-const void *rto__trace_packed_trees(const rto_accel *accel)
+const void *rto__trace_packed_trees(const rto_accel *accel, int make)
 {
-    (void)accel;
+    (void)accel, (void)make;
     return NULL;
+}
+
+int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads)
+{
+    (void)accel, (void)n, (void)threads;
+    return 0;
 }
 
 void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,

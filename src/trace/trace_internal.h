@@ -62,9 +62,13 @@ const rto__trace_lanes *rto__trace_lanes_kernel(rto__trace_isa isa);
 
 /** Whether the build has the packed path (trace/packed.c: x86-64). */
 int rto__trace_packed_built(void);
-/** The packed copy of an accel's trees, made on first use and kept with the accel; NULL when it cannot be made (out
- * of memory, a tree beyond 31-bit references) or the build has no packed path: then the scalar tracer runs. */
-const void *rto__trace_packed_trees(const rto_accel *accel);
+/** The packed copy of an accel's trees, made on first use (make) and kept with the accel; NULL when it cannot be made
+ * (out of memory, a tree beyond 31-bit references) or the build has no packed path: then the scalar tracer runs.
+ * make 0: the copy if it was made, else NULL. */
+const void *rto__trace_packed_trees(const rto_accel *accel, int make);
+/** Whether n rays traced on this many threads pay for making the packed copy: n >= threads * the slots it holds
+ * (making it costs about what tracing one ray costs per slot, and one thread makes it). */
+int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads);
 /** Rays [begin, end) on the packed trees, one at a time; stacks holds two stacks of tr->stack_cap entries. */
 void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,
                        rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks);

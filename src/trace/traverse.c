@@ -264,6 +264,11 @@ rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_
         return s;
     if (!n)
         return RTO_OK;
+    /* Left to choose (no path asked for by the caller or by RTO_TRACE_ISA), rto_trace makes the packed copy once the
+     * calls on the accel have brought enough rays to pay for it (rto__trace_packed_worth); until then it runs the
+     * scalar tracer, the same bytes. */
+    const char *env = getenv("RTO_TRACE_ISA");
+    const int chosen_here = isa == RTO__TRACE_AUTO && !(env && *env);
     if (isa == RTO__TRACE_AUTO)
         isa = rto__trace_isa_resolve();
     tracer tr = {accel, rto_accel_scene(accel), rto_accel_get_tlas(accel), 0};
@@ -284,8 +289,10 @@ rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_
         return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u traversal stacks", threads);
     unsigned char *aligned = block + ((64 - (uintptr_t)block % 64) % 64);
     const void *packed = NULL;
-    if (isa == RTO__TRACE_SSE2 && !(packed = rto__trace_packed_trees(accel)))
-        isa = RTO__TRACE_SCALAR; /* no copy of the trees (out of memory): the scalar tracer, the same bytes */
+    if (isa == RTO__TRACE_SSE2 && !(packed = rto__trace_packed_trees(accel, 0)) &&
+        !(packed = rto__trace_packed_trees(
+              accel, !chosen_here || rto__trace_packed_worth(accel, rto__accel_rays_traced(accel, n), threads))))
+        isa = RTO__TRACE_SCALAR; /* no copy of the trees (not made yet, or no memory): the scalar tracer, same bytes */
     trace_job job = {&tr, rays, hits, counters, lanes, packed, aligned, size};
     rto__parallel_ranges(n, threads, trace_range, &job);
     free(block);
