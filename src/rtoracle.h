@@ -1247,10 +1247,10 @@ typedef struct rto_trace_desc {
  * instance.mask & ray.cullMask. Rays whose origin, direction, tMin or tMax is not finite, or whose tMin > tMax, are
  * refused (RTO_ERR_INVALID_ARGUMENT naming the first such ray) before anything is traced. One ray at a time per
  * thread; on x86-64 on a copy of the trees laid out for a CPU, made once the calls on the accel have brought
- * threads * (internal nodes + triangles) rays, and kept with it (64 bytes per internal node and per triangle; freed by
+ * threads * slots rays (the copy's 64-byte slots: two per triangle, one per TLAS node) and kept with it (freed by
  * rto_accel_destroy), before that on the accel's own trees; with RTO_TRACE_ISA=scalar in the environment always on
- * the accel's own trees, with sse2 always on the copy, with avx2 or avx512 8 or 16 rays in SIMD lanes where the CPU
- * has them. The bytes are the same on every path (docs/trace.md, "Paths"). Concurrent calls on one accel are safe.
+ * the accel's own trees, with sse2 on the copy from the first call (where it can be made), with avx2 or avx512 8 or
+ * 16 rays in SIMD lanes where the CPU has them. The bytes are the same on every path (docs/trace.md, "Paths"). Concurrent calls on one accel are safe.
  */
 rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
                      rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg);

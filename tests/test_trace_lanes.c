@@ -87,6 +87,9 @@ static void check_rays(const char *what, const rto_accel *acc, const rto_wf_ray 
             memset(gc, 0xA5, n * sizeof *gc);
             if (rto__trace_with(acc, rays, n, &d, (rto__trace_isa)isa, got, gc, &msg))
                 fail_msg("%s: %s", label, msg.text);
+            /* the packed path ran on its copy, not on the scalar tracer it falls back to */
+            if (isa == RTO__TRACE_SSE2 && !rto__trace_packed_trees(acc, 0))
+                fail_msg("%s: no packed copy was made", label);
             compare(label, want, wc, got, gc, n);
         }
     }
@@ -167,6 +170,31 @@ static void test_meshes(void **state)
     (void)state;
     check_scene("StanfordBunny/bunny.gltf", TU_SIZED(160, 64), TU_SIZED(120, 48), TU_SIZED(20000, 4000));
     check_scene("sphere:3:9", 64, 48, TU_SIZED(10000, 3000));
+}
+
+/* Empty meshes: a BLAS without triangles, whose instances get no key and no leaf; with every mesh empty, a Karras
+ * TLAS of no key and a sweep TLAS whose root is EMPTY. */
+static void test_empty_meshes(void **state)
+{
+    (void)state;
+    for (int all = 0; all < 2; all++) {
+        rto_scene *s = tu_load("random:3");
+        rto_wf_ray *rays = mixed_rays(s, 29, 3000); /* around the bounds the meshes had */
+        assert_true(s->mesh_count >= 2);
+        for (uint32_t m = 0; m < s->mesh_count; m++)
+            if (all || m == 0)
+                s->meshes[m].triangle_count = 0;
+        for (int kind = 0; kind < 2; kind++) {
+            rto_accel *acc = tu_accel(s, kind ? RTO_TLAS_KARRAS : RTO_TLAS_SWEEP);
+            char what[96];
+            snprintf(what, sizeof what, "random:3 with %s empty, %s TLAS", all ? "every mesh" : "mesh 0",
+                     kind ? "karras" : "sweep");
+            check_rays(what, acc, rays, 3000, many_threads, 4);
+            rto_accel_destroy(acc);
+        }
+        free(rays);
+        rto_scene_destroy(s);
+    }
 }
 
 /* Masks: instances on two bits, rays with one, the other or none. */
@@ -377,7 +405,7 @@ int main(void)
         cmocka_unit_test(test_one_triangle),   cmocka_unit_test(test_masks),
         cmocka_unit_test(test_instanced),      cmocka_unit_test(test_meshes),
         cmocka_unit_test(test_first_use_race), cmocka_unit_test(test_accel_derived),
-        cmocka_unit_test(test_packed_when_worth),
+        cmocka_unit_test(test_packed_when_worth), cmocka_unit_test(test_empty_meshes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

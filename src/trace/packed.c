@@ -14,8 +14,8 @@
  * changes). Records and counters equal the scalar tracer's bit for bit: unit.trace_lanes holds every path to them.
  * Making the copy costs about what tracing a ray per slot does, on one thread; so rto_trace, left to choose, makes it
  * once the calls on the accel have brought threads * slots rays (a frame traces in chunks), and runs the scalar tracer
- * (the same bytes) until then. Where the copy cannot be made (out of memory, a tree too large for 31-bit slot references) rto_trace runs the
- * scalar tracer too. */
+ * (the same bytes) until then. Where the copy cannot be made (out of memory, a tree of 2^31 slots or more) rto_trace
+ * runs the scalar tracer too. */
 #include "internal.h"
 #include "trace_internal.h"
 

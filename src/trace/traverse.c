@@ -268,7 +268,9 @@ rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_
      * calls on the accel have brought enough rays to pay for it (rto__trace_packed_worth); until then it runs the
      * scalar tracer, the same bytes. */
     const char *env = getenv("RTO_TRACE_ISA");
-    const int chosen_here = isa == RTO__TRACE_AUTO && !(env && *env);
+    int chosen_here = isa == RTO__TRACE_AUTO;
+    for (int i = RTO__TRACE_SCALAR; chosen_here && env && i < RTO__TRACE_ISA_COUNT; i++)
+        chosen_here = strcmp(env, rto__trace_isa_name((rto__trace_isa)i)) != 0;
     if (isa == RTO__TRACE_AUTO)
         isa = rto__trace_isa_resolve();
     tracer tr = {accel, rto_accel_scene(accel), rto_accel_get_tlas(accel), 0};
