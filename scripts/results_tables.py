@@ -211,7 +211,8 @@ def trace_bench(name):
                  "the 8- and 16-ray lanes; a path missing from a run shows -) and of Embree 3 (`rtcIntersect1` / "
                  "`rtcOccluded1`, the same in robust mode, and `rtcIntersect1M` / `rtcOccluded1M` streams at their "
                  f"faster context flag); the ratios are time({dp}, the path rto_trace took) / time(Embree), above 1 "
-                 "the oracle is slower. Every path's records equal the scalar path's (the benchmark compares them).") + "\n\n" + "\n".join(lines) + "\n\n" +
+                 "the oracle is slower. Every path's records equal the scalar path's (the benchmark compares them).")
+            + "\n\n" + "\n".join(lines) + "\n\n" +
             para("The oracle's primary-ray trace time for `rtstress:N` with the sweep TLAS (the seeds' layout, the "
                  "default) and a Karras TLAS, against N = 8 (DESIGN.md §5 says why the sweep tree costs more at "
                  "N = 24 and 40).") + "\n\n" + "\n".join(stress))

@@ -1250,7 +1250,8 @@ typedef struct rto_trace_desc {
  * threads * slots rays (the copy's 64-byte slots: two per triangle, one per TLAS node) and kept with it (freed by
  * rto_accel_destroy), before that on the accel's own trees; with RTO_TRACE_ISA=scalar in the environment always on
  * the accel's own trees, with sse2 on the copy from the first call (where it can be made), with avx2 or avx512 8 or
- * 16 rays in SIMD lanes where the CPU has them. The bytes are the same on every path (docs/trace.md, "Paths"). Concurrent calls on one accel are safe.
+ * 16 rays in SIMD lanes where the CPU has them. The bytes are the same on every path (docs/trace.md, "Paths").
+ * Concurrent calls on one accel are safe.
  */
 rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
                      rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg);

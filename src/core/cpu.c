@@ -4,13 +4,20 @@
 #include <stdlib.h>
 #include <string.h>
 
-int rto__isa_resolve(const char *env, const char *(*name)(int), int (*supported)(int), int lowest, int count, int cap)
+int rto__isa_named(const char *env, const char *(*name)(int), int lowest, int count)
 {
     const char *want = getenv(env);
-    if (want && *want)
-        for (int i = lowest; i < count; i++)
-            if (strcmp(want, name(i)) == 0)
-                cap = i;
+    for (int i = lowest; want && i < count; i++)
+        if (strcmp(want, name(i)) == 0)
+            return i;
+    return -1;
+}
+
+int rto__isa_resolve(const char *env, const char *(*name)(int), int (*supported)(int), int lowest, int count, int cap)
+{
+    const int named = rto__isa_named(env, name, lowest, count);
+    if (named >= 0)
+        cap = named;
     for (int i = cap; i > lowest; i--)
         if (supported(i))
             return i;

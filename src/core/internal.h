@@ -68,9 +68,11 @@ static inline float rto__maxf(float a, float b) { return a > b ? a : b; }
  * other architectures. */
 int rto__cpu_avx2(void);
 int rto__cpu_avx512(void);
+/** The path environment variable env names (name(i), lowest <= i < count), or -1 (unset, or another value). */
+int rto__isa_named(const char *env, const char *(*name)(int), int lowest, int count);
 /** The path a dispatcher runs when asked for none: paths lowest .. count - 1 are ordered from the reference (always
  * supported) to the widest; the best supported one up to cap, or up to the path environment variable env names
- * (name(i) of one of them; another value is ignored). */
+ * (rto__isa_named). */
 int rto__isa_resolve(const char *env, const char *(*name)(int), int (*supported)(int), int lowest, int count, int cap);
 
 /* Static thread partitioning (core/threads.c, DESIGN.md §2). */
@@ -114,9 +116,9 @@ void *rto__alloc_large(size_t count, size_t size);
 void *rto__alloc_lines(size_t count, size_t size);
 
 /** What a reader derives from an accel's trees and keeps with it (bvh/accel.c; one slot per accel: the tracer's packed
- * copy, trace/packed.c): make(accel) runs once, on the first
- * call, under the accel's lock (concurrent callers wait for it); release frees it with the accel. NULL when make
- * returned NULL (out of memory), then and on every later call. With make NULL, only looks: what was made, or NULL. */
+ * copy, trace/packed.c): make(accel) runs once, on the first call, under the accel's lock (concurrent callers wait
+ * for it); release frees it with the accel. NULL when make returned NULL (out of memory), then and on every later
+ * call. With make NULL, only looks: what was made, or NULL. */
 void *rto__accel_derived(const rto_accel *accel, void *(*make)(const rto_accel *), void (*release)(void *));
 /** Adds n to the rays the tracer was given on this accel so far (it chooses a path by them) and returns the sum. */
 uint64_t rto__accel_rays_traced(const rto_accel *accel, uint64_t n);

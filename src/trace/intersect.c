@@ -76,10 +76,8 @@ int rto__mesh_triangle_hit(const rto_mesh *mesh, uint32_t prim, const float o[3]
 {
     const uint32_t *ix = &mesh->indices[3 * (size_t)prim];
     const float *p = mesh->positions;
-    if (!rto__triangle_intersect(&p[3 * (size_t)ix[0]], &p[3 * (size_t)ix[1]], &p[3 * (size_t)ix[2]], o, d, t_min,
-                                best_t, hit))
-        return 0;
-    return !rto__triangle_culled(flags, hit->det);
+    return rto__triangle_hit(&p[3 * (size_t)ix[0]], &p[3 * (size_t)ix[1]], &p[3 * (size_t)ix[2]], o, d, t_min, best_t,
+                             flags, hit);
 }
 
 int rto_instance_triangle_hit(const rto_instance *instance, const rto_mesh *mesh, uint32_t prim,

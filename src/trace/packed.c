@@ -175,7 +175,7 @@ static void packed_free(void *p)
     free(pa);
 }
 
-/* Slots for a tree of `leaves` leaves (BLAS: its triangles too), or 0 when 31-bit references cannot hold them. */
+/* Slots for a tree's internal nodes and (BLAS) triangles, or 0 when 31-bit references cannot hold them. */
 static size_t slot_count(size_t internal, size_t triangles)
 {
     const size_t n = internal + triangles;
@@ -243,7 +243,7 @@ static void *packed_make(const rto_accel *accel)
             pt->root = RTO_BVH_LEAF_BIT | nodes[0].item;
         } else if (!pt->empty) {
             /* Internal nodes not EMPTY: at most n_padded - 1. */
-            pt->slots = rto__alloc_lines((size_t)tl->n_padded - 1, sizeof *pt->slots);
+            pt->slots = rto__alloc_large((size_t)tl->n_padded - 1, sizeof *pt->slots);
             ok = pt->slots != NULL;
             if (ok)
                 copy_tree(&src, 0, pt->slots, stack, stack + depth + 2);
@@ -350,8 +350,7 @@ static inline void triangle(pray *st, const packed_tri *tri, const float o[3], c
     const rto_wf_ray *ray = st->ray;
     rto_tri_hit h;
     st->c.triangle_tests++;
-    if (rto__triangle_intersect(&tri->v[0], &tri->v[3], &tri->v[6], o, d, ray->t_min, st->best_t, &h) &&
-        !rto__triangle_culled(ray->flags, h.det)) {
+    if (rto__triangle_hit(&tri->v[0], &tri->v[3], &tri->v[6], o, d, ray->t_min, st->best_t, ray->flags, &h)) {
         st->best_t = h.t;
         st->h = h;
         st->inst_hit = inst;

@@ -164,6 +164,12 @@ static inline void rto__ray_to_object(const rto_mat34 *world_to_obj, const float
 
 /** Whether the ray flags cull a triangle of this det (> 0 front, < 0 back; decided in object space, §6). */
 int rto__triangle_culled(uint32_t flags, float det);
+/** Möller–Trumbore of a triangle with an object-space ray, then culling: 1 for an accepted hit. */
+static inline int rto__triangle_hit(const float v0[3], const float v1[3], const float v2[3], const float o[3],
+                                    const float d[3], float t_min, float best_t, uint32_t flags, rto_tri_hit *hit)
+{
+    return rto__triangle_intersect(v0, v1, v2, o, d, t_min, best_t, hit) && !rto__triangle_culled(flags, hit->det);
+}
 /** Möller–Trumbore of triangle prim of a mesh with an object-space ray, then culling: 1 for an accepted hit. */
 int rto__mesh_triangle_hit(const rto_mesh *mesh, uint32_t prim, const float o[3], const float d[3], float t_min,
                            float best_t, uint32_t flags, rto_tri_hit *hit);

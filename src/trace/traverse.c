@@ -267,10 +267,8 @@ rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_
     /* Left to choose (no path asked for by the caller or by RTO_TRACE_ISA), rto_trace makes the packed copy once the
      * calls on the accel have brought enough rays to pay for it (rto__trace_packed_worth); until then it runs the
      * scalar tracer, the same bytes. */
-    const char *env = getenv("RTO_TRACE_ISA");
-    int chosen_here = isa == RTO__TRACE_AUTO;
-    for (int i = RTO__TRACE_SCALAR; chosen_here && env && i < RTO__TRACE_ISA_COUNT; i++)
-        chosen_here = strcmp(env, rto__trace_isa_name((rto__trace_isa)i)) != 0;
+    const int chosen_here =
+        isa == RTO__TRACE_AUTO && rto__isa_named("RTO_TRACE_ISA", isa_name, RTO__TRACE_SCALAR, RTO__TRACE_ISA_COUNT) < 0;
     if (isa == RTO__TRACE_AUTO)
         isa = rto__trace_isa_resolve();
     tracer tr = {accel, rto_accel_scene(accel), rto_accel_get_tlas(accel), 0};
@@ -291,10 +289,13 @@ rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_
         return rto__fail(msg, RTO_ERR_OUT_OF_MEMORY, "out of memory for %u traversal stacks", threads);
     unsigned char *aligned = block + ((64 - (uintptr_t)block % 64) % 64);
     const void *packed = NULL;
-    if (isa == RTO__TRACE_SSE2 && !(packed = rto__trace_packed_trees(accel, 0)) &&
-        !(packed = rto__trace_packed_trees(
-              accel, !chosen_here || rto__trace_packed_worth(accel, rto__accel_rays_traced(accel, n), threads))))
-        isa = RTO__TRACE_SCALAR; /* no copy of the trees (not made yet, or no memory): the scalar tracer, same bytes */
+    if (isa == RTO__TRACE_SSE2) {
+        packed = rto__trace_packed_trees(accel, 0);
+        if (!packed && (!chosen_here || rto__trace_packed_worth(accel, rto__accel_rays_traced(accel, n), threads)))
+            packed = rto__trace_packed_trees(accel, 1);
+        if (!packed) /* no copy of the trees (not made yet, or no memory): the scalar tracer, the same bytes */
+            isa = RTO__TRACE_SCALAR;
+    }
     trace_job job = {&tr, rays, hits, counters, lanes, packed, aligned, size};
     rto__parallel_ranges(n, threads, trace_range, &job);
     free(block);
