@@ -1,6 +1,10 @@
 # Shared by the command-line tests (sourced): a scratch directory $T, and run / has / fail / finish helpers.
 T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
+# Removed by this shell alone: a child bash forks for a background job keeps the trap until it execs, and a signal the
+# test sends it in that moment (cli.signals sends SIGINT after 0 ms) would otherwise run the trap there and take $T
+# away under the test.
+T_OWNER=$BASHPID
+trap '[ "$BASHPID" != "$T_OWNER" ] || rm -rf "$T"' EXIT
 failures=0
 # sampled N: 1 in the optimised build, N under the sanitizer (scripts/test.sh sets RTO_TEST_SANITIZED there): the
 # stride of the longest loops, which then take every Nth case.
