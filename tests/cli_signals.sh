@@ -45,6 +45,9 @@ trials() {
         rm -rf "$T/d" && cp -a "$T/$name-old" "$T/d"
         "${bg[@]}" "$RTO" "$@" --force -o "$T/d" >/dev/null 2>"$T/err" &
         pid=$!
+        # The signal is for the program, not for the shell's copy of itself that has yet to exec it (bash runs its
+        # EXIT trap there on SIGINT): wait for the exec.
+        while [ /proc/$pid/exe -ef "$BASH" ]; do :; done
         sleep "0.$(printf '%03d' $((i * 10)))"
         tasks=(/proc/$pid/task/*)
         tid=${tasks[$((i % ${#tasks[@]}))]##*/}
@@ -100,10 +103,10 @@ if [ "$(uname -m)" = x86_64 ] && command -v strace >/dev/null; then
     for name in suite render; do
         if [ $name = suite ]; then args=("${suite[@]}" --seed 2); else args=("${render[@]}" --width 160); fi
         for to in process thread; do
-            # A loaded machine can run the whole swap between two looks: up to five tries.
-            for try in 1 2 3 4 5; do
+            # A loaded machine can run the whole swap between two looks: up to ten tries.
+            for try in 1 2 3 4 5 6 7 8 9 10; do
                 swap_case $name $to "${args[@]}" && break
-                [ $try = 5 ] && fail "$name: the delayed swap was never seen in 5 runs"
+                [ $try = 10 ] && fail "$name: the delayed swap was never seen in 10 runs"
             done
         done
     done
