@@ -78,14 +78,19 @@ static void check_rays(const char *what, const rto_accel *acc, const rto_wf_ray 
     for (int isa = RTO__TRACE_SCALAR + 1; isa < RTO__TRACE_ISA_COUNT; isa++) {
         if (!rto__trace_isa_supported((rto__trace_isa)isa))
             continue;
-        for (size_t k = 0; k < nthreads; k++) {
+        /* the packed path in both its orders (the rays in turn, and one at a time) */
+        const int orders = isa == RTO__TRACE_SSE2 ? 2 : 1;
+        for (size_t k = 0; k < nthreads * (size_t)orders; k++) {
+            const rto__trace_order order = orders == 1 ? RTO__ORDER_AUTO
+                                                       : k % 2 ? RTO__ORDER_IN_TURN : RTO__ORDER_ONE;
             char label[160];
-            snprintf(label, sizeof label, "%s, %s, %u threads (%zu of %zu rays hit)", what,
-                     rto__trace_isa_name((rto__trace_isa)isa), threads[k], hits, n);
-            rto_trace_desc d = {threads[k]};
+            snprintf(label, sizeof label, "%s, %s%s, %u threads (%zu of %zu rays hit)", what,
+                     rto__trace_isa_name((rto__trace_isa)isa), order == RTO__ORDER_IN_TURN ? " in turn" : "",
+                     threads[k / (size_t)orders], hits, n);
+            rto_trace_desc d = {threads[k / (size_t)orders]};
             memset(got, 0xA5, n * sizeof *got);
             memset(gc, 0xA5, n * sizeof *gc);
-            if (rto__trace_with(acc, rays, n, &d, (rto__trace_isa)isa, got, gc, &msg))
+            if (rto__trace_with_order(acc, rays, n, &d, (rto__trace_isa)isa, order, got, gc, &msg))
                 fail_msg("%s: %s", label, msg.text);
             /* the packed path ran on its copy, not on the scalar tracer it falls back to */
             if (isa == RTO__TRACE_SSE2 && !rto__trace_packed_trees(acc, 0))
@@ -356,6 +361,74 @@ static void test_packed_when_worth(void **state)
     rto_scene_destroy(s);
 }
 
+/* The packed path's order, left to choose (rto__trace_packed_in_turn): rays in turn only on trees of more than
+ * RTO__TRACE_PACKED_CACHE bytes and only where neighbouring rays diverge; the bunny's copy holds 64 bytes per BLAS
+ * node and triangle (its one-instance sweep TLAS has no node); rto_trace's records and counters on the bunny's random
+ * rays, which it takes in turn, equal the scalar tracer's. */
+static void test_packed_order(void **state)
+{
+    (void)state;
+    if (!rto__trace_isa_supported(RTO__TRACE_SSE2)) {
+        print_message("no packed path in this build\n");
+        return;
+    }
+    rto_scene *s = tu_load("StanfordBunny/bunny.gltf");
+    rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
+    rto_msg msg = {{0}};
+    static const rto_ray_set sets[] = {RTO_RAYS_PRIMARY, RTO_RAYS_SHADOW, RTO_RAYS_RANDOM};
+    for (size_t k = 0; k < sizeof sets / sizeof sets[0]; k++) {
+        rto_rays_desc d;
+        memset(&d, 0, sizeof d);
+        d.set = sets[k];
+        d.seed = 3;
+        d.width = 96;
+        d.height = 64;
+        d.count = 96 * 64;
+        const size_t cap = rto_rays_capacity(&d);
+        rto_wf_ray *rays = malloc(cap * sizeof *rays);
+        rto_hit_record *want = malloc(cap * sizeof *want), *got = malloc(cap * sizeof *got);
+        rto_trace_counters *wc = malloc(cap * sizeof *wc), *gc = malloc(cap * sizeof *gc);
+        size_t n = 0;
+        assert_true(rays && want && got && wc && gc);
+        assert_int_equal(rto_rays_generate(acc, &d, rays, cap, &n, NULL, &msg), RTO_OK);
+        assert_true(n > 500);
+        rto_trace_desc two = {2};
+        assert_int_equal(rto__trace_with(acc, rays, n, &two, RTO__TRACE_SCALAR, want, wc, &msg), RTO_OK);
+        assert_int_equal(rto__trace_with(acc, rays, n, &two, RTO__TRACE_SSE2, got, gc, &msg), RTO_OK);
+        compare(rto_ray_set_name(sets[k]), want, wc, got, gc, n);
+        const void *trees = rto__trace_packed_trees(acc, 0);
+        assert_non_null(trees);
+        const rto_accel_blas *b = rto_accel_get_blas(acc, 0);
+        const size_t bytes = 64 * ((size_t)b->node_count + b->triangle_count);
+        assert_int_equal(rto__trace_packed_bytes(trees), bytes);
+        assert_true(bytes > RTO__TRACE_PACKED_CACHE);
+        const int in_turn = sets[k] == RTO_RAYS_RANDOM;
+        assert_int_equal(rto__trace_packed_in_turn(bytes, rays, 0, n), in_turn);
+        assert_int_equal(rto__trace_packed_in_turn(bytes, rays, n / 2, n), in_turn);
+        assert_false(rto__trace_packed_in_turn(RTO__TRACE_PACKED_CACHE, rays, 0, n));
+        assert_false(rto__trace_packed_in_turn(bytes, rays, 0, 1));
+        free(rays);
+        free(want);
+        free(got);
+        free(wc);
+        free(gc);
+    }
+    /* Neighbours alike, or alternately opposite: -0 and +0 components, unnormalised directions. */
+    rto_wf_ray r[64];
+    memset(r, 0, sizeof r);
+    for (int i = 0; i < 64; i++) {
+        r[i].dir[0] = 3.0f;
+        r[i].dir[1] = i % 2 ? -0.0f : 0.0f;
+        r[i].dir[2] = 0.5f;
+    }
+    assert_false(rto__trace_packed_in_turn(SIZE_MAX, r, 0, 64));
+    for (int i = 0; i < 64; i += 2)
+        r[i].dir[0] = r[i].dir[2] = -1e-3f;
+    assert_true(rto__trace_packed_in_turn(SIZE_MAX, r, 0, 64));
+    rto_accel_destroy(acc);
+    rto_scene_destroy(s);
+}
+
 /* rto__accel_derived: make runs once, its result is shared, release frees it with the accel; a make that fails
  * (returns NULL) is not retried, and release gets NULL. */
 static int makes, releases;
@@ -406,6 +479,7 @@ int main(void)
         cmocka_unit_test(test_instanced),      cmocka_unit_test(test_meshes),
         cmocka_unit_test(test_first_use_race), cmocka_unit_test(test_accel_derived),
         cmocka_unit_test(test_packed_when_worth), cmocka_unit_test(test_empty_meshes),
+        cmocka_unit_test(test_packed_order),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -11,7 +11,10 @@
  *     its instance leaves as references.
  * The traversal is §6's, pop for pop: of the children hit, the nearer is visited at once instead of being pushed and
  * popped straight back (its pop-time check cannot fail: its entry t is at most the best t, which only a triangle
- * changes). Records and counters equal the scalar tracer's bit for bit: unit.trace_lanes holds every path to them.
+ * changes). A worker walks its rays in one of two orders, each ray's walk the same node for node in both: one ray at
+ * a time, or eight rays in turn (one node of each, the next prefetched), which hides the fetches of rays that go
+ * separate ways through trees larger than a core's cache (rto__trace_packed_in_turn picks). Records and counters
+ * equal the scalar tracer's bit for bit in either order: unit.trace_lanes holds every path and order to them.
  * Making the copy costs about what tracing a ray per slot does, on one thread; so rto_trace, left to choose, makes it
  * once the calls on the accel have brought threads * slots rays (a frame traces in chunks), and runs the scalar tracer
  * (the same bytes) until then. Where the copy cannot be made (out of memory, a tree of 2^31 slots or more) rto_trace
@@ -60,6 +63,7 @@ typedef struct packed_accel {
     packed_tree tlas;
     uint32_t blas_count;
     packed_tree *blas;
+    size_t bytes; /* the slots of every tree */
 } packed_accel;
 
 /* ---------------------------------------------------------------------------------------------------------------- */
@@ -210,6 +214,7 @@ static void *packed_make(const rto_accel *accel)
         ok = pt->slots != NULL;
         if (!ok)
             break;
+        pa->bytes += n * sizeof *pt->slots;
         const src_tree src = {0, b->nodes, NULL, 0, b, &scene->meshes[m], NULL};
         if (b->triangle_count == 1) { /* no internal node: the one triangle */
             uint32_t next = 0;
@@ -229,6 +234,7 @@ static void *packed_make(const rto_accel *accel)
             const size_t n = slot_count(tl->node_count, 0);
             pt->slots = n ? rto__alloc_large(n, sizeof *pt->slots) : NULL;
             ok = pt->slots != NULL;
+            pa->bytes += n * sizeof *pt->slots;
             if (ok)
                 copy_tree(&src, 0, pt->slots, stack, stack + depth + 2);
         }
@@ -245,6 +251,7 @@ static void *packed_make(const rto_accel *accel)
             /* Internal nodes not EMPTY: at most n_padded - 1. */
             pt->slots = rto__alloc_large((size_t)tl->n_padded - 1, sizeof *pt->slots);
             ok = pt->slots != NULL;
+            pa->bytes += ((size_t)tl->n_padded - 1) * sizeof *pt->slots;
             if (ok)
                 copy_tree(&src, 0, pt->slots, stack, stack + depth + 2);
         }
@@ -332,6 +339,20 @@ static inline int descend(const packed_node *n, int hit, const float t[2], rto__
     return 0;
 }
 
+/* descend's choice without a branch on the test, for rays in turn (below): the child taken is an index computed from
+ * the test, the farther child written to the stack always and kept only when both were hit. (The stack has room:
+ * it never holds more than depth + 1 entries of its depth + 2.) */
+static inline int descend_indexed(const packed_node *n, int hit, const float t[2], rto__trace_entry *stack,
+                                  size_t *top, uint32_t *cur)
+{
+    const int both = hit == 3;
+    const int c = both ? !(t[0] <= t[1]) : hit == 2;
+    stack[*top] = (rto__trace_entry){n->child[c ^ 1], t[c ^ 1]};
+    *top += (size_t)both;
+    *cur = n->child[c];
+    return hit != 0;
+}
+
 /* The next entry whose box still starts within the best t, or 0 when the stack is empty. */
 static inline int pop(rto__trace_entry *stack, size_t *top, float best_t, uint32_t *cur)
 {
@@ -360,22 +381,37 @@ static inline void triangle(pray *st, const packed_tri *tri, const float o[3], c
     }
 }
 
-/* The BLAS of instance inst, entered when its mask meets the ray's: the ray in object space, as traverse.c's. */
-static void trace_blas(const rto__tracer *tr, const packed_accel *pa, pray *st, uint32_t inst)
+/* The ray enters the BLAS of instance inst when its mask meets the ray's: the ray in object space (o, d) as
+ * traverse.c's; a BLAS of one triangle is tested here. Returns the BLAS to walk from its root, or NULL when there is
+ * no node to walk. */
+static inline const packed_tree *blas_enter(const rto__tracer *tr, const packed_accel *pa, pray *st, uint32_t inst,
+                                            float o[3], float d[3], float inv[3])
 {
     const rto_instance *in = &tr->scene->instances[inst];
     if (!(in->mask & st->ray->cull_mask))
-        return;
+        return NULL;
     const packed_tree *pt = &pa->blas[in->blas];
-    const packed_slot *slots = pt->slots;
-    float o[3], d[3], inv[3];
     rto__ray_to_object(&in->world_to_obj, st->ray->origin, st->ray->dir, o, d);
     rto__ray_inv_dir(d, inv);
     st->c.instance_entries++;
     if (pt->root & RTO_BVH_LEAF_BIT) { /* no internal node: straight to the triangle */
-        triangle(st, &slots[pt->root & ~RTO_BVH_LEAF_BIT].tri, o, d, inst);
-        return;
+        triangle(st, &pt->slots[pt->root & ~RTO_BVH_LEAF_BIT].tri, o, d, inst);
+        return NULL;
     }
+    return pt;
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* One ray at a time, each to its end: where neighbouring rays are alike (primary and shadow rays) the branch        */
+/* predictor learns the walk, and this order is the faster.                                                          */
+
+static void trace_blas(const rto__tracer *tr, const packed_accel *pa, pray *st, uint32_t inst)
+{
+    float o[3], d[3], inv[3];
+    const packed_tree *pt = blas_enter(tr, pa, st, inst, o, d, inv);
+    if (!pt)
+        return;
+    const packed_slot *slots = pt->slots;
     const vray vr = vray_make(o, inv, st->ray->t_min);
     rto__trace_entry *stack = st->bstack;
     size_t top = 0;
@@ -398,23 +434,34 @@ static void trace_blas(const rto__tracer *tr, const packed_accel *pa, pray *st, 
     }
 }
 
-static void trace_tlas(const rto__tracer *tr, const packed_accel *pa, pray *st, const float winv[3])
+/* The ray's start in the TLAS: 0 when it ends there (an empty TLAS, the sweep root's box missed, a Karras TLAS of one
+ * instance, walked here), else 1 with *cur the TLAS node to walk. */
+static int tlas_start(const rto__tracer *tr, const packed_accel *pa, pray *st, const float winv[3], uint32_t *cur)
 {
     const packed_tree *pt = &pa->tlas;
     const rto_wf_ray *ray = st->ray;
     if (pt->empty)
-        return;
-    uint32_t cur = pt->root;
+        return 0;
+    *cur = pt->root;
     if (pt->root_box) { /* the sweep tree's root box is tested like any node */
         float t;
         st->c.box_tests++;
-        if (!rto__slab(pt->box, pt->box + 3, ray->origin, winv, ray->t_min, st->best_t, &t))
-            return;
-    } else if (cur & RTO_BVH_LEAF_BIT) { /* a Karras tree of one key: straight to the instance */
-        trace_blas(tr, pa, st, cur & ~RTO_BVH_LEAF_BIT);
-        return;
+        return rto__slab(pt->box, pt->box + 3, ray->origin, winv, ray->t_min, st->best_t, &t);
     }
-    const vray vr = vray_make(ray->origin, winv, ray->t_min);
+    if (*cur & RTO_BVH_LEAF_BIT) { /* a Karras tree of one key: straight to the instance */
+        trace_blas(tr, pa, st, *cur & ~RTO_BVH_LEAF_BIT);
+        return 0;
+    }
+    return 1;
+}
+
+static void trace_tlas(const rto__tracer *tr, const packed_accel *pa, pray *st, const float winv[3])
+{
+    const packed_tree *pt = &pa->tlas;
+    uint32_t cur;
+    if (!tlas_start(tr, pa, st, winv, &cur))
+        return;
+    const vray vr = vray_make(st->ray->origin, winv, st->ray->t_min);
     rto__trace_entry *stack = st->tstack;
     size_t top = 0;
     for (;;) {
@@ -435,6 +482,199 @@ static void trace_tlas(const rto__tracer *tr, const packed_accel *pa, pray *st, 
     }
 }
 
+/* Starts ray i: its state reset, its inverse direction. */
+static inline void ray_begin(pray *st, const rto_wf_ray *ray, float winv[3])
+{
+    st->ray = ray;
+    rto__ray_inv_dir(ray->dir, winv);
+    st->best_t = ray->t_max;
+    st->found = 0;
+    st->done = 0;
+    memset(&st->c, 0, sizeof st->c);
+}
+
+static inline void ray_end(const rto__tracer *tr, const pray *st, size_t i, rto_hit_record *hits,
+                           rto_trace_counters *counters)
+{
+    hits[i] = st->found ? rto_hit_record_make(&tr->scene->instances[st->inst_hit], st->inst_hit, st->prim_hit, &st->h)
+                        : rto_hit_record_miss(st->ray->t_max);
+    if (counters)
+        counters[i] = st->c;
+}
+
+static void trace_one_at_a_time(const rto__tracer *tr, const packed_accel *pa, const rto_wf_ray *rays, size_t begin,
+                                size_t end, rto_hit_record *hits, rto_trace_counters *counters,
+                                rto__trace_entry *stacks)
+{
+    pray st;
+    st.tstack = stacks;
+    st.bstack = stacks + tr->stack_cap;
+    for (size_t i = begin; i < end; i++) {
+        float winv[3];
+        ray_begin(&st, &rays[i], winv);
+        trace_tlas(tr, pa, &st, winv);
+        ray_end(tr, &st, i, hits, counters);
+    }
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+/* Rays in turn: RTO__TRACE_PACKED_STREAMS rays in flight, one node of each in turn, the next node of each prefetched */
+/* when it is chosen, so that one ray's fetch from memory overlaps the others' work, and the child taken by an index  */
+/* (descend_indexed) rather than a branch the predictor cannot learn. Each ray's walk is the one above, node for node */
+/* (the same pops, pushes, tests and counts): only the order in which the rays' steps run differs. Where neighbouring */
+/* rays go separate ways through trees larger than a core's cache (random rays), this order is the faster.            */
+
+typedef struct stream {
+    pray st;
+    vray w, b;              /* the ray against TLAS nodes, and in object space against the BLAS in hand */
+    float o[3], d[3];       /* the object-space ray, for triangles */
+    const packed_slot *bslots;
+    uint32_t inst, cur;     /* the BLAS's instance; the node (or leaf) visited next */
+    int in_blas;
+    size_t ttop, btop, index;
+} stream;
+
+static inline void prefetch(const void *p) { _mm_prefetch((const char *)p, _MM_HINT_T0); }
+
+/* The TLAS's next entry: 0, and prefetched; 1 when the ray is finished. */
+static inline int stream_tlas_pop(const rto__tracer *tr, const packed_accel *pa, stream *s)
+{
+    if (!pop(s->st.tstack, &s->ttop, s->st.best_t, &s->cur))
+        return 1;
+    if (s->cur & RTO_BVH_LEAF_BIT)
+        prefetch(&tr->scene->instances[s->cur & ~RTO_BVH_LEAF_BIT]);
+    else
+        prefetch(&pa->tlas.slots[s->cur]);
+    return 0;
+}
+
+/* One node of the ray's walk (trace_tlas's and trace_blas's loop bodies): 1 when the ray is finished. */
+static inline int stream_step(const rto__tracer *tr, const packed_accel *pa, stream *s)
+{
+    pray *st = &s->st;
+    float t[2];
+    st->c.nodes_visited++;
+    if (s->in_blas) {
+        if (s->cur & RTO_BVH_LEAF_BIT) {
+            triangle(st, &s->bslots[s->cur & ~RTO_BVH_LEAF_BIT].tri, s->o, s->d, s->inst);
+            if (st->done)
+                return 1;
+        } else {
+            const packed_node *n = &s->bslots[s->cur].node;
+            st->c.box_tests += 2;
+            if (descend_indexed(n, slab_pair(n, &s->b, st->best_t, t), t, st->bstack, &s->btop, &s->cur)) {
+                prefetch(&s->bslots[s->cur & ~RTO_BVH_LEAF_BIT]);
+                return 0;
+            }
+        }
+        if (pop(st->bstack, &s->btop, st->best_t, &s->cur)) {
+            prefetch(&s->bslots[s->cur & ~RTO_BVH_LEAF_BIT]);
+            return 0;
+        }
+        s->in_blas = 0; /* the BLAS is done: back to the TLAS's stack */
+        return stream_tlas_pop(tr, pa, s);
+    }
+    if (s->cur & RTO_BVH_LEAF_BIT) {
+        const uint32_t inst = s->cur & ~RTO_BVH_LEAF_BIT;
+        float inv[3];
+        const packed_tree *pt = blas_enter(tr, pa, st, inst, s->o, s->d, inv);
+        if (pt) {
+            s->b = vray_make(s->o, inv, st->ray->t_min);
+            s->bslots = pt->slots;
+            s->inst = inst;
+            s->btop = 0;
+            s->cur = pt->root;
+            s->in_blas = 1;
+            prefetch(&pt->slots[pt->root]);
+            return 0;
+        }
+        if (st->done)
+            return 1;
+    } else {
+        const packed_node *n = &pa->tlas.slots[s->cur].node;
+        st->c.box_tests += n->tests;
+        if (descend_indexed(n, slab_pair(n, &s->w, st->best_t, t) & (int)n->present, t, st->tstack, &s->ttop,
+                            &s->cur)) {
+            if (s->cur & RTO_BVH_LEAF_BIT)
+                prefetch(&tr->scene->instances[s->cur & ~RTO_BVH_LEAF_BIT]);
+            else
+                prefetch(&pa->tlas.slots[s->cur]);
+            return 0;
+        }
+    }
+    return stream_tlas_pop(tr, pa, s);
+}
+
+/* Takes rays from *next on until one has a walk ahead (its record is written by then for those that had none):
+ * 1 when s holds that ray, 0 when the range is used up. */
+static int stream_load(const rto__tracer *tr, const packed_accel *pa, stream *s, const rto_wf_ray *rays,
+                       size_t *next, size_t end, rto_hit_record *hits, rto_trace_counters *counters)
+{
+    while (*next < end) {
+        const size_t i = (*next)++;
+        float winv[3];
+        ray_begin(&s->st, &rays[i], winv);
+        if (!tlas_start(tr, pa, &s->st, winv, &s->cur)) {
+            ray_end(tr, &s->st, i, hits, counters);
+            continue;
+        }
+        s->w = vray_make(rays[i].origin, winv, rays[i].t_min);
+        s->index = i;
+        s->in_blas = 0;
+        s->ttop = 0;
+        return 1;
+    }
+    return 0;
+}
+
+static void trace_in_turn(const rto__tracer *tr, const packed_accel *pa, const rto_wf_ray *rays, size_t begin,
+                          size_t end, rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks)
+{
+    stream s[RTO__TRACE_PACKED_STREAMS];
+    int live[RTO__TRACE_PACKED_STREAMS], in_flight = 0;
+    size_t next = begin;
+    for (int j = 0; j < RTO__TRACE_PACKED_STREAMS; j++) {
+        s[j].st.tstack = stacks + (size_t)j * 2 * tr->stack_cap;
+        s[j].st.bstack = s[j].st.tstack + tr->stack_cap;
+        live[j] = stream_load(tr, pa, &s[j], rays, &next, end, hits, counters);
+        in_flight += live[j];
+    }
+    while (in_flight) {
+        for (int j = 0; j < RTO__TRACE_PACKED_STREAMS; j++) {
+            if (!live[j] || !stream_step(tr, pa, &s[j]))
+                continue;
+            ray_end(tr, &s[j].st, s[j].index, hits, counters);
+            live[j] = stream_load(tr, pa, &s[j], rays, &next, end, hits, counters);
+            in_flight -= !live[j];
+        }
+    }
+}
+
+/* ---------------------------------------------------------------------------------------------------------------- */
+
+/* Whether more than a quarter of neighbouring rays point more than 60 degrees apart, from up to 1024 pairs spread
+ * over the range (a cheap look: it only picks the faster order, never the bytes). */
+static int rays_diverge(const rto_wf_ray *rays, size_t begin, size_t end)
+{
+    if (end - begin < 2)
+        return 0;
+    const size_t pairs = end - begin - 1, stride = pairs > 1024 ? pairs / 1024 : 1;
+    size_t looked = 0, apart = 0;
+    for (size_t i = begin; i + 1 < end; i += stride, looked++) {
+        const float *a = rays[i].dir, *b = rays[i + 1].dir;
+        const float ab = rto__dot3(a, b), aa = rto__dot3(a, a), bb = rto__dot3(b, b);
+        apart += !(ab > 0.0f) || 4.0f * ab * ab < aa * bb;
+    }
+    return 4 * apart > looked;
+}
+
+int rto__trace_packed_in_turn(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end)
+{
+    return tree_bytes > RTO__TRACE_PACKED_CACHE && rays_diverge(rays, begin, end);
+}
+
+size_t rto__trace_packed_bytes(const void *trees) { return ((const packed_accel *)trees)->bytes; }
+
 int rto__trace_packed_built(void) { return 1; }
 
 const void *rto__trace_packed_trees(const rto_accel *accel, int make)
@@ -454,24 +694,13 @@ int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads
 void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,
                        rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks)
 {
-    const packed_accel *pa = trees;
-    pray st;
-    st.tstack = stacks;
-    st.bstack = stacks + tr->stack_cap;
-    for (size_t i = begin; i < end; i++) {
-        float winv[3];
-        st.ray = &rays[i];
-        rto__ray_inv_dir(st.ray->dir, winv);
-        st.best_t = st.ray->t_max;
-        st.found = 0;
-        st.done = 0;
-        memset(&st.c, 0, sizeof st.c);
-        trace_tlas(tr, pa, &st, winv);
-        hits[i] = st.found ? rto_hit_record_make(&tr->scene->instances[st.inst_hit], st.inst_hit, st.prim_hit, &st.h)
-                           : rto_hit_record_miss(st.ray->t_max);
-        if (counters)
-            counters[i] = st.c;
-    }
+    const int in_turn = tr->order == RTO__ORDER_AUTO
+                            ? rto__trace_packed_in_turn(((const packed_accel *)trees)->bytes, rays, begin, end)
+                            : tr->order == RTO__ORDER_IN_TURN;
+    if (in_turn)
+        trace_in_turn(tr, trees, rays, begin, end, hits, counters, stacks);
+    else
+        trace_one_at_a_time(tr, trees, rays, begin, end, hits, counters, stacks);
 }
 
 #else
@@ -487,6 +716,18 @@ const void *rto__trace_packed_trees(const rto_accel *accel, int make)
 int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads)
 {
     (void)accel, (void)n, (void)threads;
+    return 0;
+}
+
+int rto__trace_packed_in_turn(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end)
+{
+    (void)tree_bytes, (void)rays, (void)begin, (void)end;
+    return 0;
+}
+
+size_t rto__trace_packed_bytes(const void *trees)
+{
+    (void)trees;
     return 0;
 }
 

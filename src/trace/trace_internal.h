@@ -32,6 +32,7 @@ int rto__trace_isa_supported(rto__trace_isa isa);
  * bench_trace measures on the machines of docs/results/trace.md, else scalar; RTO_TRACE_ISA = scalar, sse2, avx2 or
  * avx512 asks for that path, or the best the CPU has below it. */
 rto__trace_isa rto__trace_isa_resolve(void);
+
 /** rto_trace on a chosen path (an unsupported one is refused: RTO_ERR_UNSUPPORTED). */
 rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
                            rto__trace_isa isa, rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg);
@@ -42,12 +43,32 @@ typedef struct rto__trace_entry {
     float t;
 } rto__trace_entry;
 
+/** The order in which the packed path (trace/packed.c) walks a worker's rays. Each ray's walk is the same in both,
+ * node for node, and so are the bytes: the order only decides the speed. */
+typedef enum rto__trace_order {
+    RTO__ORDER_AUTO = 0,    /* rays in turn where rto__trace_packed_in_turn says so, else one at a time */
+    RTO__ORDER_ONE = 1,     /* one ray at a time, each to its end */
+    RTO__ORDER_IN_TURN = 2  /* RTO__TRACE_PACKED_STREAMS rays in flight, one node of each in turn */
+} rto__trace_order;
+
+/** Rays the packed path keeps in flight in turn. */
+#define RTO__TRACE_PACKED_STREAMS 8
+/** Packed trees of more bytes than this (a core's L2 cache on the machines of docs/results/trace.md, or more) take
+ * diverging rays in turn. */
+#define RTO__TRACE_PACKED_CACHE ((size_t)2 << 20)
+
+/** rto__trace_with with the packed path's order chosen too (ignored by the other paths). */
+rto_status rto__trace_with_order(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
+                                 rto__trace_isa isa, rto__trace_order order, rto_hit_record *hits,
+                                 rto_trace_counters *counters, rto_msg *msg);
+
 /** What every path of one rto_trace call reads. */
 typedef struct rto__tracer {
     const rto_accel *accel;
     const rto_scene *scene;
     const rto_accel_tlas *tlas;
-    size_t stack_cap; /* entries per stack: enough for the deepest tree */
+    size_t stack_cap;        /* entries per stack: enough for the deepest tree */
+    rto__trace_order order;  /* the packed path's */
 } rto__tracer;
 
 /** A lane kernel: rays [begin, end) in W lanes, each lane one ray running §6 with its own stacks; a lane that
@@ -69,7 +90,15 @@ const void *rto__trace_packed_trees(const rto_accel *accel, int make);
 /** Whether n rays traced on this many threads pay for making the packed copy: n >= threads * the slots it holds
  * (making it costs about what tracing one ray costs per slot, and one thread makes it). */
 int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads);
-/** Rays [begin, end) on the packed trees, one at a time; stacks holds two stacks of tr->stack_cap entries. */
+/** Whether the packed path, left to choose, takes rays [begin, end) in turn: its trees (tree_bytes) are larger than
+ * RTO__TRACE_PACKED_CACHE and more than a quarter of neighbouring rays (up to 1024 pairs looked at) point more than
+ * 60 degrees apart. One ray at a time is the faster where neighbouring rays are alike (the branch predictor learns
+ * their walk) or the trees fit a core's cache (nothing to wait for); docs/trace.md, "Paths", gives the figures. */
+int rto__trace_packed_in_turn(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end);
+/** The bytes of a packed copy's slots (64 per internal node and per BLAS triangle). */
+size_t rto__trace_packed_bytes(const void *trees);
+/** Rays [begin, end) on the packed trees in tr->order; stacks holds RTO__TRACE_PACKED_STREAMS pairs of stacks of
+ * tr->stack_cap entries. */
 void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,
                        rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks);
 

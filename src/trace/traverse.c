@@ -186,7 +186,8 @@ typedef struct trace_job {
     rto_trace_counters *counters;
     const rto__trace_lanes *lanes; /* NULL: the scalar tracer or the packed path */
     const void *packed;            /* the packed trees (trace/packed.c), NULL: not that path */
-    unsigned char *scratch;        /* per worker: 2 * stack_cap entries (scalar, packed) or the lanes' scratch */
+    unsigned char *scratch;        /* per worker: the stacks (2 * stack_cap entries, 8 pairs for the packed path) or
+                                      the lanes' scratch */
     size_t scratch_size;           /* per worker, a multiple of 64 */
 } trace_job;
 
@@ -252,6 +253,13 @@ rto__trace_isa rto__trace_isa_resolve(void)
 rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
                            rto__trace_isa isa, rto_hit_record *hits, rto_trace_counters *counters, rto_msg *msg)
 {
+    return rto__trace_with_order(accel, rays, n, desc, isa, RTO__ORDER_AUTO, hits, counters, msg);
+}
+
+rto_status rto__trace_with_order(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,
+                                 rto__trace_isa isa, rto__trace_order order, rto_hit_record *hits,
+                                 rto_trace_counters *counters, rto_msg *msg)
+{
     if (!accel)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL accel");
     if (n && !hits)
@@ -271,7 +279,7 @@ rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_
         isa == RTO__TRACE_AUTO && rto__isa_named("RTO_TRACE_ISA", isa_name, RTO__TRACE_SCALAR, RTO__TRACE_ISA_COUNT) < 0;
     if (isa == RTO__TRACE_AUTO)
         isa = rto__trace_isa_resolve();
-    tracer tr = {accel, rto_accel_scene(accel), rto_accel_get_tlas(accel), 0};
+    tracer tr = {accel, rto_accel_scene(accel), rto_accel_get_tlas(accel), 0, order};
     /* Ordered traversal pops one entry and pushes at most two, so a stack never holds more than depth + 1 entries. */
     uint32_t depth = tr.tlas->stats.depth;
     for (uint32_t m = 0; m < rto_accel_blas_count(accel); m++) {
@@ -281,7 +289,9 @@ rto_status rto__trace_with(const rto_accel *accel, const rto_wf_ray *rays, size_
     tr.stack_cap = (size_t)depth + 2;
     const uint32_t threads = rto__thread_count(desc ? desc->threads : 0);
     const rto__trace_lanes *lanes = rto__trace_lanes_kernel(isa);
-    size_t size = lanes ? lanes->scratch_size(tr.stack_cap) : 2 * tr.stack_cap * sizeof(entry);
+    size_t size = lanes                      ? lanes->scratch_size(tr.stack_cap)
+                  : isa == RTO__TRACE_SSE2 ? RTO__TRACE_PACKED_STREAMS * 2 * tr.stack_cap * sizeof(entry)
+                                           : 2 * tr.stack_cap * sizeof(entry);
     size = (size + 63) & ~(size_t)63;
     /* One block for every worker, 64-byte aligned (the lanes' vectors): 64 bytes more than the workers' slices. */
     unsigned char *block = rto__alloc((size_t)threads * size + 64, 1);
