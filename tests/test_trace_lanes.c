@@ -312,17 +312,25 @@ static void test_first_use_race(void **state)
     rto_scene_destroy(s);
 }
 
+/* The bunny, for the packed path's tests; NULL (reported) where the build has no packed path. */
+static rto_scene *packed_bunny(void)
+{
+    if (!rto__trace_isa_supported(RTO__TRACE_SSE2)) {
+        print_message("no packed path in this build\n");
+        return NULL;
+    }
+    return tu_load("StanfordBunny/bunny.gltf");
+}
+
 /* Left to choose, rto_trace makes the packed copy once the calls on the accel have brought threads * slots rays (the
  * bunny: 2 slots a triangle, 1 for the one-instance sweep TLAS) and runs the scalar tracer before, the same bytes;
  * asked for (RTO_TRACE_ISA=sse2) it makes it for any call. */
 static void test_packed_when_worth(void **state)
 {
     (void)state;
-    if (!rto__trace_isa_supported(RTO__TRACE_SSE2)) {
-        print_message("no packed path in this build\n");
+    rto_scene *s = packed_bunny();
+    if (!s)
         return;
-    }
-    rto_scene *s = tu_load("StanfordBunny/bunny.gltf");
     const size_t slots = 2 * (size_t)s->meshes[0].triangle_count + 1, small = 2000;
     rto_wf_ray *rays = mixed_rays(s, 23, slots);
     rto_hit_record *want = malloc(slots * sizeof *want), *got = malloc(slots * sizeof *got);
@@ -368,11 +376,9 @@ static void test_packed_when_worth(void **state)
 static void test_packed_order(void **state)
 {
     (void)state;
-    if (!rto__trace_isa_supported(RTO__TRACE_SSE2)) {
-        print_message("no packed path in this build\n");
+    rto_scene *s = packed_bunny();
+    if (!s)
         return;
-    }
-    rto_scene *s = tu_load("StanfordBunny/bunny.gltf");
     rto_accel *acc = tu_accel(s, RTO_TLAS_SWEEP);
     rto_msg msg = {{0}};
     static const rto_ray_set sets[] = {RTO_RAYS_PRIMARY, RTO_RAYS_SHADOW, RTO_RAYS_RANDOM};
