@@ -1,5 +1,5 @@
-/* The tracer's packed path (DESIGN.md §6), rto_trace's default on x86-64: one ray at a time, as the scalar tracer
- * (traverse.c), on a copy of the accel's trees laid out for a CPU, made once per accel on first use:
+/* The tracer's packed path (DESIGN.md §6), rto_trace's default on x86-64: each ray walked as the scalar tracer
+ * (traverse.c) walks it, on a copy of the accel's trees laid out for a CPU, made once per accel on first use:
  *   - every tree's internal nodes in depth-first order (a node, its left subtree, its right subtree), so a node's
  *     left child is the next cache line;
  *   - a node's two child boxes side by side per axis ({left min, right min, left max, right max} for x, y and z), so
