@@ -658,7 +658,7 @@ static int rays_diverge(const rto_wf_ray *rays, size_t begin, size_t end)
 {
     if (end - begin < 2)
         return 0;
-    const size_t pairs = end - begin - 1, stride = pairs > 1024 ? pairs / 1024 : 1;
+    const size_t pairs = end - begin - 1, stride = (pairs + 1023) / 1024;
     size_t looked = 0, apart = 0;
     for (size_t i = begin; i + 1 < end; i += stride, looked++) {
         const float *a = rays[i].dir, *b = rays[i + 1].dir;
