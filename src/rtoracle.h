@@ -1249,9 +1249,9 @@ typedef struct rto_trace_desc {
  * thread; on x86-64 on a copy of the trees laid out for a CPU, made once the calls on the accel have brought
  * threads * slots rays (the copy's 64-byte slots: two per triangle, one per TLAS node) and kept with it (freed by
  * rto_accel_destroy), before that on the accel's own trees (on the copy, rays that diverge through trees of more
- * than 2 MiB run eight in turn, one node of each, each ray's walk unchanged); with RTO_TRACE_ISA=scalar in the environment always on
- * the accel's own trees, with sse2 on the copy from the first call (where it can be made), with avx2 or avx512 8 or
- * 16 rays in SIMD lanes where the CPU has them. The bytes are the same on every path (docs/trace.md, "Paths").
+ * than 2 MiB run eight in turn, one node of each, each ray's walk unchanged); with RTO_TRACE_ISA=scalar in the
+ * environment always on the accel's own trees, with sse2 on the copy from the first call (where it can be made),
+ * with avx2 or avx512 8 or 16 rays in SIMD lanes where the CPU has them. The bytes are the same on every path (docs/trace.md, "Paths").
  * Concurrent calls on one accel are safe.
  */
 rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,

@@ -78,25 +78,24 @@ static void check_rays(const char *what, const rto_accel *acc, const rto_wf_ray 
     for (int isa = RTO__TRACE_SCALAR + 1; isa < RTO__TRACE_ISA_COUNT; isa++) {
         if (!rto__trace_isa_supported((rto__trace_isa)isa))
             continue;
-        /* the packed path in both its orders (the rays in turn, and one at a time) */
-        const int orders = isa == RTO__TRACE_SSE2 ? 2 : 1;
-        for (size_t k = 0; k < nthreads * (size_t)orders; k++) {
-            const rto__trace_order order = orders == 1 ? RTO__ORDER_AUTO
-                                                       : k % 2 ? RTO__ORDER_IN_TURN : RTO__ORDER_ONE;
-            char label[160];
-            snprintf(label, sizeof label, "%s, %s%s, %u threads (%zu of %zu rays hit)", what,
-                     rto__trace_isa_name((rto__trace_isa)isa), order == RTO__ORDER_IN_TURN ? " in turn" : "",
-                     threads[k / (size_t)orders], hits, n);
-            rto_trace_desc d = {threads[k / (size_t)orders]};
-            memset(got, 0xA5, n * sizeof *got);
-            memset(gc, 0xA5, n * sizeof *gc);
-            if (rto__trace_with_order(acc, rays, n, &d, (rto__trace_isa)isa, order, got, gc, &msg))
-                fail_msg("%s: %s", label, msg.text);
-            /* the packed path ran on its copy, not on the scalar tracer it falls back to */
-            if (isa == RTO__TRACE_SSE2 && !rto__trace_packed_trees(acc, 0))
-                fail_msg("%s: no packed copy was made", label);
-            compare(label, want, wc, got, gc, n);
-        }
+        /* the packed path in both its orders (one at a time, and the rays in turn); the others have one */
+        const rto__trace_order last = isa == RTO__TRACE_SSE2 ? RTO__ORDER_IN_TURN : RTO__ORDER_ONE;
+        for (size_t k = 0; k < nthreads; k++)
+            for (rto__trace_order order = RTO__ORDER_ONE; order <= last; order++) {
+                char label[160];
+                snprintf(label, sizeof label, "%s, %s%s, %u threads (%zu of %zu rays hit)", what,
+                         rto__trace_isa_name((rto__trace_isa)isa), order == RTO__ORDER_IN_TURN ? " in turn" : "",
+                         threads[k], hits, n);
+                rto_trace_desc d = {threads[k]};
+                memset(got, 0xA5, n * sizeof *got);
+                memset(gc, 0xA5, n * sizeof *gc);
+                if (rto__trace_with_order(acc, rays, n, &d, (rto__trace_isa)isa, order, got, gc, &msg))
+                    fail_msg("%s: %s", label, msg.text);
+                /* the packed path ran on its copy, not on the scalar tracer it falls back to */
+                if (isa == RTO__TRACE_SSE2 && !rto__trace_packed_trees(acc, 0))
+                    fail_msg("%s: no packed copy was made", label);
+                compare(label, want, wc, got, gc, n);
+            }
     }
     free(want);
     free(got);

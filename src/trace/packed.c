@@ -536,15 +536,21 @@ typedef struct stream {
 
 static inline void prefetch(const void *p) { _mm_prefetch((const char *)p, _MM_HINT_T0); }
 
+/* What a TLAS reference visits next: an instance, or a node. */
+static inline void prefetch_tlas(const rto__tracer *tr, const packed_accel *pa, uint32_t ref)
+{
+    if (ref & RTO_BVH_LEAF_BIT)
+        prefetch(&tr->scene->instances[ref & ~RTO_BVH_LEAF_BIT]);
+    else
+        prefetch(&pa->tlas.slots[ref]);
+}
+
 /* The TLAS's next entry: 0, and prefetched; 1 when the ray is finished. */
 static inline int stream_tlas_pop(const rto__tracer *tr, const packed_accel *pa, stream *s)
 {
     if (!pop(s->st.tstack, &s->ttop, s->st.best_t, &s->cur))
         return 1;
-    if (s->cur & RTO_BVH_LEAF_BIT)
-        prefetch(&tr->scene->instances[s->cur & ~RTO_BVH_LEAF_BIT]);
-    else
-        prefetch(&pa->tlas.slots[s->cur]);
+    prefetch_tlas(tr, pa, s->cur);
     return 0;
 }
 
@@ -595,10 +601,7 @@ static inline int stream_step(const rto__tracer *tr, const packed_accel *pa, str
         st->c.box_tests += n->tests;
         if (descend_indexed(n, slab_pair(n, &s->w, st->best_t, t) & (int)n->present, t, st->tstack, &s->ttop,
                             &s->cur)) {
-            if (s->cur & RTO_BVH_LEAF_BIT)
-                prefetch(&tr->scene->instances[s->cur & ~RTO_BVH_LEAF_BIT]);
-            else
-                prefetch(&pa->tlas.slots[s->cur]);
+            prefetch_tlas(tr, pa, s->cur);
             return 0;
         }
     }
@@ -695,7 +698,7 @@ void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ra
                        rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks)
 {
     const int in_turn = tr->order == RTO__ORDER_AUTO
-                            ? rto__trace_packed_in_turn(((const packed_accel *)trees)->bytes, rays, begin, end)
+                            ? rto__trace_packed_in_turn(rto__trace_packed_bytes(trees), rays, begin, end)
                             : tr->order == RTO__ORDER_IN_TURN;
     if (in_turn)
         trace_in_turn(tr, trees, rays, begin, end, hits, counters, stacks);
