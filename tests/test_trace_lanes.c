@@ -78,14 +78,17 @@ static void check_rays(const char *what, const rto_accel *acc, const rto_wf_ray 
     for (int isa = RTO__TRACE_SCALAR + 1; isa < RTO__TRACE_ISA_COUNT; isa++) {
         if (!rto__trace_isa_supported((rto__trace_isa)isa))
             continue;
-        /* the packed path in both its orders (one at a time, and the rays in turn); the others have one */
-        const rto__trace_order last = isa == RTO__TRACE_SSE2 ? RTO__ORDER_IN_TURN : RTO__ORDER_ONE;
+        /* the packed path in each of its orders this CPU runs (one at a time, rays in turn, groups of 8 and 16); the
+         * others have one */
+        static const char *const orders[] = {"", "", " in turn", " in groups of 8", " in groups of 16"};
+        const rto__trace_order last = isa == RTO__TRACE_SSE2 ? RTO__ORDER_GROUPS_16 : RTO__ORDER_ONE;
         for (size_t k = 0; k < nthreads; k++)
             for (rto__trace_order order = RTO__ORDER_ONE; order <= last; order++) {
+                if (isa == RTO__TRACE_SSE2 && !rto__trace_packed_order_supported(order))
+                    continue;
                 char label[160];
                 snprintf(label, sizeof label, "%s, %s%s, %u threads (%zu of %zu rays hit)", what,
-                         rto__trace_isa_name((rto__trace_isa)isa), order == RTO__ORDER_IN_TURN ? " in turn" : "",
-                         threads[k], hits, n);
+                         rto__trace_isa_name((rto__trace_isa)isa), orders[order], threads[k], hits, n);
                 rto_trace_desc d = {threads[k]};
                 memset(got, 0xA5, n * sizeof *got);
                 memset(gc, 0xA5, n * sizeof *gc);
@@ -368,10 +371,11 @@ static void test_packed_when_worth(void **state)
     rto_scene_destroy(s);
 }
 
-/* The packed path's order, left to choose (rto__trace_packed_in_turn): rays in turn only on trees of more than
- * RTO__TRACE_PACKED_CACHE bytes and only where neighbouring rays diverge; the bunny's copy holds 64 bytes per BLAS
- * node and triangle (its one-instance sweep TLAS has no node); rto_trace's records and counters on the bunny's random
- * rays, which it takes in turn, equal the scalar tracer's. */
+/* The packed path's order, left to choose (rto__trace_packed_order): rays in turn only on trees of more than
+ * RTO__TRACE_PACKED_CACHE bytes and only where neighbouring rays diverge, groups of 8 where they do not and the CPU
+ * has AVX2, else one at a time; the bunny's copy holds 64 bytes per BLAS node and triangle (its one-instance sweep
+ * TLAS has no node); rto_trace's records and counters on the bunny's primary, shadow and random rays (in groups, in
+ * groups and in turn) equal the scalar tracer's. */
 static void test_packed_order(void **state)
 {
     (void)state;
@@ -407,11 +411,13 @@ static void test_packed_order(void **state)
         const size_t bytes = 64 * ((size_t)b->node_count + b->triangle_count);
         assert_int_equal(rto__trace_packed_bytes(trees), bytes);
         assert_true(bytes > RTO__TRACE_PACKED_CACHE);
-        const int in_turn = sets[k] == RTO_RAYS_RANDOM;
-        assert_int_equal(rto__trace_packed_in_turn(bytes, rays, 0, n), in_turn);
-        assert_int_equal(rto__trace_packed_in_turn(bytes, rays, n / 2, n), in_turn);
-        assert_false(rto__trace_packed_in_turn(RTO__TRACE_PACKED_CACHE, rays, 0, n));
-        assert_false(rto__trace_packed_in_turn(bytes, rays, 0, 1));
+        const rto__trace_order alike = rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
+        const rto__trace_order want_order = sets[k] == RTO_RAYS_RANDOM ? RTO__ORDER_IN_TURN : alike;
+        assert_int_equal(rto__trace_packed_order(bytes, rays, 0, n), want_order);
+        assert_int_equal(rto__trace_packed_order(bytes, rays, n / 2, n), want_order);
+        assert_int_equal(rto__trace_packed_order(RTO__TRACE_PACKED_CACHE, rays, 0, n),
+                         sets[k] == RTO_RAYS_RANDOM ? RTO__ORDER_ONE : alike);
+        assert_int_equal(rto__trace_packed_order(bytes, rays, 0, 1), alike);
         free(rays);
         free(want);
         free(got);
@@ -426,10 +432,11 @@ static void test_packed_order(void **state)
         r[i].dir[1] = i % 2 ? -0.0f : 0.0f;
         r[i].dir[2] = 0.5f;
     }
-    assert_false(rto__trace_packed_in_turn(SIZE_MAX, r, 0, 64));
+    const rto__trace_order alike = rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
+    assert_int_equal(rto__trace_packed_order(SIZE_MAX, r, 0, 64), alike);
     for (int i = 0; i < 64; i += 2)
         r[i].dir[0] = r[i].dir[2] = -1e-3f;
-    assert_true(rto__trace_packed_in_turn(SIZE_MAX, r, 0, 64));
+    assert_int_equal(rto__trace_packed_order(SIZE_MAX, r, 0, 64), RTO__ORDER_IN_TURN);
     rto_accel_destroy(acc);
     rto_scene_destroy(s);
 }

@@ -108,11 +108,25 @@ rto_instance rto_instance_from_record(const rto_instance_record *record)
     return in;
 }
 
+/* Whether a ray's first eight floats (origin, tMin, direction, tMax) are finite and tMin <= tMax: an exponent of all
+ * ones is an infinity or a NaN. A loop without early exits, which the compiler turns into vector code. */
+static int ray_traceable(const rto_wf_ray *r)
+{
+    uint32_t u[8], bad = 0;
+    memcpy(u, r, sizeof u);
+    for (int k = 0; k < 8; k++)
+        bad |= (u[k] & 0x7f800000u) == 0x7f800000u;
+    return !bad && !(r->t_min > r->t_max);
+}
+
 rto_status rto__rays_check(const rto_wf_ray *rays, size_t n, rto_msg *msg)
 {
     if (n && !rays)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL rays");
-    for (size_t i = 0; i < n; i++) {
+    size_t first = 0;
+    while (first < n && ray_traceable(&rays[first]))
+        first++;
+    for (size_t i = first; i < n; i++) {
         const rto_wf_ray *r = &rays[i];
         int finite = isfinite(r->t_min) && isfinite(r->t_max);
         for (int a = 0; a < 3; a++)

@@ -11,10 +11,12 @@
  *     its instance leaves as references.
  * The traversal is §6's, pop for pop: of the children hit, the nearer is visited at once instead of being pushed and
  * popped straight back (its pop-time check cannot fail: its entry t is at most the best t, which only a triangle
- * changes). A worker walks its rays in one of two orders, each ray's walk the same node for node in both: one ray at
- * a time, or eight rays in turn (one node of each, the next prefetched), which hides the fetches of rays that go
- * separate ways through trees larger than a core's cache (rto__trace_packed_in_turn picks). Records and counters
- * equal the scalar tracer's bit for bit in either order: unit.trace_lanes holds every path and order to them.
+ * changes). A worker walks its rays in one of three orders, each ray's walk the same node for node in all: one ray at
+ * a time; eight rays in turn (one node of each, the next prefetched), which hides the fetches of rays that go separate
+ * ways through trees larger than a core's cache; or groups of 8 (AVX2) or 16 (AVX-512) neighbouring rays walking the
+ * trees together (trace/groups_kernel.h), each node fetched once and tested for the whole group in vector code, which
+ * is the faster where neighbouring rays are alike (rto__trace_packed_order picks). Records and counters equal the
+ * scalar tracer's bit for bit in every order: unit.trace_lanes holds every path and order to them.
  * Making the copy costs about what tracing a ray per slot does, on one thread; so rto_trace, left to choose, makes it
  * once the calls on the accel have brought threads * slots rays (a frame traces in chunks), and runs the scalar tracer
  * (the same bytes) until then. Where the copy cannot be made (out of memory, a tree of 2^31 slots or more) rto_trace
@@ -26,7 +28,7 @@
 #include <string.h>
 
 #if defined(__GNUC__) && defined(__x86_64__)
-#include <emmintrin.h>
+#include <immintrin.h>
 
 /* A node: both child boxes per axis a at box[4a .. 4a + 3] = left min, right min, left max, right max; each child a
  * slot index, or RTO_BVH_LEAF_BIT with a triangle's slot (BLAS) or an instance index (TLAS). */
@@ -482,22 +484,37 @@ static void trace_tlas(const rto__tracer *tr, const packed_accel *pa, pray *st, 
     }
 }
 
-/* Starts ray i: its state reset, its inverse direction. */
-static inline void ray_begin(pray *st, const rto_wf_ray *ray, float winv[3])
+/* Starts a ray: its state reset. */
+static inline void ray_reset(pray *st, const rto_wf_ray *ray)
 {
     st->ray = ray;
-    rto__ray_inv_dir(ray->dir, winv);
     st->best_t = ray->t_max;
     st->found = 0;
     st->done = 0;
     memset(&st->c, 0, sizeof st->c);
 }
 
+/* Starts a ray: its state reset, its inverse direction. */
+static inline void ray_begin(pray *st, const rto_wf_ray *ray, float winv[3])
+{
+    ray_reset(st, ray);
+    rto__ray_inv_dir(ray->dir, winv);
+}
+
 static inline void ray_end(const rto__tracer *tr, const pray *st, size_t i, rto_hit_record *hits,
                            rto_trace_counters *counters)
 {
-    hits[i] = st->found ? rto_hit_record_make(&tr->scene->instances[st->inst_hit], st->inst_hit, st->prim_hit, &st->h)
-                        : rto_hit_record_miss(st->ray->t_max);
+    if (st->found) {
+        hits[i] = rto_hit_record_make(&tr->scene->instances[st->inst_hit], st->inst_hit, st->prim_hit, &st->h);
+    } else { /* rto_hit_record_miss's record, stored 16 bytes at a time (no record built on the stack and copied) */
+        int32_t t;
+        memcpy(&t, &st->ray->t_max, sizeof t);
+        __m128i *h = (__m128i *)(void *)&hits[i];
+        _mm_storeu_si128(h, _mm_setr_epi32(t, -1, -1, -1));
+        _mm_storeu_si128(h + 1, _mm_setr_epi32(0, 0, -1, 1));
+        for (int k = 2; k < 6; k++)
+            _mm_storeu_si128(h + k, _mm_setzero_si128());
+    }
     if (counters)
         counters[i] = st->c;
 }
@@ -654,6 +671,102 @@ static void trace_in_turn(const rto__tracer *tr, const packed_accel *pa, const r
 }
 
 /* ---------------------------------------------------------------------------------------------------------------- */
+/* Rays in groups (trace/groups_kernel.h): 8 with AVX2, 16 with AVX-512, compiled for those instruction sets function */
+/* by function as trace/lanes.c's kernels are, and run only where rto__trace_packed_order_supported says so.         */
+
+static inline int lanes_in(uint32_t m)
+{
+    m = m - ((m >> 1) & 0x5555u);
+    m = (m & 0x3333u) + ((m >> 2) & 0x3333u);
+    m = (m + (m >> 4)) & 0x0f0fu;
+    return (int)((m + (m >> 8)) & 0x1fu);
+}
+
+#define PN_(p, x) p##_##x
+#define PN__(p, x) PN_(p, x)
+#define PN(x) PN__(GROUP_PREFIX, x)
+#define LANES_IN lanes_in
+
+RTO__TARGET_BEGIN("avx2")
+static inline __m256i add_lanes8(__m256i v, uint32_t m, int k)
+{
+    const __m256i bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    const __m256i in = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32((int)m), bits), bits);
+    return _mm256_add_epi32(v, _mm256_and_si256(in, _mm256_set1_epi32(k)));
+}
+#define W 8
+#define GROUP_PREFIX group8
+#define VF __m256
+#define VI __m256i
+#define VSET1 _mm256_set1_ps
+#define VZERO _mm256_setzero_ps
+#define VLDU _mm256_loadu_ps
+#define VSTU _mm256_storeu_ps
+#define VADD _mm256_add_ps
+#define VSUB _mm256_sub_ps
+#define VMUL _mm256_mul_ps
+#define VDIV _mm256_div_ps
+#define VMIN _mm256_min_ps
+#define VMAX _mm256_max_ps
+#define VABS(x) _mm256_andnot_ps(_mm256_set1_ps(-0.0f), (x))
+#define VSEL_LT(x, y, a, b) _mm256_blendv_ps((b), (a), _mm256_cmp_ps((x), (y), _CMP_LT_OQ))
+#define VCMP_(a, b, p) ((uint32_t)_mm256_movemask_ps(_mm256_cmp_ps((a), (b), (p))))
+#define VLE(a, b) VCMP_(a, b, _CMP_LE_OQ)
+#define VLT(a, b) VCMP_(a, b, _CMP_LT_OQ)
+#define VGE(a, b) VCMP_(a, b, _CMP_GE_OQ)
+#define VNEQ(a, b) VCMP_(a, b, _CMP_NEQ_UQ)
+#define VNGT(a, b) VCMP_(a, b, _CMP_NGT_UQ)
+#define VI_ZERO _mm256_setzero_si256
+#define VI_ADD add_lanes8
+#define VI_STU(p, v) _mm256_storeu_si256((__m256i *)(void *)(p), (v))
+#include "groups_kernel.h"
+#undef W
+#undef GROUP_PREFIX
+#undef VF
+#undef VI
+#undef VSET1
+#undef VZERO
+#undef VLDU
+#undef VSTU
+#undef VADD
+#undef VSUB
+#undef VMUL
+#undef VDIV
+#undef VMIN
+#undef VMAX
+#undef VABS
+#undef VSEL_LT
+#undef VCMP_
+#undef VI_ZERO
+#undef VI_ADD
+#undef VI_STU
+RTO__TARGET_END
+
+RTO__TARGET_BEGIN("avx512f,avx512bw,avx512dq,avx512vl")
+#define W 16
+#define GROUP_PREFIX group16
+#define VF __m512
+#define VI __m512i
+#define VSET1 _mm512_set1_ps
+#define VZERO _mm512_setzero_ps
+#define VLDU _mm512_loadu_ps
+#define VSTU _mm512_storeu_ps
+#define VADD _mm512_add_ps
+#define VSUB _mm512_sub_ps
+#define VMUL _mm512_mul_ps
+#define VDIV _mm512_div_ps
+#define VMIN _mm512_min_ps
+#define VMAX _mm512_max_ps
+#define VABS _mm512_abs_ps
+#define VSEL_LT(x, y, a, b) _mm512_mask_blend_ps(_mm512_cmp_ps_mask((x), (y), _CMP_LT_OQ), (b), (a))
+#define VCMP_(a, b, p) ((uint32_t)_mm512_cmp_ps_mask((a), (b), (p)))
+#define VI_ZERO _mm512_setzero_si512
+#define VI_ADD(v, m, k) _mm512_mask_add_epi32((v), (__mmask16)(m), (v), _mm512_set1_epi32(k))
+#define VI_STU(p, v) _mm512_storeu_si512((void *)(p), (v))
+#include "groups_kernel.h"
+RTO__TARGET_END
+
+/* ---------------------------------------------------------------------------------------------------------------- */
 
 /* Whether more than a quarter of neighbouring rays point more than 60 degrees apart, from up to 1024 pairs spread
  * over the range (a cheap look: it only picks the faster order, never the bytes). */
@@ -671,12 +784,28 @@ static int rays_diverge(const rto_wf_ray *rays, size_t begin, size_t end)
     return 4 * apart > looked;
 }
 
-int rto__trace_packed_in_turn(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end)
+rto__trace_order rto__trace_packed_order(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end)
 {
-    return tree_bytes > RTO__TRACE_PACKED_CACHE && rays_diverge(rays, begin, end);
+    if (rays_diverge(rays, begin, end))
+        return tree_bytes > RTO__TRACE_PACKED_CACHE ? RTO__ORDER_IN_TURN : RTO__ORDER_ONE;
+    return rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
 }
 
 size_t rto__trace_packed_bytes(const void *trees) { return ((const packed_accel *)trees)->bytes; }
+
+size_t rto__trace_packed_scratch(size_t stack_cap)
+{
+    size_t size = RTO__TRACE_PACKED_STREAMS * 2 * stack_cap * sizeof(rto__trace_entry);
+    const size_t groups[2] = {group8_scratch_size(stack_cap), group16_scratch_size(stack_cap)};
+    for (int k = 0; k < 2; k++)
+        size = groups[k] > size ? groups[k] : size;
+    return size;
+}
+
+int rto__trace_packed_order_supported(rto__trace_order order)
+{
+    return order == RTO__ORDER_GROUPS_16 ? rto__cpu_avx512() : order == RTO__ORDER_GROUPS_8 ? rto__cpu_avx2() : 1;
+}
 
 int rto__trace_packed_built(void) { return 1; }
 
@@ -697,10 +826,14 @@ int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads
 void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,
                        rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks)
 {
-    const int in_turn = tr->order == RTO__ORDER_AUTO
-                            ? rto__trace_packed_in_turn(rto__trace_packed_bytes(trees), rays, begin, end)
-                            : tr->order == RTO__ORDER_IN_TURN;
-    if (in_turn)
+    const rto__trace_order order = tr->order == RTO__ORDER_AUTO
+                                       ? rto__trace_packed_order(rto__trace_packed_bytes(trees), rays, begin, end)
+                                       : tr->order;
+    if (order == RTO__ORDER_GROUPS_16)
+        group16_trace(tr, trees, rays, begin, end, hits, counters, stacks);
+    else if (order == RTO__ORDER_GROUPS_8)
+        group8_trace(tr, trees, rays, begin, end, hits, counters, stacks);
+    else if (order == RTO__ORDER_IN_TURN)
         trace_in_turn(tr, trees, rays, begin, end, hits, counters, stacks);
     else
         trace_one_at_a_time(tr, trees, rays, begin, end, hits, counters, stacks);
@@ -722,15 +855,27 @@ int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads
     return 0;
 }
 
-int rto__trace_packed_in_turn(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end)
+rto__trace_order rto__trace_packed_order(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end)
 {
     (void)tree_bytes, (void)rays, (void)begin, (void)end;
-    return 0;
+    return RTO__ORDER_ONE;
 }
 
 size_t rto__trace_packed_bytes(const void *trees)
 {
     (void)trees;
+    return 0;
+}
+
+size_t rto__trace_packed_scratch(size_t stack_cap)
+{
+    (void)stack_cap;
+    return 0;
+}
+
+int rto__trace_packed_order_supported(rto__trace_order order)
+{
+    (void)order;
     return 0;
 }
 

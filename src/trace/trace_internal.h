@@ -46,9 +46,11 @@ typedef struct rto__trace_entry {
 /** The order in which the packed path (trace/packed.c) walks a worker's rays. Each ray's walk is the same in both,
  * node for node, and so are the bytes: the order only decides the speed. */
 typedef enum rto__trace_order {
-    RTO__ORDER_AUTO = 0,    /* rays in turn where rto__trace_packed_in_turn says so, else one at a time */
+    RTO__ORDER_AUTO = 0,    /* as rto__trace_packed_order says */
     RTO__ORDER_ONE = 1,     /* one ray at a time, each to its end */
-    RTO__ORDER_IN_TURN = 2  /* RTO__TRACE_PACKED_STREAMS rays in flight, one node of each in turn */
+    RTO__ORDER_IN_TURN = 2, /* RTO__TRACE_PACKED_STREAMS rays in flight, one node of each in turn */
+    RTO__ORDER_GROUPS_8 = 3, /* 8 neighbouring rays walking together (AVX2) */
+    RTO__ORDER_GROUPS_16 = 4 /* 16 (AVX-512) */
 } rto__trace_order;
 
 /** Rays the packed path keeps in flight in turn. */
@@ -90,13 +92,17 @@ const void *rto__trace_packed_trees(const rto_accel *accel, int make);
 /** Whether n rays traced on this many threads pay for making the packed copy: n >= threads * the slots it holds
  * (making it costs about what tracing one ray costs per slot, and one thread makes it). */
 int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads);
-/** Whether the packed path, left to choose, takes rays [begin, end) in turn: its trees (tree_bytes) are larger than
- * RTO__TRACE_PACKED_CACHE and more than a quarter of neighbouring rays (up to 1024 pairs looked at) point more than
- * 60 degrees apart. One ray at a time is the faster where neighbouring rays are alike (the branch predictor learns
- * their walk) or the trees fit a core's cache (nothing to wait for); docs/trace.md, "Paths", gives the figures. */
-int rto__trace_packed_in_turn(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end);
+/** The packed path's order for rays [begin, end), left to choose: where more than a quarter of neighbouring rays (up
+ * to 1024 pairs looked at) point more than 60 degrees apart, rays in turn if its trees (tree_bytes) are larger than
+ * RTO__TRACE_PACKED_CACHE, else one at a time (nothing to wait for); where they are alike, groups of 8 on a CPU with
+ * AVX2, else one at a time (the branch predictor learns their walk). docs/trace.md, "Paths", gives the figures. */
+rto__trace_order rto__trace_packed_order(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end);
 /** The bytes of a packed copy's slots (64 per internal node and per BLAS triangle). */
 size_t rto__trace_packed_bytes(const void *trees);
+/** The scratch bytes a worker of the packed path needs (its stacks, in any order). */
+size_t rto__trace_packed_scratch(size_t stack_cap);
+/** Whether this CPU runs the packed path in this order (groups of 8 need AVX2, of 16 AVX-512). */
+int rto__trace_packed_order_supported(rto__trace_order order);
 /** Rays [begin, end) on the packed trees in tr->order; stacks holds RTO__TRACE_PACKED_STREAMS pairs of stacks of
  * tr->stack_cap entries. */
 void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,

@@ -267,6 +267,8 @@ rto_status rto__trace_with_order(const rto_accel *accel, const rto_wf_ray *rays,
     if (!rto__trace_isa_supported(isa))
         return rto__fail(msg, RTO_ERR_UNSUPPORTED, "trace path '%s' is not supported on this CPU",
                          rto__trace_isa_name(isa));
+    if (isa == RTO__TRACE_SSE2 && !rto__trace_packed_order_supported(order))
+        return rto__fail(msg, RTO_ERR_UNSUPPORTED, "packed order %d is not supported on this CPU", (int)order);
     rto_status s = rto__rays_check(rays, n, msg);
     if (s)
         return s;
@@ -290,7 +292,7 @@ rto_status rto__trace_with_order(const rto_accel *accel, const rto_wf_ray *rays,
     const uint32_t threads = rto__thread_count(desc ? desc->threads : 0);
     const rto__trace_lanes *lanes = rto__trace_lanes_kernel(isa);
     size_t size = lanes                      ? lanes->scratch_size(tr.stack_cap)
-                  : isa == RTO__TRACE_SSE2 ? RTO__TRACE_PACKED_STREAMS * 2 * tr.stack_cap * sizeof(entry)
+                  : isa == RTO__TRACE_SSE2 ? rto__trace_packed_scratch(tr.stack_cap)
                                            : 2 * tr.stack_cap * sizeof(entry);
     size = (size + 63) & ~(size_t)63;
     /* One block for every worker, 64-byte aligned (the lanes' vectors): 64 bytes more than the workers' slices. */
