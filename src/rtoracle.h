@@ -1241,18 +1241,18 @@ typedef struct rto_trace_desc {
 } rto_trace_desc;
 
 /**
- * Traces n rays through an accel (ordered traversal, §6) into n hit records and, when counters is not NULL, n
- * counter records. TERMINATE_ON_FIRST_HIT rays stop at the first triangle hit found; CULL_BACK_FACING /
- * CULL_FRONT_FACING skip triangles by the sign of det in object space; an instance is entered only when
- * instance.mask & ray.cullMask. Rays whose origin, direction, tMin or tMax is not finite, or whose tMin > tMax, are
- * refused (RTO_ERR_INVALID_ARGUMENT naming the first such ray) before anything is traced. Each ray takes its own
- * walk, as a GPU thread does; on x86-64 on a copy of the trees laid out for a CPU, made once the calls on the accel
- * have brought threads * slots rays (the copy's 64-byte slots: two per triangle, one per TLAS node) and kept with it
- * (freed by rto_accel_destroy), before that on the accel's own trees (on the copy, neighbouring rays that point
- * alike walk the trees in groups of 8 where the CPU has AVX2, and rays that diverge through trees of more than 2 MiB
- * run eight in turn, each ray's walk unchanged); with RTO_TRACE_ISA=scalar in the environment always on the accel's
- * own trees, with sse2 on the copy from the first call (where it can be made), with avx2 or avx512 8 or 16 rays in
- * SIMD lanes where the CPU has them. The bytes are the same on every path (docs/trace.md, "Paths").
+ * Traces n rays through an accel (ordered traversal, §6) into n hit records and, when counters is not NULL, n counter
+ * records. TERMINATE_ON_FIRST_HIT rays stop at the first triangle hit found; CULL_BACK_FACING / CULL_FRONT_FACING skip
+ * triangles by the sign of det in object space; an instance is entered only when instance.mask & ray.cullMask. Rays
+ * whose origin, direction, tMin or tMax is not finite, or whose tMin > tMax, are refused (RTO_ERR_INVALID_ARGUMENT
+ * naming the first such ray) before anything is traced. Each ray takes its own walk, as a GPU thread does; on x86-64 on
+ * a copy of the trees laid out for a CPU, made once the calls on the accel have brought threads * slots rays (the
+ * copy's 64-byte slots: two per triangle, one per TLAS node) and kept with it (freed by rto_accel_destroy), before that
+ * on the accel's own trees (on the copy, neighbouring rays that point alike walk the trees in groups of 16 where the
+ * CPU has AVX-512, of 8 where it has AVX2, and rays that diverge through trees of more than 2 MiB run eight in turn,
+ * each ray's walk unchanged); with RTO_TRACE_ISA=scalar in the environment always on the accel's own trees, with sse2
+ * on the copy from the first call (where it can be made), with avx2 or avx512 8 or 16 rays in SIMD lanes where the CPU
+ * has them. The bytes are the same on every path (docs/trace.md, "Paths").
  * Concurrent calls on one accel are safe.
  */
 rto_status rto_trace(const rto_accel *accel, const rto_wf_ray *rays, size_t n, const rto_trace_desc *desc,

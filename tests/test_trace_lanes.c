@@ -371,11 +371,17 @@ static void test_packed_when_worth(void **state)
     rto_scene_destroy(s);
 }
 
+/* The order the packed path takes for rays alike: the widest groups the CPU runs. */
+static rto__trace_order alike_order(void)
+{
+    return rto__cpu_avx512() ? RTO__ORDER_GROUPS_16 : rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
+}
+
 /* The packed path's order, left to choose (rto__trace_packed_order): rays in turn only on trees of more than
- * RTO__TRACE_PACKED_CACHE bytes and only where neighbouring rays diverge, groups of 8 where they do not and the CPU
- * has AVX2, else one at a time; the bunny's copy holds 64 bytes per BLAS node and triangle (its one-instance sweep
- * TLAS has no node); rto_trace's records and counters on the bunny's primary, shadow and random rays (in groups, in
- * groups and in turn) equal the scalar tracer's. */
+ * RTO__TRACE_PACKED_CACHE bytes and only where neighbouring rays diverge, the widest groups the CPU runs where they do
+ * not, else one at a time; the bunny's copy holds 64 bytes per BLAS node and triangle (its one-instance sweep TLAS
+ * has no node); rto_trace's records and counters on the bunny's primary, shadow and random rays (in groups, in groups
+ * and in turn) equal the scalar tracer's. */
 static void test_packed_order(void **state)
 {
     (void)state;
@@ -411,7 +417,7 @@ static void test_packed_order(void **state)
         const size_t bytes = 64 * ((size_t)b->node_count + b->triangle_count);
         assert_int_equal(rto__trace_packed_bytes(trees), bytes);
         assert_true(bytes > RTO__TRACE_PACKED_CACHE);
-        const rto__trace_order alike = rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
+        const rto__trace_order alike = alike_order();
         const rto__trace_order want_order = sets[k] == RTO_RAYS_RANDOM ? RTO__ORDER_IN_TURN : alike;
         assert_int_equal(rto__trace_packed_order(bytes, rays, 0, n), want_order);
         assert_int_equal(rto__trace_packed_order(bytes, rays, n / 2, n), want_order);
@@ -432,8 +438,7 @@ static void test_packed_order(void **state)
         r[i].dir[1] = i % 2 ? -0.0f : 0.0f;
         r[i].dir[2] = 0.5f;
     }
-    const rto__trace_order alike = rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
-    assert_int_equal(rto__trace_packed_order(SIZE_MAX, r, 0, 64), alike);
+    assert_int_equal(rto__trace_packed_order(SIZE_MAX, r, 0, 64), alike_order());
     for (int i = 0; i < 64; i += 2)
         r[i].dir[0] = r[i].dir[2] = -1e-3f;
     assert_int_equal(rto__trace_packed_order(SIZE_MAX, r, 0, 64), RTO__ORDER_IN_TURN);

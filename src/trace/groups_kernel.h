@@ -73,8 +73,9 @@ static inline VF PN(inv_dir)(VF d)
 }
 
 /* The triangle against the lanes act: rto__triangle_intersect's operations lane by lane (the edges, the same for every
- * lane, once), then each hit lane's culling and record as triangle()'s. */
-static inline void PN(triangle)(PN(group) *g, const packed_tri *tri, const PN(ray) *r, uint32_t act, uint32_t inst)
+ * lane, once), then each hit lane's culling and record as triangle()'s. Inlined: the walk's vectors stay put. */
+static inline __attribute__((always_inline)) void PN(triangle)(PN(group) *g, const packed_tri *tri, const PN(ray) *r,
+                                                               uint32_t act, uint32_t inst)
 {
     float e1[3], e2[3];
     rto__sub3(&tri->v[3], &tri->v[0], e1);

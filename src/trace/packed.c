@@ -801,7 +801,7 @@ rto__trace_order rto__trace_packed_order(size_t tree_bytes, const rto_wf_ray *ra
 {
     if (rays_diverge(rays, begin, end))
         return tree_bytes > RTO__TRACE_PACKED_CACHE ? RTO__ORDER_IN_TURN : RTO__ORDER_ONE;
-    return rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
+    return rto__cpu_avx512() ? RTO__ORDER_GROUPS_16 : rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
 }
 
 size_t rto__trace_packed_bytes(const void *trees) { return ((const packed_accel *)trees)->bytes; }

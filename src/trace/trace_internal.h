@@ -94,8 +94,9 @@ const void *rto__trace_packed_trees(const rto_accel *accel, int make);
 int rto__trace_packed_worth(const rto_accel *accel, uint64_t n, uint32_t threads);
 /** The packed path's order for rays [begin, end), left to choose: where more than a quarter of neighbouring rays (up
  * to 1024 pairs looked at) point more than 60 degrees apart, rays in turn if its trees (tree_bytes) are larger than
- * RTO__TRACE_PACKED_CACHE, else one at a time (nothing to wait for); where they are alike, groups of 8 on a CPU with
- * AVX2, else one at a time (the branch predictor learns their walk). docs/trace.md, "Paths", gives the figures. */
+ * RTO__TRACE_PACKED_CACHE, else one at a time (nothing to wait for); where they are alike, groups of 16 on a CPU with
+ * AVX-512, of 8 on one with AVX2, else one at a time (the branch predictor learns their walk). docs/trace.md,
+ * "Paths", gives the figures. */
 rto__trace_order rto__trace_packed_order(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end);
 /** The bytes of a packed copy's slots (64 per internal node and per BLAS triangle). */
 size_t rto__trace_packed_bytes(const void *trees);
