@@ -224,22 +224,25 @@ static void PN(blas)(const rto__tracer *tr, const packed_accel *pa, PN(group) *g
     size_t top = 0;
     uint32_t cur = pt->root;
     act = enter;
+    VI visits = g->visits, boxes = g->boxes; /* in registers through the walk, not g's memory */
     for (;;) {
-        g->visits = VI_ADD(g->visits, act, 1);
+        visits = VI_ADD(visits, act, 1);
         if (cur & RTO_BVH_LEAF_BIT) {
             PN(triangle)(g, &slots[cur & ~RTO_BVH_LEAF_BIT].tri, &r, act, inst);
         } else {
             const packed_node *n = &slots[cur].node;
             VF tl, tr2;
-            g->boxes = VI_ADD(g->boxes, act, 2);
+            boxes = VI_ADD(boxes, act, 2);
             const uint32_t hl = PN(child)(n, 0, &r, g->best, &tl) & act;
             const uint32_t hr = PN(child)(n, 1, &r, g->best, &tr2) & act;
             if (PN(descend)(n, hl, hr, tl, tr2, stack, &top, &cur, &act))
                 continue;
         }
         if (!PN(pop)(g, stack, &top, &cur, &act))
-            return;
+            break;
     }
+    g->visits = visits;
+    g->boxes = boxes;
 }
 
 static void PN(tlas)(const rto__tracer *tr, const packed_accel *pa, PN(group) *g, uint32_t act, uint32_t cur,
@@ -248,22 +251,29 @@ static void PN(tlas)(const rto__tracer *tr, const packed_accel *pa, PN(group) *g
     const packed_tree *pt = &pa->tlas;
     PN(entry) *stack = g->tstack;
     size_t top = 0;
+    VI visits = g->visits, boxes = g->boxes;
     for (;;) {
-        g->visits = VI_ADD(g->visits, act, 1);
+        visits = VI_ADD(visits, act, 1);
         if (cur & RTO_BVH_LEAF_BIT) {
+            g->visits = visits;
+            g->boxes = boxes;
             PN(blas)(tr, pa, g, cur & ~RTO_BVH_LEAF_BIT, act, r);
+            visits = g->visits;
+            boxes = g->boxes;
         } else {
             const packed_node *n = &pt->slots[cur].node;
             VF tl = VZERO(), tr2 = VZERO();
-            g->boxes = VI_ADD(g->boxes, act, (int)n->tests);
+            boxes = VI_ADD(boxes, act, (int)n->tests);
             const uint32_t hl = (n->present & 1) ? PN(child)(n, 0, r, g->best, &tl) & act : 0;
             const uint32_t hr = (n->present & 2) ? PN(child)(n, 1, r, g->best, &tr2) & act : 0;
             if (PN(descend)(n, hl, hr, tl, tr2, stack, &top, &cur, &act))
                 continue;
         }
         if (!PN(pop)(g, stack, &top, &cur, &act))
-            return;
+            break;
     }
+    g->visits = visits;
+    g->boxes = boxes;
 }
 
 /* Rays [begin, end) W at a time: each starts as tlas_start starts it, lane by lane (where the TLAS is a Karras tree
@@ -329,11 +339,11 @@ static void PN(trace)(const rto__tracer *tr, const packed_accel *pa, const rto_w
         VI_STU(boxes, g.boxes);
         VI_STU(tris, g.tris);
         for (size_t l = 0; l < k; l++) {
-            pray *st = &g.st[l];
-            st->c.nodes_visited += visits[l];
-            st->c.box_tests += boxes[l];
-            st->c.triangle_tests += tris[l];
-            ray_end(tr, st, i + l, hits, counters);
+            ray_record(tr, &g.st[l], i + l, hits);
+            if (counters) /* the counts of the walk added to the ray's own (stored whole: no copy of fields) */
+                _mm_storeu_si128((__m128i *)(void *)&counters[i + l],
+                                 _mm_add_epi32(_mm_loadu_si128((const __m128i *)(const void *)&g.st[l].c),
+                                               _mm_setr_epi32((int)visits[l], (int)boxes[l], (int)tris[l], 0)));
         }
     }
 }

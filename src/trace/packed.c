@@ -510,8 +510,7 @@ static inline int32_t float_bits(float f)
 
 /* The ray's record, as rto_hit_record_make or rto_hit_record_miss makes it, stored 16 bytes at a time into hits[i]
  * (not built on the stack and copied: the copy's loads would wait on the stores of its fields). */
-static inline void ray_end(const rto__tracer *tr, const pray *st, size_t i, rto_hit_record *hits,
-                           rto_trace_counters *counters)
+static inline void ray_record(const rto__tracer *tr, const pray *st, size_t i, rto_hit_record *hits)
 {
     __m128i *h = (__m128i *)(void *)&hits[i];
     if (st->found) {
@@ -528,6 +527,13 @@ static inline void ray_end(const rto__tracer *tr, const pray *st, size_t i, rto_
         for (int k = 2; k < 6; k++)
             _mm_storeu_si128(h + k, _mm_setzero_si128());
     }
+}
+
+/* The ray's record and counters. */
+static inline void ray_end(const rto__tracer *tr, const pray *st, size_t i, rto_hit_record *hits,
+                           rto_trace_counters *counters)
+{
+    ray_record(tr, st, i, hits);
     if (counters)
         counters[i] = st->c;
 }
