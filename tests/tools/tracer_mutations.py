@@ -83,9 +83,8 @@ MUTATIONS = [
     ("packed groups: a first hit does not end the ray's walk", "src/trace/groups_kernel.h",
      "            st->done = 1;\n            g->alive &= ~(1u << l);\n", "            st->done = 1;\n"),
     ("packed groups: BLAS nodes counted for every ray of the group", "src/trace/groups_kernel.h",
-     "        g->visits = VI_ADD(g->visits, act, 1);\n        if (cur & RTO_BVH_LEAF_BIT) {\n            PN(triangle)",
-     "        g->visits = VI_ADD(g->visits, 0xffffu, 1);\n        if (cur & RTO_BVH_LEAF_BIT) {\n"
-     "            PN(triangle)"),
+     "        visits = VI_ADD(visits, act, 1);\n        if (cur & RTO_BVH_LEAF_BIT) {\n            PN(triangle)",
+     "        visits = VI_ADD(visits, 0xffffu, 1);\n        if (cur & RTO_BVH_LEAF_BIT) {\n            PN(triangle)"),
     ("packed groups: translation added first in the ray transform", "src/trace/groups_kernel.h",
      "VADD(VADD(VADD(VMUL(m0, w->o[0]), VMUL(m1, w->o[1])), VMUL(m2, w->o[2])), VSET1(m[a][3]))",
      "VADD(VADD(VADD(VSET1(m[a][3]), VMUL(m0, w->o[0])), VMUL(m1, w->o[1])), VMUL(m2, w->o[2]))"),
