@@ -83,64 +83,40 @@ static inline int rto__lane_take(rto__lane *s, int ok, const rto_tri_hit *h)
 /* ---------------------------------------------------------------------------------------------------------------- */
 RTO__TARGET_BEGIN("avx2")
 
-#define W 8
+#define VEC_AVX2
+#include "vec_ops.h"
 #define LANES_PREFIX lanes8
-#define VF __m256
 #define VLD _mm256_load_ps
 #define VST _mm256_store_ps
-#define VSET1 _mm256_set1_ps
-#define VADD _mm256_add_ps
-#define VSUB _mm256_sub_ps
-#define VMUL _mm256_mul_ps
-#define VDIV _mm256_div_ps
-#define VMIN _mm256_min_ps
-#define VMAX _mm256_max_ps
-#define VCMP_(a, b, p) ((uint32_t)_mm256_movemask_ps(_mm256_cmp_ps((a), (b), (p))))
-#define VLE(a, b) VCMP_(a, b, _CMP_LE_OQ)
-#define VLT(a, b) VCMP_(a, b, _CMP_LT_OQ)
-#define VGE(a, b) VCMP_(a, b, _CMP_GE_OQ)
-#define VNEQ(a, b) VCMP_(a, b, _CMP_NEQ_UQ)
 #define VGATHER(rows, f)                                                                                             \
     _mm256_i32gather_ps((rows), _mm256_add_epi32(_mm256_setr_epi32(0, 16, 32, 48, 64, 80, 96, 112),                 \
                                                  _mm256_set1_epi32(f)), 4)
 #include "lanes_kernel.h"
-#undef VGATHER
-#undef W
 #undef LANES_PREFIX
-#undef VF
 #undef VLD
 #undef VST
-#undef VSET1
-#undef VADD
-#undef VSUB
-#undef VMUL
-#undef VDIV
-#undef VMIN
-#undef VMAX
-#undef VCMP_
+#undef VGATHER
+#include "vec_ops_end.h"
 
 RTO__TARGET_END
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 RTO__TARGET_BEGIN("avx512f,avx512bw,avx512dq,avx512vl")
 
-#define W 16
+#define VEC_AVX512
+#include "vec_ops.h"
 #define LANES_PREFIX lanes16
-#define VF __m512
 #define VLD _mm512_load_ps
 #define VST _mm512_store_ps
-#define VSET1 _mm512_set1_ps
-#define VADD _mm512_add_ps
-#define VSUB _mm512_sub_ps
-#define VMUL _mm512_mul_ps
-#define VDIV _mm512_div_ps
-#define VMIN _mm512_min_ps
-#define VMAX _mm512_max_ps
-#define VCMP_(a, b, p) ((uint32_t)_mm512_cmp_ps_mask((a), (b), (p)))
 #define VGATHER(rows, f)                                                                                             \
     _mm512_i32gather_ps(_mm512_add_epi32(_mm512_setr_epi32(0, 16, 32, 48, 64, 80, 96, 112, 128, 144, 160, 176, 192,  \
                                                            208, 224, 240), _mm512_set1_epi32(f)), (rows), 4)
 #include "lanes_kernel.h"
+#undef LANES_PREFIX
+#undef VLD
+#undef VST
+#undef VGATHER
+#include "vec_ops_end.h"
 
 RTO__TARGET_END
 

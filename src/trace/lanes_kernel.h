@@ -1,8 +1,6 @@
-/* One lane kernel of the tracer (trace/lanes.c includes this once per instruction set). Before it: W (lanes), PN(x)
- * (a prefixed name) and the vector operations on VF (W floats): VLD / VST (aligned), VGATHER(rows, f) (float f of
- * each lane's 16-float row), VSUB, VMUL, VDIV, VADD, VMIN, VMAX (the second operand when unordered or equal, as
- * rto__minf / rto__maxf), VSET1, and VLE / VLT / VGE / VNEQ giving a bit mask of lanes (bit l for lane l; ordered
- * compares, VNEQ unordered as C's !=).
+/* One lane kernel of the tracer (trace/lanes.c includes this once per instruction set, after trace/vec_ops.h). Before
+ * it: PN(x) (a prefixed name), VLD / VST (aligned loads and stores of VF) and VGATHER(rows, f) (float f of each
+ * lane's 16-float row).
  *
  * Each lane is one ray doing DESIGN.md §6 in §6's order with its own two stacks, the way a GPU thread of a warp does:
  * a lane pops until it needs a box pair or a triangle (step), then the slab tests of every lane at a box pair run as

@@ -707,82 +707,32 @@ static inline int lanes_in(uint32_t m)
 #define LANES_IN lanes_in
 
 RTO__TARGET_BEGIN("avx2")
+/* v + k in the lanes of bit mask m. */
 static inline __m256i add_lanes8(__m256i v, uint32_t m, int k)
 {
     const __m256i bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
     const __m256i in = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32((int)m), bits), bits);
     return _mm256_add_epi32(v, _mm256_and_si256(in, _mm256_set1_epi32(k)));
 }
-#define W 8
+#define VEC_AVX2
+#include "vec_ops.h"
 #define GROUP_PREFIX group8
-#define VF __m256
-#define VI __m256i
-#define VSET1 _mm256_set1_ps
-#define VZERO _mm256_setzero_ps
-#define VLDU _mm256_loadu_ps
-#define VSTU _mm256_storeu_ps
-#define VADD _mm256_add_ps
-#define VSUB _mm256_sub_ps
-#define VMUL _mm256_mul_ps
-#define VDIV _mm256_div_ps
-#define VMIN _mm256_min_ps
-#define VMAX _mm256_max_ps
-#define VABS(x) _mm256_andnot_ps(_mm256_set1_ps(-0.0f), (x))
-#define VSEL_LT(x, y, a, b) _mm256_blendv_ps((b), (a), _mm256_cmp_ps((x), (y), _CMP_LT_OQ))
-#define VCMP_(a, b, p) ((uint32_t)_mm256_movemask_ps(_mm256_cmp_ps((a), (b), (p))))
-#define VLE(a, b) VCMP_(a, b, _CMP_LE_OQ)
-#define VLT(a, b) VCMP_(a, b, _CMP_LT_OQ)
-#define VGE(a, b) VCMP_(a, b, _CMP_GE_OQ)
-#define VNEQ(a, b) VCMP_(a, b, _CMP_NEQ_UQ)
-#define VNGT(a, b) VCMP_(a, b, _CMP_NGT_UQ)
-#define VI_ZERO _mm256_setzero_si256
 #define VI_ADD add_lanes8
-#define VI_STU(p, v) _mm256_storeu_si256((__m256i *)(void *)(p), (v))
 #include "groups_kernel.h"
-#undef W
 #undef GROUP_PREFIX
-#undef VF
-#undef VI
-#undef VSET1
-#undef VZERO
-#undef VLDU
-#undef VSTU
-#undef VADD
-#undef VSUB
-#undef VMUL
-#undef VDIV
-#undef VMIN
-#undef VMAX
-#undef VABS
-#undef VSEL_LT
-#undef VCMP_
-#undef VI_ZERO
 #undef VI_ADD
-#undef VI_STU
+#include "vec_ops_end.h"
 RTO__TARGET_END
 
 RTO__TARGET_BEGIN("avx512f,avx512bw,avx512dq,avx512vl")
-#define W 16
+#define VEC_AVX512
+#include "vec_ops.h"
 #define GROUP_PREFIX group16
-#define VF __m512
-#define VI __m512i
-#define VSET1 _mm512_set1_ps
-#define VZERO _mm512_setzero_ps
-#define VLDU _mm512_loadu_ps
-#define VSTU _mm512_storeu_ps
-#define VADD _mm512_add_ps
-#define VSUB _mm512_sub_ps
-#define VMUL _mm512_mul_ps
-#define VDIV _mm512_div_ps
-#define VMIN _mm512_min_ps
-#define VMAX _mm512_max_ps
-#define VABS _mm512_abs_ps
-#define VSEL_LT(x, y, a, b) _mm512_mask_blend_ps(_mm512_cmp_ps_mask((x), (y), _CMP_LT_OQ), (b), (a))
-#define VCMP_(a, b, p) ((uint32_t)_mm512_cmp_ps_mask((a), (b), (p)))
-#define VI_ZERO _mm512_setzero_si512
 #define VI_ADD(v, m, k) _mm512_mask_add_epi32((v), (__mmask16)(m), (v), _mm512_set1_epi32(k))
-#define VI_STU(p, v) _mm512_storeu_si512((void *)(p), (v))
 #include "groups_kernel.h"
+#undef GROUP_PREFIX
+#undef VI_ADD
+#include "vec_ops_end.h"
 RTO__TARGET_END
 
 /* ---------------------------------------------------------------------------------------------------------------- */

@@ -1,0 +1,26 @@
+/* Undoes trace/vec_ops.h (and VEC_AVX2 / VEC_AVX512), after a kernel's instruction set. */
+#undef VEC_AVX2
+#undef VEC_AVX512
+#undef W
+#undef VF
+#undef VI
+#undef VSET1
+#undef VZERO
+#undef VLDU
+#undef VSTU
+#undef VADD
+#undef VSUB
+#undef VMUL
+#undef VDIV
+#undef VMIN
+#undef VMAX
+#undef VABS
+#undef VSEL_LT
+#undef VCMP_
+#undef VI_ZERO
+#undef VI_STU
+#undef VLE
+#undef VLT
+#undef VGE
+#undef VNEQ
+#undef VNGT
