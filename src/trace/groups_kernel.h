@@ -26,7 +26,7 @@ typedef struct PN(ray) {
 
 typedef struct PN(group) {
     VF best;              /* each ray's best t (from bestf) */
-    VI visits, boxes, tris; /* counted by the walk, added to st[l].c at the end */
+    VI visits, boxes, tris; /* counted by the walk, added to each ray's own when its counters are stored */
     float bestf[W];
     uint32_t alive;       /* rays not finished by a first hit */
     PN(entry) *tstack, *bstack;
