@@ -36,32 +36,14 @@ void rto_ray_to_object(const rto_mat34 *world_to_obj, const float origin[3], con
 rto_hit_record rto_hit_record_miss(float t_max)
 {
     rto_hit_record h;
-    memset(&h, 0, sizeof h);
-    h.t = t_max;
-    h.instance_id = UINT32_MAX;
-    h.prim_id = UINT32_MAX;
-    h.hit_group = UINT32_MAX;
-    h.custom_index = UINT32_MAX;
-    h.miss_flag = 1;
+    rto__hit_record_store_miss(&h, t_max);
     return h;
 }
 
 rto_hit_record rto_hit_record_make(const rto_instance *instance, uint32_t inst, uint32_t prim, const rto_tri_hit *hit)
 {
     rto_hit_record h;
-    memset(&h, 0, sizeof h);
-    h.t = hit->t;
-    h.instance_id = inst;
-    h.prim_id = prim;
-    h.hit_group = instance->sbt_offset;
-    h.bary[0] = hit->u;
-    h.bary[1] = hit->v;
-    h.custom_index = instance->custom_index;
-    h.miss_flag = 0;
-    /* WGSL mat4x3<f32>: column c holds row-major element [r][c] for r = 0..2, then one float of padding. */
-    for (int c = 0; c < 4; c++)
-        for (int r = 0; r < 3; r++)
-            h.obj_to_world[c][r] = instance->obj_to_world.m[r][c];
+    rto__hit_record_store(&h, instance, inst, prim, hit);
     return h;
 }
 
@@ -123,20 +105,17 @@ rto_status rto__rays_check(const rto_wf_ray *rays, size_t n, rto_msg *msg)
 {
     if (n && !rays)
         return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "NULL rays");
-    size_t first = 0;
-    while (first < n && ray_traceable(&rays[first]))
-        first++;
-    for (size_t i = first; i < n; i++) {
-        const rto_wf_ray *r = &rays[i];
-        int finite = isfinite(r->t_min) && isfinite(r->t_max);
-        for (int a = 0; a < 3; a++)
-            finite = finite && isfinite(r->origin[a]) && isfinite(r->dir[a]);
-        if (!finite)
-            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has a non-finite origin, direction, tMin or tMax",
-                            i);
-        if (r->t_min > r->t_max)
-            return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has tMin %.9g > tMax %.9g", i, (double)r->t_min,
-                            (double)r->t_max);
-    }
-    return RTO_OK;
+    size_t i = 0;
+    while (i < n && ray_traceable(&rays[i]))
+        i++;
+    if (i == n)
+        return RTO_OK;
+    const rto_wf_ray *r = &rays[i]; /* the first ray that cannot be traced: which check it fails */
+    int finite = isfinite(r->t_min) && isfinite(r->t_max);
+    for (int a = 0; a < 3; a++)
+        finite = finite && isfinite(r->origin[a]) && isfinite(r->dir[a]);
+    if (!finite)
+        return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has a non-finite origin, direction, tMin or tMax", i);
+    return rto__fail(msg, RTO_ERR_INVALID_ARGUMENT, "ray %zu has tMin %.9g > tMax %.9g", i, (double)r->t_min,
+                     (double)r->t_max);
 }

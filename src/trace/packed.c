@@ -501,32 +501,13 @@ static inline void ray_begin(pray *st, const rto_wf_ray *ray, float winv[3])
     rto__ray_inv_dir(ray->dir, winv);
 }
 
-static inline int32_t float_bits(float f)
-{
-    int32_t b;
-    memcpy(&b, &f, sizeof b);
-    return b;
-}
-
-/* The ray's record, as rto_hit_record_make or rto_hit_record_miss makes it, stored 16 bytes at a time into hits[i]
- * (not built on the stack and copied: the copy's loads would wait on the stores of its fields). */
+/* The ray's record, stored in place (rto__hit_record_store). */
 static inline void ray_record(const rto__tracer *tr, const pray *st, size_t i, rto_hit_record *hits)
 {
-    __m128i *h = (__m128i *)(void *)&hits[i];
-    if (st->found) {
-        const rto_instance *in = &tr->scene->instances[st->inst_hit];
-        const float(*m)[4] = in->obj_to_world.m;
-        _mm_storeu_si128(h, _mm_setr_epi32(float_bits(st->h.t), (int32_t)st->inst_hit, (int32_t)st->prim_hit,
-                                           (int32_t)in->sbt_offset));
-        _mm_storeu_si128(h + 1, _mm_setr_epi32(float_bits(st->h.u), float_bits(st->h.v), (int32_t)in->custom_index, 0));
-        for (int c = 0; c < 4; c++) /* column c of WGSL's mat4x3: row-major [r][c] for r = 0..2, then padding */
-            _mm_storeu_ps((float *)(void *)(h + 2 + c), _mm_setr_ps(m[0][c], m[1][c], m[2][c], 0.0f));
-    } else {
-        _mm_storeu_si128(h, _mm_setr_epi32(float_bits(st->ray->t_max), -1, -1, -1));
-        _mm_storeu_si128(h + 1, _mm_setr_epi32(0, 0, -1, 1));
-        for (int k = 2; k < 6; k++)
-            _mm_storeu_si128(h + k, _mm_setzero_si128());
-    }
+    if (st->found)
+        rto__hit_record_store(&hits[i], &tr->scene->instances[st->inst_hit], st->inst_hit, st->prim_hit, &st->h);
+    else
+        rto__hit_record_store_miss(&hits[i], st->ray->t_max);
 }
 
 /* The ray's record and counters. */

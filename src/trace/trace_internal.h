@@ -6,6 +6,7 @@
 #include "../core/internal.h"
 
 #include <math.h>
+#include <string.h>
 
 #if defined(__GNUC__)
 #pragma GCC visibility push(hidden)
@@ -43,8 +44,8 @@ typedef struct rto__trace_entry {
     float t;
 } rto__trace_entry;
 
-/** The order in which the packed path (trace/packed.c) walks a worker's rays. Each ray's walk is the same in both,
- * node for node, and so are the bytes: the order only decides the speed. */
+/** The order in which the packed path (trace/packed.c) walks a worker's rays. Each ray's walk is the same in every
+ * order, node for node, and so are the bytes: the order only decides the speed. */
 typedef enum rto__trace_order {
     RTO__ORDER_AUTO = 0,    /* as rto__trace_packed_order says */
     RTO__ORDER_ONE = 1,     /* one ray at a time, each to its end */
@@ -104,8 +105,8 @@ size_t rto__trace_packed_bytes(const void *trees);
 size_t rto__trace_packed_scratch(size_t stack_cap);
 /** Whether this CPU runs the packed path in this order (groups of 8 need AVX2, of 16 AVX-512). */
 int rto__trace_packed_order_supported(rto__trace_order order);
-/** Rays [begin, end) on the packed trees in tr->order; stacks holds RTO__TRACE_PACKED_STREAMS pairs of stacks of
- * tr->stack_cap entries. */
+/** Rays [begin, end) on the packed trees in tr->order; stacks holds rto__trace_packed_scratch(tr->stack_cap)
+ * bytes. */
 void rto__trace_packed(const rto__tracer *tr, const void *trees, const rto_wf_ray *rays, size_t begin, size_t end,
                        rto_hit_record *hits, rto_trace_counters *counters, rto__trace_entry *stacks);
 
@@ -196,6 +197,42 @@ static inline void rto__ray_to_object(const rto_mat34 *world_to_obj, const float
         obj_origin[r] = ((m[r][0] * origin[0] + m[r][1] * origin[1]) + m[r][2] * origin[2]) + m[r][3];
         obj_dir[r] = (m[r][0] * dir[0] + m[r][1] * dir[1]) + m[r][2] * dir[2];
     }
+}
+
+/** rto_hit_record_make's record, written field by field into *h (every byte: the record has no padding of its own).
+ * Inlined into the tracer's loops, which write straight into the caller's array: a record built on the stack and
+ * copied out waits on the stores of its fields. */
+static inline void rto__hit_record_store(rto_hit_record *h, const rto_instance *instance, uint32_t inst, uint32_t prim,
+                                         const rto_tri_hit *hit)
+{
+    h->t = hit->t;
+    h->instance_id = inst;
+    h->prim_id = prim;
+    h->hit_group = instance->sbt_offset;
+    h->bary[0] = hit->u;
+    h->bary[1] = hit->v;
+    h->custom_index = instance->custom_index;
+    h->miss_flag = 0;
+    /* WGSL mat4x3<f32>: column c holds row-major element [r][c] for r = 0..2, then one float of padding. */
+    for (int c = 0; c < 4; c++) {
+        for (int r = 0; r < 3; r++)
+            h->obj_to_world[c][r] = instance->obj_to_world.m[r][c];
+        h->obj_to_world[c][3] = 0.0f;
+    }
+}
+
+/** rto_hit_record_miss's record, written field by field into *h. */
+static inline void rto__hit_record_store_miss(rto_hit_record *h, float t_max)
+{
+    h->t = t_max;
+    h->instance_id = UINT32_MAX;
+    h->prim_id = UINT32_MAX;
+    h->hit_group = UINT32_MAX;
+    h->bary[0] = 0.0f;
+    h->bary[1] = 0.0f;
+    h->custom_index = UINT32_MAX;
+    h->miss_flag = 1;
+    memset(h->obj_to_world, 0, sizeof h->obj_to_world);
 }
 
 /** Whether the ray flags cull a triangle of this det (> 0 front, < 0 back; decided in object space, §6). */

@@ -186,8 +186,8 @@ typedef struct trace_job {
     rto_trace_counters *counters;
     const rto__trace_lanes *lanes; /* NULL: the scalar tracer or the packed path */
     const void *packed;            /* the packed trees (trace/packed.c), NULL: not that path */
-    unsigned char *scratch;        /* per worker: the stacks (2 * stack_cap entries, 8 pairs for the packed path) or
-                                      the lanes' scratch */
+    unsigned char *scratch;        /* per worker: the stacks (2 * stack_cap entries; the packed path's: see
+                                      rto__trace_packed_scratch) or the lanes' scratch */
     size_t scratch_size;           /* per worker, a multiple of 64 */
 } trace_job;
 
