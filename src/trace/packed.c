@@ -24,6 +24,7 @@
 #include "internal.h"
 #include "trace_internal.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -341,18 +342,38 @@ static inline int descend(const packed_node *n, int hit, const float t[2], rto__
     return 0;
 }
 
-/* descend's choice without a branch on the test, for rays in turn (below): the child taken is an index computed from
- * the test, the farther child written to the stack always and kept only when both were hit. (The stack has room:
- * it never holds more than depth + 1 entries of its depth + 2.) */
-static inline int descend_indexed(const packed_node *n, int hit, const float t[2], rto__trace_entry *stack,
-                                  size_t *top, uint32_t *cur)
+/* Where a ray in turn (below) goes from a node, with no branch on the test: the child taken (the nearer of two hit,
+ * left on a tie, the farther pushed) or, when none was hit, the top entry of the stack, taken without its check (its t
+ * is checked when it is visited, against the same best t: nothing changes that in between). The farther child is
+ * written to the stack always and kept only when both were hit (the stack has room: it never holds more than depth + 1
+ * entries of its depth + 2). 1 when none was hit and the stack is empty. */
+static inline int advance(const packed_node *n, int hit, const float t[2], rto__trace_entry *stack, size_t *top,
+                          uint32_t *cur, float *cur_t)
 {
-    const int both = hit == 3;
-    const int c = both ? !(t[0] <= t[1]) : hit == 2;
-    stack[*top] = (rto__trace_entry){n->child[c ^ 1], t[c ^ 1]};
-    *top += (size_t)both;
-    *cur = n->child[c];
-    return hit != 0;
+    /* Selections as masks: written as conditionals, the compiler turns them back into branches. */
+    const uint32_t both = hit == 3, any = hit != 0, c = (both & !(t[0] <= t[1])) | (hit == 2), m = 0u - any;
+    const size_t at = *top, below = at - (at != 0);
+    stack[at] = (rto__trace_entry){n->child[c ^ 1], t[c ^ 1]};
+    const rto__trace_entry e = stack[below];
+    uint32_t tc, et, bits;
+    memcpy(&tc, &t[c], 4);
+    memcpy(&et, &e.t, 4);
+    *cur = (n->child[c] & m) | (e.ref & ~m);
+    bits = (tc & m) | (et & ~m);
+    memcpy(cur_t, &bits, 4);
+    *top = below + ((at + both - below) & ((size_t)0 - any));
+    return ((size_t)hit | at) == 0; /* one test: as !any && !at the compiler branches on any */
+}
+
+/* The top entry, unchecked, as advance takes it: 1 when the stack is empty. */
+static inline int take(rto__trace_entry *stack, size_t *top, uint32_t *cur, float *cur_t)
+{
+    if (!*top)
+        return 1;
+    const rto__trace_entry e = stack[--*top];
+    *cur = e.ref;
+    *cur_t = e.t;
+    return 0;
 }
 
 /* The next entry whose box still starts within the best t, or 0 when the stack is empty. */
@@ -536,10 +557,12 @@ static void trace_one_at_a_time(const rto__tracer *tr, const packed_accel *pa, c
 
 /* ---------------------------------------------------------------------------------------------------------------- */
 /* Rays in turn: RTO__TRACE_PACKED_STREAMS rays in flight, one node of each in turn, the next node of each prefetched */
-/* when it is chosen, so that one ray's fetch from memory overlaps the others' work, and the child taken by an index  */
-/* (descend_indexed) rather than a branch the predictor cannot learn. Each ray's walk is the one above, node for node */
-/* (the same pops, pushes, tests and counts): only the order in which the rays' steps run differs. Where neighbouring */
-/* rays go separate ways through trees larger than a core's cache (random rays), this order is the faster.            */
+/* when it is chosen, so that one ray's fetch from memory and its tests overlap the others'. A step has no branch on  */
+/* its test (advance): a branch the predictor cannot learn would throw away the other rays' steps started behind it. */
+/* Each ray's walk is the one above, node for node (the same pops, pushes, tests and counts): an entry taken from the */
+/* stack is checked against the best t when it is visited instead of when it is taken, and a skipped entry is not    */
+/* counted, as pop skips it; only the order in which the rays' steps run differs. Where neighbouring rays go separate */
+/* ways (random rays), this order is the faster.                                                                      */
 
 typedef struct stream {
     pray st;
@@ -547,6 +570,7 @@ typedef struct stream {
     float o[3], d[3];       /* the object-space ray, for triangles */
     const packed_slot *bslots;
     uint32_t inst, cur;     /* the BLAS's instance; the node (or leaf) visited next */
+    float cur_t;            /* its entry t, checked when it is visited (-inf for a root: never skipped) */
     int in_blas;
     size_t ttop, btop, index;
 } stream;
@@ -563,9 +587,9 @@ static inline void prefetch_tlas(const rto__tracer *tr, const packed_accel *pa, 
 }
 
 /* The TLAS's next entry: 0, and prefetched; 1 when the ray is finished. */
-static inline int stream_tlas_pop(const rto__tracer *tr, const packed_accel *pa, stream *s)
+static inline int stream_tlas_take(const rto__tracer *tr, const packed_accel *pa, stream *s)
 {
-    if (!pop(s->st.tstack, &s->ttop, s->st.best_t, &s->cur))
+    if (take(s->st.tstack, &s->ttop, &s->cur, &s->cur_t))
         return 1;
     prefetch_tlas(tr, pa, s->cur);
     return 0;
@@ -575,54 +599,63 @@ static inline int stream_tlas_pop(const rto__tracer *tr, const packed_accel *pa,
 static inline int stream_step(const rto__tracer *tr, const packed_accel *pa, stream *s)
 {
     pray *st = &s->st;
+    const int live = s->cur_t <= st->best_t; /* 0: an entry pop would skip, neither visited nor counted */
     float t[2];
-    st->c.nodes_visited++;
     if (s->in_blas) {
-        if (s->cur & RTO_BVH_LEAF_BIT) {
-            triangle(st, &s->bslots[s->cur & ~RTO_BVH_LEAF_BIT].tri, s->o, s->d, s->inst);
-            if (st->done)
-                return 1;
-        } else {
+        if (!(s->cur & RTO_BVH_LEAF_BIT)) {
             const packed_node *n = &s->bslots[s->cur].node;
-            st->c.box_tests += 2;
-            if (descend_indexed(n, slab_pair(n, &s->b, st->best_t, t), t, st->bstack, &s->btop, &s->cur)) {
+            const int hit = slab_pair(n, &s->b, st->best_t, t) & -live;
+            st->c.nodes_visited += (uint32_t)live;
+            st->c.box_tests += 2u * (uint32_t)live;
+            if (!advance(n, hit, t, st->bstack, &s->btop, &s->cur, &s->cur_t)) {
+                prefetch(&s->bslots[s->cur & ~RTO_BVH_LEAF_BIT]);
+                return 0;
+            }
+        } else {
+            if (live) {
+                st->c.nodes_visited++;
+                triangle(st, &s->bslots[s->cur & ~RTO_BVH_LEAF_BIT].tri, s->o, s->d, s->inst);
+                if (st->done)
+                    return 1;
+            }
+            if (!take(st->bstack, &s->btop, &s->cur, &s->cur_t)) {
                 prefetch(&s->bslots[s->cur & ~RTO_BVH_LEAF_BIT]);
                 return 0;
             }
         }
-        if (pop(st->bstack, &s->btop, st->best_t, &s->cur)) {
-            prefetch(&s->bslots[s->cur & ~RTO_BVH_LEAF_BIT]);
-            return 0;
-        }
         s->in_blas = 0; /* the BLAS is done: back to the TLAS's stack */
-        return stream_tlas_pop(tr, pa, s);
+        return stream_tlas_take(tr, pa, s);
     }
     if (s->cur & RTO_BVH_LEAF_BIT) {
-        const uint32_t inst = s->cur & ~RTO_BVH_LEAF_BIT;
-        float inv[3];
-        const packed_tree *pt = blas_enter(tr, pa, st, inst, s->o, s->d, inv);
-        if (pt) {
-            s->b = vray_make(s->o, inv, st->ray->t_min);
-            s->bslots = pt->slots;
-            s->inst = inst;
-            s->btop = 0;
-            s->cur = pt->root;
-            s->in_blas = 1;
-            prefetch(&pt->slots[pt->root]);
-            return 0;
+        if (live) {
+            const uint32_t inst = s->cur & ~RTO_BVH_LEAF_BIT;
+            float inv[3];
+            st->c.nodes_visited++;
+            const packed_tree *pt = blas_enter(tr, pa, st, inst, s->o, s->d, inv);
+            if (pt) {
+                s->b = vray_make(s->o, inv, st->ray->t_min);
+                s->bslots = pt->slots;
+                s->inst = inst;
+                s->btop = 0;
+                s->cur = pt->root;
+                s->cur_t = -INFINITY;
+                s->in_blas = 1;
+                prefetch(&pt->slots[pt->root]);
+                return 0;
+            }
+            if (st->done)
+                return 1;
         }
-        if (st->done)
-            return 1;
-    } else {
-        const packed_node *n = &pa->tlas.slots[s->cur].node;
-        st->c.box_tests += n->tests;
-        if (descend_indexed(n, slab_pair(n, &s->w, st->best_t, t) & (int)n->present, t, st->tstack, &s->ttop,
-                            &s->cur)) {
-            prefetch_tlas(tr, pa, s->cur);
-            return 0;
-        }
+        return stream_tlas_take(tr, pa, s);
     }
-    return stream_tlas_pop(tr, pa, s);
+    const packed_node *n = &pa->tlas.slots[s->cur].node;
+    const int hit = slab_pair(n, &s->w, st->best_t, t) & (int)n->present & -live;
+    st->c.nodes_visited += (uint32_t)live;
+    st->c.box_tests += n->tests & (0u - (uint32_t)live);
+    if (advance(n, hit, t, st->tstack, &s->ttop, &s->cur, &s->cur_t))
+        return 1;
+    prefetch_tlas(tr, pa, s->cur);
+    return 0;
 }
 
 /* Takes rays from *next on until one has a walk ahead (its record is written by then for those that had none):
@@ -639,6 +672,7 @@ static int stream_load(const rto__tracer *tr, const packed_accel *pa, stream *s,
             continue;
         }
         s->w = vray_make(rays[i].origin, winv, rays[i].t_min);
+        s->cur_t = -INFINITY;
         s->index = i;
         s->in_blas = 0;
         s->ttop = 0;
