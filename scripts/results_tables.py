@@ -8,6 +8,10 @@
                                                a benchmark's --json document with the commit (git rev-parse --short
                                                HEAD), today's date and TEXT as the machine: OUT.json is what this
                                                script reads (docs/results/bench-NAME.json)
+  python3 scripts/results_tables.py record BENCH.json OUT.json --machine TEXT --stress-from EARLIER.json WHY
+                                               the same for a `bench_trace --table1-only` run, keeping the rtstress:N
+                                               table of EARLIER.json (a recorded document) with its commit and date,
+                                               and WHY it still holds (the table names both runs)
 
 The reference docs (docs/*.md) describe behaviour and link here for numbers. A results file is the JSON's figures
 and nothing else: each section names its JSON, and the commit, date and machine recorded in it. Where a JSON's own
@@ -179,7 +183,16 @@ def bench_rows(name, heading, doc_ref):
     return [(heading, "\n".join(lines), [])]
 
 
-TRACE_SIDES = ("scalar", "sse2", "avx2", "avx512", "embree", "embree robust")
+TRACE_SIDES = ("scalar", "sse2", "sse2 groups8", "avx2", "avx512", "embree", "embree robust")
+
+
+def stress_when(det, rec):
+    """Where the rtstress:N table was run apart from the rays table (`bench_trace --stress-only`, kept in
+    detail.rtstress_recorded when a later --table1-only run replaced the rays table): when and at which commit."""
+    st = det.get("rtstress_recorded")
+    if not st or st["commit"] == rec["commit"]:
+        return ""
+    return f"; this table from an earlier run, at {st['commit']} ({st['date']}): {st['why']}"
 
 
 def trace_bench(name):
@@ -189,7 +202,8 @@ def trace_bench(name):
     paths = sorted({r["default_path"] for r in det["rays"]})
     dp = paths[0] if len(paths) == 1 else "default"
     lines = ["| scene | rays | threads | count | " + " | ".join(TRACE_SIDES) + " | embree stream | "
-             f"{dp}/embree | {dp}/robust | {dp}/stream |", "|---|---|---:|---:|" + "---:|" * (len(TRACE_SIDES) + 4)]
+             f"{dp}/embree | {dp}/robust | {dp}/stream | groups8/embree |",
+             "|---|---|---:|---:|" + "---:|" * (len(TRACE_SIDES) + 5)]
     for r in det["rays"]:
         ms = r["ms"]
         stream = min(ms["embree stream"], ms["embree stream coherent"])
@@ -198,7 +212,8 @@ def trace_bench(name):
         o = ms[r["default_path"]]
         lines.append(f"| {r['scene']} | {r['rays']} | {r['threads']} | {r['count']} | " + " | ".join(cell) +
                      f" | {r['count'] / stream * 1e-3:.2f} ({flag}) | {o / ms['embree']:.2f} | "
-                     f"{o / ms['embree robust']:.2f} | {o / stream:.2f} |")
+                     f"{o / ms['embree robust']:.2f} | {o / stream:.2f} | " +
+                     (f"{ms['sse2 groups8'] / ms['embree']:.2f} |" if "sse2 groups8" in ms else "- |"))
     stress = ["| scene | TLAS | instances | 1 thread ms | vs N=8 | all threads ms | vs N=8 |",
               "|---|---|---:|---:|---:|---:|---:|"]
     for r in det["rtstress"]:
@@ -207,15 +222,18 @@ def trace_bench(name):
     text = (para(f"`bench_trace --json` at {det['width']}×{det['height']}, median of {d['runs']} runs with every side "
                  f"interleaved, at {rec['commit']} ({rec['date']}) on {rec['machine']}, {det['threads']} hardware "
                  f"threads (`{RESULTS}/{name}`; docs/trace.md, \"Benchmark\", says what each column times). "
-                 "Mrays/s of the oracle's paths (`RTO_TRACE_ISA`: the scalar reference, the packed path `sse2`, and "
-                 "the 8- and 16-ray lanes; a path missing from a run shows -) and of Embree 3 (`rtcIntersect1` / "
+                 "Mrays/s of the oracle's paths (`RTO_TRACE_ISA`: the scalar reference, the packed path `sse2`, the "
+                 "packed path with `RTO_TRACE_GROUPS=8`, as on a CPU without AVX-512 (`sse2 groups8`, on an AVX-512 "
+                 "CPU only), and the 8- and 16-ray lanes; a path missing from a run shows -) and of Embree 3 "
+                 "(`rtcIntersect1` / "
                  "`rtcOccluded1`, the same in robust mode, and `rtcIntersect1M` / `rtcOccluded1M` streams at their "
                  f"faster context flag); the ratios are time({dp}, the path rto_trace took) / time(Embree), above 1 "
-                 "the oracle is slower. Every path's records equal the scalar path's (the benchmark compares them).")
+                 "the oracle is slower; groups8/embree is time(`sse2 groups8`) / time(Embree), the AVX2 figure. "
+                 "Every path's records equal the scalar path's (the benchmark compares them).")
             + "\n\n" + "\n".join(lines) + "\n\n" +
             para("The oracle's primary-ray trace time for `rtstress:N` with the sweep TLAS (the seeds' layout, the "
                  "default) and a Karras TLAS, against N = 8 (DESIGN.md §5 says why the sweep tree costs more at "
-                 "N = 24 and 40).") + "\n\n" + "\n".join(stress))
+                 f"N = 24 and 40){stress_when(det, rec)}.") + "\n\n" + "\n".join(stress))
     return [(f"`bench_trace` on {rec['machine'].split(',')[0].split(' with ')[0]}", text, [])]
 
 
@@ -397,12 +415,21 @@ python3 scripts/results_tables.py
     return text.rstrip("\n") + "\n"
 
 
-def record(src, out, machine):
+def record(src, out, machine, stress_from=None, why=None):
     with open(src, encoding="utf-8") as f:
         d = json.load(f)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
                             check=True).stdout.strip()
     d["recorded"] = {"commit": commit, "date": datetime.date.today().isoformat(), "machine": machine}
+    if stress_from:
+        with open(stress_from, encoding="utf-8") as f:
+            old = json.load(f)
+        if d["detail"]["rtstress"] or not old["detail"]["rtstress"]:
+            sys.exit("results_tables.py: --stress-from wants a run without the rtstress table and an earlier one "
+                     "with it")
+        rec = old["detail"].get("rtstress_recorded") or old["recorded"]
+        d["detail"]["rtstress"] = old["detail"]["rtstress"]
+        d["detail"]["rtstress_recorded"] = {"commit": rec["commit"], "date": rec["date"], "why": why}
     with open(out, "w", encoding="utf-8") as f:
         json.dump(d, f, indent=1)
         f.write("\n")
@@ -412,6 +439,9 @@ def main():
     args = sys.argv[1:]
     if len(args) == 5 and args[0] == "record" and args[3] == "--machine":
         record(args[1], args[2], args[4])
+        return 0
+    if len(args) == 8 and args[0] == "record" and args[3] == "--machine" and args[5] == "--stress-from":
+        record(args[1], args[2], args[4], args[6], args[7])
         return 0
     if args not in ([], ["--check"]):
         sys.exit(__doc__)

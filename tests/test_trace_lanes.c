@@ -381,10 +381,11 @@ static rto__trace_order alike_order(void)
  * RTO__TRACE_PACKED_CACHE bytes and only where neighbouring rays diverge, the widest groups the CPU runs where they do
  * not, else one at a time; the bunny's copy holds 64 bytes per BLAS node and triangle (its one-instance sweep TLAS
  * has no node); rto_trace's records and counters on the bunny's primary, shadow and random rays (in groups, in groups
- * and in turn) equal the scalar tracer's. */
+ * and in turn) equal the scalar tracer's; RTO_TRACE_GROUPS=8 and =1 cap the groups, other values do not. */
 static void test_packed_order(void **state)
 {
     (void)state;
+    assert_int_equal(unsetenv("RTO_TRACE_GROUPS"), 0); /* the rule as the CPU has it */
     rto_scene *s = packed_bunny();
     if (!s)
         return;
@@ -439,9 +440,26 @@ static void test_packed_order(void **state)
         r[i].dir[2] = 0.5f;
     }
     assert_int_equal(rto__trace_packed_order(SIZE_MAX, r, 0, 64), alike_order());
+    /* RTO_TRACE_GROUPS caps the groups as a CPU without AVX-512 ("8") or without AVX2 ("1") would; anything else
+     * leaves them to the CPU. Rays that diverge are not its concern. */
+    static const struct {
+        const char *value;
+        rto__trace_order want;
+    } caps[] = {{"8", RTO__ORDER_GROUPS_8}, {"1", RTO__ORDER_ONE}, {"16", RTO__ORDER_GROUPS_16}, {"4", -1}, {"", -1}};
+    for (size_t k = 0; k < sizeof caps / sizeof caps[0]; k++) {
+        assert_int_equal(setenv("RTO_TRACE_GROUPS", caps[k].value, 1), 0);
+        rto__trace_order want = (int)caps[k].want < 0 ? alike_order() : caps[k].want;
+        if (!rto__trace_packed_order_supported(want))
+            want = want == RTO__ORDER_GROUPS_16 && rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
+        assert_int_equal(rto__trace_packed_order(SIZE_MAX, r, 0, 64), want);
+    }
+    assert_int_equal(unsetenv("RTO_TRACE_GROUPS"), 0);
     for (int i = 0; i < 64; i += 2)
         r[i].dir[0] = r[i].dir[2] = -1e-3f;
     assert_int_equal(rto__trace_packed_order(SIZE_MAX, r, 0, 64), RTO__ORDER_IN_TURN);
+    assert_int_equal(setenv("RTO_TRACE_GROUPS", "1", 1), 0);
+    assert_int_equal(rto__trace_packed_order(SIZE_MAX, r, 0, 64), RTO__ORDER_IN_TURN);
+    assert_int_equal(unsetenv("RTO_TRACE_GROUPS"), 0);
     rto_accel_destroy(acc);
     rto_scene_destroy(s);
 }

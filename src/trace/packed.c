@@ -768,11 +768,22 @@ static int rays_diverge(const rto_wf_ray *rays, size_t begin, size_t end)
     return 4 * apart > looked;
 }
 
+/* The widest groups RTO_TRACE_GROUPS allows: "8" what a CPU with AVX2 and without AVX-512 runs, "1" what a CPU
+ * without AVX2 runs (one ray at a time); unset or anything else, no cap. */
+static int groups_cap(void)
+{
+    const char *want = getenv("RTO_TRACE_GROUPS");
+    return want && strcmp(want, "1") == 0 ? 1 : want && strcmp(want, "8") == 0 ? 8 : 16;
+}
+
 rto__trace_order rto__trace_packed_order(size_t tree_bytes, const rto_wf_ray *rays, size_t begin, size_t end)
 {
     if (rays_diverge(rays, begin, end))
         return tree_bytes > RTO__TRACE_PACKED_CACHE ? RTO__ORDER_IN_TURN : RTO__ORDER_ONE;
-    return rto__cpu_avx512() ? RTO__ORDER_GROUPS_16 : rto__cpu_avx2() ? RTO__ORDER_GROUPS_8 : RTO__ORDER_ONE;
+    const int cap = groups_cap();
+    return cap >= 16 && rto__cpu_avx512() ? RTO__ORDER_GROUPS_16
+           : cap >= 8 && rto__cpu_avx2()  ? RTO__ORDER_GROUPS_8
+                                          : RTO__ORDER_ONE;
 }
 
 size_t rto__trace_packed_bytes(const void *trees) { return ((const packed_accel *)trees)->bytes; }

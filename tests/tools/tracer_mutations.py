@@ -7,7 +7,8 @@ caught by a test other than golden").
                                                             source tree BUILD_DIR was configured from, rebuild, run the
                                                             tests below, put the source back; OUT.json: mutation ->
                                                             failing tests and the commit, merged into OUT.json's
-                                                            earlier rows when one mutation is named
+                                                            earlier rows when one mutation is named (a new one
+                                                            added in the list's order)
   tests/tools/tracer_mutations.py table OUT.json DOC.md      rewrite the section of DOC.md between
                                                             "<!-- tracer-mutations begin -->" and "... end -->"
 
@@ -122,7 +123,7 @@ def run(build, out, only=None):
     if only:
         with open(out) as f:
             results = json.load(f)["results"]
-        if not any(r["mutation"] == only for r in results) or not any(m[0] == only for m in MUTATIONS):
+        if not any(m[0] == only for m in MUTATIONS):
             sys.exit(f"tracer_mutations.py: no mutation '{only}'")
     for name, rel, old, new in MUTATIONS:
         if only and name != only:
@@ -146,10 +147,9 @@ def run(build, out, only=None):
                 f.write(text)
         print(f"{name}: caught by {', '.join(caught) if caught else 'NOTHING'}", flush=True)
         row = {"mutation": name, "file": rel, "caught_by": caught, "commit": commit}
-        if only:
-            results = [row if r["mutation"] == name else r for r in results]
-        else:
-            results.append(row)
+        results = [r for r in results if r["mutation"] != name] + [row]
+    order = {m[0]: i for i, m in enumerate(MUTATIONS)}  # a named row, new or rerun, takes its place in the list
+    results.sort(key=lambda r: order.get(r["mutation"], len(order)))
     subprocess.run(["ninja", "-C", build], capture_output=True, check=True)
     with open(out, "w") as f:
         json.dump({"tests": TESTS, "results": results}, f, indent=1)
