@@ -1249,8 +1249,9 @@ typedef struct rto_trace_desc {
  * a copy of the trees laid out for a CPU, made once the calls on the accel have brought threads * slots rays (the
  * copy's 64-byte slots: two per triangle, one per TLAS node) and kept with it (freed by rto_accel_destroy), before that
  * on the accel's own trees (on the copy, neighbouring rays that point alike walk the trees in groups of 16 where the
- * CPU has AVX-512, of 8 where it has AVX2, and rays that diverge through trees of more than 2 MiB run eight in turn,
- * each ray's walk unchanged); with RTO_TRACE_ISA=scalar in the environment always on the accel's own trees, with sse2
+ * CPU has AVX-512, of 8 where it has AVX2 or where RTO_TRACE_GROUPS=8 in the environment (one at a time with
+ * RTO_TRACE_GROUPS=1), and rays that diverge through trees of more than 2 MiB run eight in turn, each ray's walk
+ * unchanged); with RTO_TRACE_ISA=scalar in the environment always on the accel's own trees, with sse2
  * on the copy from the first call (where it can be made), with avx2 or avx512 8 or 16 rays in SIMD lanes where the CPU
  * has them. The bytes are the same on every path (docs/trace.md, "Paths").
  * Concurrent calls on one accel are safe.
